@@ -1,0 +1,86 @@
+"""Solving systems of explicit equations ``v = expr(v', knowns)`` by their
+sparse structure.
+
+The dependency graph of the unknowns is split into strongly connected
+components, taken in topological order: an acyclic unknown is a plain
+substitution of already-solved ones (no matrices, linear cost for a chain);
+a component with a cycle (an algebraic loop) is solved on its own as a small
+linear system ``A v = b``.  A nonlinear loop is handed to ``sympy.solve`` and
+must have exactly one solution.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import networkx as nx
+import sympy as sp
+
+from .errors import AlgebraicLoopError
+
+__all__ = ["solve_explicit"]
+
+
+def _substitute(expr: sp.Expr, solved: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
+    subs = {s: solved[s] for s in expr.free_symbols if s in solved}
+    return expr.xreplace(subs) if subs else expr
+
+
+def solve_explicit(
+    equations: Mapping[sp.Symbol, sp.Expr],
+    owner: Callable[[sp.Symbol], str] = lambda v: str(v),
+    what: str = "algebraic loop",
+) -> dict[sp.Symbol, sp.Expr]:
+    """Solve ``{v: expr}`` (each unknown defined once) for every unknown in
+    terms of the other symbols.  ``owner(v)`` names the element behind ``v``
+    for error messages.  Raises :class:`AlgebraicLoopError` for a loop that is
+    singular or nonlinear without a unique solution."""
+    unknowns = set(equations)
+    deps = nx.DiGraph()
+    deps.add_nodes_from(unknowns)
+    for v, expr in equations.items():
+        deps.add_edges_from((v, s) for s in expr.free_symbols if s in unknowns)
+
+    condensed = nx.condensation(deps)
+    solved: dict[sp.Symbol, sp.Expr] = {}
+    for comp_id in reversed(list(nx.topological_sort(condensed))):
+        members = condensed.nodes[comp_id]["members"]
+        if len(members) == 1:
+            (v,) = members
+            if not deps.has_edge(v, v):
+                solved[v] = _substitute(equations[v], solved)
+                continue
+        solved.update(_solve_loop(sorted(members, key=str), equations, solved, owner, what))
+    return solved
+
+
+def _solve_loop(members, equations, solved, owner, what) -> dict:
+    residuals = [v - _substitute(equations[v], solved) for v in members]
+    elements = sorted({owner(v) for v in members})
+    try:
+        A, b = sp.linear_eq_to_matrix(residuals, members)
+    except (sp.polys.polyerrors.PolyNonlinearError, ValueError, NotImplementedError):
+        A = None
+    if A is not None:
+        det = A.det(method="berkowitz")
+        if sp.simplify(det) == 0:
+            raise AlgebraicLoopError(
+                f"{what} through {', '.join(elements)} is singular (its equations are linearly dependent): "
+                "the junction structure leaves these variables undetermined. Add a storage or resistive element "
+                "to the loop, or check the bond directions.",
+                elements,
+            )
+        solution = A.LUsolve(b)
+        return {v: sp.cancel(solution[i]) if len(members) <= 4 else solution[i] for i, v in enumerate(members)}
+    try:
+        solutions = sp.solve(residuals, members, dict=True)
+    except NotImplementedError:
+        solutions = []
+    if len(solutions) != 1 or set(solutions[0]) != set(members):
+        raise AlgebraicLoopError(
+            f"nonlinear {what} through {', '.join(elements)} has {len(solutions)} closed-form solution(s), "
+            "not exactly one, so it cannot be solved symbolically. Break the loop with a storage element, "
+            "or give the resistive law in the causality the loop needs.",
+            elements,
+        )
+    return solutions[0]

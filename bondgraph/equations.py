@@ -1,0 +1,284 @@
+"""Symbolic equations of one junction configuration.
+
+For the global state vector ``x`` (DESIGN §4), split by causality into
+independent states ``x_i`` (integral causality, plus displacements) and
+dependent states ``x_d`` (derivative causality), the configuration's
+equations are
+
+* **constraints**  ``x_d = φ(x_i, t)`` — the dependent states as algebraic
+  functions of the independent ones (the system stays on them, no drift);
+* **implicit rates** ``dx_i/dt = F(x_i, t, u, dx_d/dt)`` — straight from the
+  junction structure, with the rates of dependent states still symbolic;
+* **dependent rates** ``dx_d/dt = (∂φ/∂x_i) dx_i/dt + ∂φ/∂t`` (the chain rule
+  through modulated moduli);
+* **rates** ``dx/dt = f(x, t, u)`` for every state — the two above solved
+  together (a linear system in ``dx_d/dt``, solved by its sparse structure);
+* **efforts / flows** of every bond as expressions of states, inputs,
+  parameters, ``t`` and — where derivative causality makes them so — the
+  rates ``dx_d/dt`` (the part that carries Dirac pulses when ``x`` jumps).
+  :meth:`ConfigurationEquations.resolve` substitutes the rates for a finite
+  value during continuous flow.
+
+Shapes: ``x`` has ``n = len(states)`` entries in every configuration;
+``rates`` maps each of the ``n`` states to one expression.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from .algebra import solve_explicit
+from .errors import DerivationError
+from .symbols import t
+
+__all__ = ["ConfigurationEquations", "derive_equations"]
+
+
+@dataclass(frozen=True)
+class ConfigurationEquations:
+    """The per-configuration equations (see the module docstring for their form).
+
+    Attributes
+    ----------
+    configuration : dict  controlled junction → on/off
+    states : tuple        the global state vector ``x`` (fixed order)
+    independent, dependent : tuple   the split of ``states`` by causality
+    rate_symbols : dict   state → symbol standing for its time derivative
+    constraints : dict    dependent state → ``φ(x_i, t)``
+    implicit_rates : dict independent state → ``F(x_i, t, u, dx_d/dt)``
+    rates : dict          every state → ``f(x, t, u)``
+    efforts, flows : dict bond name → expression (may contain ``dx_d/dt``)
+    """
+
+    graph_name: str
+    configuration: dict
+    states: tuple
+    independent: tuple
+    dependent: tuple
+    rate_symbols: dict
+    constraints: dict
+    implicit_rates: dict
+    rates: dict
+    efforts: dict
+    flows: dict
+    causality: object = field(repr=False, compare=False)
+    _dependent_rates: dict = field(repr=False, compare=False, default_factory=dict)
+
+    # ---------------------------------------------------------------- access
+
+    @property
+    def dependent_rate_symbols(self) -> tuple:
+        """The symbols ``dx_d/dt`` that signals may contain (impulse carriers)."""
+        return tuple(self.rate_symbols[x] for x in self.dependent)
+
+    def resolve(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with dependent rates replaced by their finite values and
+        dependent states by their constraints: valid during continuous flow."""
+        expr = sp.sympify(expr)
+        expr = expr.xreplace(self._dependent_rates) if self._dependent_rates else expr
+        return expr.xreplace(self.constraints) if self.constraints else expr
+
+    def effort(self, bond: str, resolved: bool = False) -> sp.Expr:
+        """Effort of ``bond`` (or of a one-port element's bond, by element name)."""
+        expr = self.efforts[self._bond_name(bond, self.efforts)]
+        return self.resolve(expr) if resolved else expr
+
+    def flow(self, bond: str, resolved: bool = False) -> sp.Expr:
+        """Flow of ``bond`` (or of a one-port element's bond, by element name)."""
+        expr = self.flows[self._bond_name(bond, self.flows)]
+        return self.resolve(expr) if resolved else expr
+
+    def _bond_name(self, bond, table) -> str:
+        from .errors import UnknownNameError
+
+        if bond in table:
+            return bond
+        raise UnknownNameError(f"no bond {bond!r} in {self.graph_name!r}; bonds are: {', '.join(table)}", bond)
+
+    def rate(self, state) -> sp.Expr:
+        """``d(state)/dt = f(x, t, u)``; ``state`` is a symbol or its name."""
+        if isinstance(state, str):
+            state = sp.Symbol(state)
+        return self.rates[state]
+
+    @property
+    def f(self) -> sp.Matrix:
+        """``dx/dt`` as an ``n × 1`` matrix in the order of :attr:`states`."""
+        return sp.Matrix([self.rates[x] for x in self.states])
+
+    @property
+    def parameters(self) -> set:
+        used = set()
+        for expr in (*self.rates.values(), *self.efforts.values(), *self.flows.values()):
+            used |= expr.free_symbols
+        return used - set(self.states) - set(self.rate_symbols.values()) - {t}
+
+    # ---------------------------------------------------------------- display
+
+    def as_equalities(self, resolved_signals: bool = False) -> list:
+        """The equations as ``sympy.Eq`` objects: rates, constraints, then bond variables."""
+        out = [sp.Eq(self.rate_symbols[x], self.rates[x]) for x in self.independent]
+        out += [sp.Eq(x, self.constraints[x]) for x in self.dependent]
+        out += [sp.Eq(self.rate_symbols[x], self.rates[x]) for x in self.dependent]
+        return out
+
+    def _config_text(self) -> str:
+        if not self.configuration:
+            return ""
+        return " [" + ", ".join(f"{k}={'on' if v else 'off'}" for k, v in self.configuration.items()) + "]"
+
+    def pretty(self, signals: bool = False) -> str:
+        """A multi-line human-readable listing (``signals=True`` adds every bond's effort and flow)."""
+        lines = [f"equations of {self.graph_name!r}{self._config_text()}"]
+        lines.append("  states: " + ", ".join(str(x) for x in self.states))
+        if self.dependent:
+            lines.append("  dependent (derivative causality): " + ", ".join(str(x) for x in self.dependent))
+        lines.append("  dx/dt:")
+        for x in self.states:
+            lines.append(f"    {self.rate_symbols[x]} = {self.rates[x]}")
+        if self.dependent:
+            lines.append("  constraints:")
+            for x in self.dependent:
+                lines.append(f"    {x} = {self.constraints[x]}")
+        if signals:
+            lines.append("  bonds (effort, flow):")
+            for b in self.efforts:
+                lines.append(f"    {b}: e = {self.efforts[b]},  f = {self.flows[b]}")
+        return "\n".join(lines)
+
+    __str__ = pretty
+
+    def latex(self) -> str:
+        """The equations as a LaTeX ``aligned`` block (hierarchical names
+        ``rod/theta`` print as an upright prefix before the leaf's symbol)."""
+        symbols = set(self.states)
+        for expr in (*self.rates.values(), *self.constraints.values()):
+            symbols |= expr.free_symbols
+        names = latex_names(symbols)
+
+        def tex(expr):
+            return sp.latex(expr, symbol_names=names)
+
+        rows = []
+        for x in self.states:
+            rows.append(rf"\frac{{d}}{{dt}} {tex(x)} &= {tex(self.rates[x])}")
+        for x in self.dependent:
+            rows.append(rf"{tex(x)} &= {tex(self.constraints[x])}")
+        return r"\begin{aligned}" + r" \\ ".join(rows) + r"\end{aligned}"
+
+    def _repr_latex_(self) -> str:
+        return f"$${self.latex()}$$"
+
+
+def latex_names(symbols) -> dict:
+    """LaTeX for hierarchical symbol names: ``rod/theta`` → ``{\\mathrm{rod/}\\theta}``."""
+    names = {}
+    for s in symbols:
+        if isinstance(s, sp.Symbol) and "/" in s.name:
+            prefix, leaf = s.name.rsplit("/", 1)
+            names[s] = rf"{{\mathrm{{{prefix}/}}{sp.latex(sp.Symbol(leaf))}}}"
+    return names
+
+
+#: Expressions produced by eliminating dependent rates are simplified when
+#: they have at most this many operations (larger ones are left as they are:
+#: ``simplify`` costs grow fast and the numbers are the same).
+SIMPLIFY_MAX_OPS = 400
+
+
+def _tidy(expr: sp.Expr) -> sp.Expr:
+    if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
+        return expr
+    return sp.simplify(expr)
+
+
+def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
+    """Derive :class:`ConfigurationEquations` for one configuration."""
+    rel = causality.relations
+    owner = {v: r.element for v, r in rel.relations.items()}
+
+    bond_values = solve_explicit(
+        {v: r.expr for v, r in rel.relations.items()}, owner=lambda v: owner[v], what="algebraic loop"
+    )
+
+    def bonds_in(expr):
+        subs = {s: bond_values[s] for s in expr.free_symbols if s in bond_values}
+        return expr.xreplace(subs) if subs else expr
+
+    dependent_rates = {rel.rate_symbols[x] for x in causality.dependent}
+    inputs = set(graph.inputs.values())
+    dependent_set = set(causality.dependent)
+    storage_of = {el.state: el.name for el in graph.storage}
+
+    constraints = {}
+    for x in causality.dependent:
+        phi = bonds_in(rel.constraints[x])
+        if phi.free_symbols & dependent_rates:
+            raise DerivationError(
+                f"dependent state {x} of {storage_of[x]!r} would depend on the rates of other dependent states "
+                f"({phi}); the configuration {config} has a higher-index constraint. Add a small compliance or mass.",
+                [storage_of[x]],
+            )
+        if phi.free_symbols & inputs:
+            bad = sorted(str(s) for s in phi.free_symbols & inputs)
+            raise DerivationError(
+                f"dependent state {x} of {storage_of[x]!r} is fixed by input(s) {', '.join(bad)}, whose time "
+                "derivative the toolkit does not know; give the source as an expression of t instead.",
+                [storage_of[x]],
+            )
+        constraints[x] = phi
+
+    implicit = {x: bonds_in(rel.rates[x]) for x in causality.independent}
+
+    # dx_d/dt = Σ_j ∂φ/∂x_j · dx_j/dt + ∂φ/∂t, with dx_j/dt from the implicit rates
+    rate_equations = {}
+    for x in causality.dependent:
+        phi = constraints[x]
+        total = sp.diff(phi, t)
+        for s in phi.free_symbols:
+            if s in implicit:
+                total += sp.diff(phi, s) * implicit[s]
+            elif s in dependent_set:
+                total += sp.diff(phi, s) * rel.rate_symbols[s]
+        rate_equations[rel.rate_symbols[x]] = total
+    rate_values = solve_explicit(
+        rate_equations,
+        owner=lambda v: storage_of.get(next(x for x in causality.dependent if rel.rate_symbols[x] == v), str(v)),
+        what="coupling of dependent storage rates",
+    )
+
+    def finite(expr):
+        subs = {s: rate_values[s] for s in expr.free_symbols if s in rate_values}
+        expr = expr.xreplace(subs) if subs else expr
+        expr = expr.xreplace(constraints) if constraints else expr
+        return _tidy(expr) if subs else expr
+
+    rates = {}
+    for x in graph.states:
+        if x in implicit:
+            rates[x] = finite(implicit[x])
+        else:
+            rates[x] = finite(rel.rate_symbols[x])
+
+    efforts, flows = {}, {}
+    for name, bond in graph.bonds.items():
+        efforts[name] = bond_values[bond.effort]
+        flows[name] = bond_values[bond.flow]
+
+    return ConfigurationEquations(
+        graph_name=graph.name,
+        configuration=dict(config),
+        states=tuple(graph.states),
+        independent=tuple(causality.independent),
+        dependent=tuple(causality.dependent),
+        rate_symbols=dict(rel.rate_symbols),
+        constraints=constraints,
+        implicit_rates=implicit,
+        rates=rates,
+        efforts=efforts,
+        flows=flows,
+        causality=causality,
+        _dependent_rates=rate_values,
+    )

@@ -1,0 +1,526 @@
+"""The bond graph container: elements, bonds, ports, sub-model instances.
+
+A :class:`BondGraph` holds data; the algorithms (causality, equations) are
+functions over it, reached through :meth:`BondGraph.causality` and
+:meth:`BondGraph.equations`, which cache their results per configuration and
+drop the cache whenever the graph changes.
+
+Example — a series RLC circuit driven by a voltage source::
+
+    >>> from bondgraph import BondGraph, Se, R, I, C, One
+    >>> g = BondGraph("rlc")
+    >>> j = g.add(One("j"))
+    >>> for e in (Se("V", "V0"), R("R"), I("L"), C("C")):
+    ...     _ = g.connect(e, j) if e.kind == "Se" else g.connect(j, e)
+    >>> eq = g.equations()
+    >>> eq.rates[g.state("p_L")]
+    V0 - R*p_L/L - q_C/C
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .elements import GY, TF, Element, Junction, OnePort, Source, Storage, TwoPort
+from .errors import (
+    DuplicateNameError,
+    InvalidGraphError,
+    MissingParameterError,
+    UnknownNameError,
+    UnknownParameterError,
+)
+from .symbols import check_name, t
+
+__all__ = ["Bond", "BondGraph", "Instance", "Configuration"]
+
+#: A configuration: controlled junction name → on (True) / off (False).
+Configuration = Mapping[str, bool]
+
+
+@dataclass(frozen=True)
+class Bond:
+    """A power bond from ``tail`` to ``head`` (positive power flows tail → head).
+
+    ``effort`` and ``flow`` are the bond's variable symbols ``e_<name>`` and
+    ``f_<name>``; modulated sources may use them in their expressions.
+    """
+
+    name: str
+    tail: str
+    head: str
+
+    @property
+    def effort(self) -> sp.Symbol:
+        return sp.Symbol(f"e_{self.name}")
+
+    @property
+    def flow(self) -> sp.Symbol:
+        return sp.Symbol(f"f_{self.name}")
+
+    def other(self, element: str) -> str:
+        """The end of the bond that is not ``element``."""
+        return self.head if element == self.tail else self.tail
+
+    def sign_at(self, element: str) -> int:
+        """+1 if power flows into ``element`` along this bond, −1 if out of it."""
+        return 1 if element == self.head else -1
+
+    def __str__(self) -> str:
+        return f"bond {self.name!r} ({self.tail} → {self.head})"
+
+
+@dataclass(frozen=True)
+class Displacement:
+    """An integrated displacement: a state ``symbol`` with ``d(symbol)/dt = sign * f_bond``."""
+
+    symbol: sp.Symbol
+    bond: str
+    sign: int = 1
+
+
+class Instance:
+    """A placed copy of a sub-model: resolves its ports and inner names.
+
+    ``inst.port("p")`` is the name of the element behind port ``p`` (use it
+    in :meth:`BondGraph.connect`); ``inst["C"]`` is the full name of inner
+    element ``C``; ``inst.state("q_C")`` and ``inst.parameter("k")`` give the
+    instance's symbols.
+    """
+
+    def __init__(self, graph: "BondGraph", name: str, ports: Mapping[str, str], symbols: Mapping[sp.Symbol, sp.Expr]):
+        self.graph = graph
+        self.name = name
+        self._ports = dict(ports)
+        self._symbols = dict(symbols)
+
+    def port(self, port: str) -> str:
+        try:
+            return self._ports[port]
+        except KeyError:
+            raise UnknownNameError(
+                f"instance {self.name!r} has no port {port!r}; its ports are: {', '.join(self._ports) or '(none)'}",
+                port,
+            ) from None
+
+    @property
+    def ports(self) -> tuple[str, ...]:
+        return tuple(self._ports)
+
+    def __getitem__(self, inner_name: str) -> str:
+        full = f"{self.name}/{inner_name}"
+        if full not in self.graph.elements:
+            raise UnknownNameError(f"instance {self.name!r} has no element {inner_name!r}", inner_name)
+        return full
+
+    def symbol(self, inner: str) -> sp.Expr:
+        """What the sub-model's symbol ``inner`` (state, parameter, input) became in this instance."""
+        key = sp.Symbol(inner)
+        if key not in self._symbols:
+            raise UnknownNameError(f"instance {self.name!r} has no symbol {inner!r}", inner)
+        return self._symbols[key]
+
+    state = symbol
+    parameter = symbol
+
+    def __repr__(self) -> str:
+        return f"Instance({self.name!r}, ports={list(self._ports)})"
+
+
+class BondGraph:
+    """A bond graph: elements joined by power bonds, with named ports.
+
+    Build it with :meth:`add` and :meth:`connect` (``connect(tail, head)``
+    draws a bond with positive power from tail to head), declare integrated
+    displacements with :meth:`displacement` and inputs with :meth:`input`.
+    A bond graph used as a *sub-model* declares ports with :meth:`port` and is
+    placed (copied, with hierarchical names ``<instance>/<element>``) into
+    another graph with :meth:`add_submodel`, as often as needed.
+
+    The global state vector (DESIGN §4) is :attr:`states`: the state of every
+    storage element in the order they were added, then the displacements in
+    the order they were declared.
+    """
+
+    def __init__(self, name: str = "model"):
+        self.name = name
+        self.elements: dict[str, Element] = {}
+        self.bonds: dict[str, Bond] = {}
+        self.displacements: dict[sp.Symbol, Displacement] = {}
+        self.inputs: dict[str, sp.Symbol] = {}
+        self.ports: dict[str, str] = {}
+        self._bonds_of: dict[str, list[str]] = {}
+        self._version = 0
+        self._cache: dict = {}
+
+    # ------------------------------------------------------------ building
+
+    def _changed(self) -> None:
+        self._version += 1
+        self._cache.clear()
+
+    def add(self, element: Element) -> Element:
+        """Add an element; its name must be new.  Returns the element."""
+        if not isinstance(element, Element):
+            raise InvalidGraphError(f"expected an element (Se, Sf, C, I, R, TF, GY, Zero, One), got {element!r}")
+        if element.name in self.elements:
+            raise DuplicateNameError(
+                f"graph {self.name!r} already has an element named {element.name!r}; names must be unique",
+                element.name,
+            )
+        self.elements[element.name] = element
+        self._bonds_of[element.name] = []
+        self._changed()
+        return element
+
+    def _resolve(self, ref) -> str:
+        name = ref.name if isinstance(ref, Element) else ref
+        if isinstance(ref, Element) and name not in self.elements:
+            self.add(ref)
+        if name not in self.elements:
+            raise UnknownNameError(f"graph {self.name!r} has no element {name!r}{self._suggest(name)}", name)
+        if isinstance(ref, Element) and self.elements[name] is not ref and self.elements[name] != ref:
+            raise DuplicateNameError(f"another element named {name!r} is already in graph {self.name!r}", name)
+        return name
+
+    def _suggest(self, name: str) -> str:
+        import difflib
+
+        close = difflib.get_close_matches(str(name), list(self.elements), n=3)
+        return f" (did you mean {', '.join(map(repr, close))}?)" if close else ""
+
+    def connect(self, tail, head, name: str | None = None) -> Bond:
+        """Draw a bond with positive power from ``tail`` to ``head``.
+
+        Either end may be an element (added if new) or an element name.  The
+        bond is named ``name``, or after its one-port end, or ``tail->head``.
+        """
+        tail_name, head_name = self._resolve(tail), self._resolve(head)
+        if tail_name == head_name:
+            raise InvalidGraphError(f"bond from {tail_name!r} to itself", [tail_name])
+        if name is None:
+            if isinstance(self.elements[head_name], OnePort):
+                name = head_name
+            elif isinstance(self.elements[tail_name], OnePort):
+                name = tail_name
+            else:
+                name = f"{tail_name}->{head_name}"
+            base, k = name, 2
+            while name in self.bonds:
+                name, k = f"{base}#{k}", k + 1
+        elif name in self.bonds:
+            raise DuplicateNameError(f"graph {self.name!r} already has a bond named {name!r}", name)
+        bond = Bond(name, tail_name, head_name)
+        self.bonds[name] = bond
+        self._bonds_of[tail_name].append(name)
+        self._bonds_of[head_name].append(name)
+        self._changed()
+        return bond
+
+    def displacement(self, name: str, of, sign: int = 1) -> sp.Symbol:
+        """Declare an integrated displacement state ``name`` with
+        ``d(name)/dt = sign * f`` of a bond: ``of`` is a bond (or its name), a
+        one-port element (its bond) or a 1-junction (its common flow).
+        Returns the state symbol (use it in moduli, e.g. ``l*sp.sin(theta)``)."""
+        check_name(name, "displacement name")
+        if sign not in (1, -1):
+            raise InvalidGraphError(f"displacement {name!r}: sign must be +1 or -1, not {sign!r}")
+        symbol = sp.Symbol(name)
+        if symbol in self.displacements or any(
+            isinstance(e, Storage) and e.state == symbol for e in self.elements.values()
+        ):
+            raise DuplicateNameError(f"a state named {name!r} already exists", name)
+        bond, orientation = self._bond_for_displacement(of, name)
+        self.displacements[symbol] = Displacement(symbol, bond, sign * orientation)
+        self._changed()
+        return symbol
+
+    def _bond_for_displacement(self, of, name: str) -> tuple[str, int]:
+        """(bond, ±1): the bond whose flow integrates to the displacement, and
+        +1 if that flow is oriented *into* the element given (an I's velocity)."""
+        if isinstance(of, Bond):
+            of = of.name
+        if isinstance(of, str) and of in self.bonds:
+            return of, 1
+        element = self._resolve(of)
+        bonds = self._bonds_of[element]
+        if not bonds:
+            raise InvalidGraphError(f"displacement {name!r}: element {element!r} has no bond yet; connect it first", [element])
+        el = self.elements[element]
+        if el.kind == "1" or (isinstance(el, OnePort) and len(bonds) == 1):
+            bond = self.bonds[bonds[0]]
+            return bond.name, 1 if el.kind == "1" else bond.sign_at(element)
+        raise InvalidGraphError(
+            f"displacement {name!r}: {el.kind}-element {element!r} has no single flow; give a bond, a one-port or a 1-junction",
+            [element],
+        )
+
+    def input(self, name: str) -> sp.Symbol:
+        """Declare an input signal ``name`` (supplied at simulation time); returns its symbol."""
+        check_name(name, "input name")
+        if name in self.inputs:
+            raise DuplicateNameError(f"input {name!r} is already declared", name)
+        self.inputs[name] = sp.Symbol(name)
+        self._changed()
+        return self.inputs[name]
+
+    def port(self, name: str, element) -> None:
+        """Expose ``element`` as port ``name`` of this graph used as a sub-model."""
+        check_name(name, "port name")
+        if name in self.ports:
+            raise DuplicateNameError(f"port {name!r} is already declared in {self.name!r}", name)
+        self.ports[name] = self._resolve(element)
+
+    def add_submodel(
+        self,
+        sub: "BondGraph",
+        name: str,
+        bind: Mapping[str, object] | None = None,
+        share: Iterable[str] = (),
+    ) -> Instance:
+        """Place a copy of ``sub`` called ``name``; returns an :class:`Instance`.
+
+        Every element ``X`` of ``sub`` becomes ``name/X``; its states, bonds,
+        displacements, inputs and parameters are renamed the same way, except
+        the parameters/inputs listed in ``share`` (kept as they are, shared
+        with the rest of the model, e.g. gravity ``g``) and those in ``bind``
+        (replaced by the given value: a number, a parameter name or a sympy
+        expression).  Sub-models nest: placing a graph that itself holds
+        instances gives names like ``rod/body/I_x``.
+        """
+        from .symbols import as_expr
+
+        check_name(name, "instance name")
+        bind = dict(bind or {})
+        share = set(share)
+        known = {s.name for s in sub.parameters} | set(sub.inputs)
+        unknown = (set(bind) | share) - known
+        if unknown:
+            raise UnknownParameterError(unknown, known)
+        clash = [f"{name}/{n}" for n in sub.elements if f"{name}/{n}" in self.elements]
+        if clash:
+            raise DuplicateNameError(f"placing {sub.name!r} as {name!r} would duplicate {', '.join(clash)}", clash[0])
+
+        mapping: dict[sp.Symbol, sp.Expr] = {}
+        for sym in sub.parameters | set(sub.inputs.values()):
+            if sym.name in bind:
+                mapping[sym] = as_expr(bind[sym.name], f"binding of {sym.name!r}")
+            elif sym.name in share:
+                mapping[sym] = sym
+            else:
+                mapping[sym] = sp.Symbol(f"{name}/{sym.name}")
+        for disp in sub.displacements:
+            mapping[disp] = sp.Symbol(f"{name}/{disp.name}")
+        for bond in sub.bonds.values():
+            new = Bond(f"{name}/{bond.name}", "", "")
+            mapping[bond.effort] = new.effort
+            mapping[bond.flow] = new.flow
+        for el in sub.elements.values():
+            if isinstance(el, Storage) and el.state.name != el.default_state_name():
+                mapping[el.state] = sp.Symbol(f"{name}/{el.state.name}")
+
+        symbols = dict(mapping)
+        for el in sub.elements.values():
+            new = el.renamed(f"{name}/{el.name}", mapping)
+            self.add(new)
+            if isinstance(el, Storage):
+                symbols[el.state] = new.state
+        for bond in sub.bonds.values():
+            self.connect(f"{name}/{bond.tail}", f"{name}/{bond.head}", name=f"{name}/{bond.name}")
+        for disp in sub.displacements.values():
+            self.displacements[mapping[disp.symbol]] = Displacement(mapping[disp.symbol], f"{name}/{disp.bond}", disp.sign)
+        for inp, sym in sub.inputs.items():
+            new_sym = mapping[sym]
+            if isinstance(new_sym, sp.Symbol) and new_sym.name not in self.inputs:
+                self.inputs[new_sym.name] = new_sym
+        self._changed()
+        return Instance(self, name, {p: f"{name}/{el}" for p, el in sub.ports.items()}, symbols)
+
+    # ------------------------------------------------------------ queries
+
+    def element(self, name: str) -> Element:
+        try:
+            return self.elements[name]
+        except KeyError:
+            raise UnknownNameError(f"graph {self.name!r} has no element {name!r}{self._suggest(name)}", name) from None
+
+    def bond(self, name: str) -> Bond:
+        """A bond by name, or the one bond of a one-port element of that name."""
+        if name in self.bonds:
+            return self.bonds[name]
+        if name in self.elements and isinstance(self.elements[name], OnePort) and len(self._bonds_of[name]) == 1:
+            return self.bonds[self._bonds_of[name][0]]
+        raise UnknownNameError(f"graph {self.name!r} has no bond {name!r}", name)
+
+    def bonds_of(self, element: str) -> tuple[Bond, ...]:
+        """The bonds attached to ``element``, in the order they were drawn."""
+        self.element(element)
+        return tuple(self.bonds[b] for b in self._bonds_of[element])
+
+    def effort(self, ref) -> sp.Symbol:
+        """The effort symbol of a bond or of a one-port element's bond."""
+        return self.bond(ref.name if isinstance(ref, Element) else ref).effort
+
+    def flow(self, ref) -> sp.Symbol:
+        """The flow symbol of a bond or of a one-port element's bond."""
+        return self.bond(ref.name if isinstance(ref, Element) else ref).flow
+
+    @property
+    def storage(self) -> tuple[Storage, ...]:
+        return tuple(e for e in self.elements.values() if isinstance(e, Storage))
+
+    @property
+    def states(self) -> tuple[sp.Symbol, ...]:
+        """The global state vector: storage states (in order added), then displacements."""
+        return tuple(e.state for e in self.storage) + tuple(self.displacements)
+
+    def state(self, name: str) -> sp.Symbol:
+        for s in self.states:
+            if s.name == name:
+                return s
+        raise UnknownNameError(
+            f"graph {self.name!r} has no state {name!r}; its states are: {', '.join(s.name for s in self.states)}", name
+        )
+
+    @property
+    def controlled_junctions(self) -> tuple[str, ...]:
+        return tuple(n for n, e in self.elements.items() if isinstance(e, Junction) and e.controlled)
+
+    def bond_symbols(self) -> set[sp.Symbol]:
+        return {s for b in self.bonds.values() for s in (b.effort, b.flow)}
+
+    @property
+    def parameters(self) -> set[sp.Symbol]:
+        """Every free symbol of the element expressions that is not time, a
+        state, an input or a bond variable: the model's parameters."""
+        used: set[sp.Symbol] = set()
+        for el in self.elements.values():
+            for expr in el.expressions():
+                used |= expr.free_symbols
+        reserved = {t} | set(self.states) | set(self.inputs.values()) | self.bond_symbols()
+        return {s for s in used if isinstance(s, sp.Symbol) and not isinstance(s, sp.Dummy)} - reserved
+
+    def check_parameters(self, values: Mapping) -> dict[sp.Symbol, float]:
+        """Map parameter names (or symbols) to floats, listing every missing
+        parameter at once (:class:`MissingParameterError`) and every unknown
+        name (:class:`UnknownParameterError`)."""
+        params = {s.name: s for s in self.parameters}
+        given = {(k.name if isinstance(k, sp.Symbol) else k): v for k, v in values.items()}
+        unknown = set(given) - set(params)
+        if unknown:
+            raise UnknownParameterError(unknown, params)
+        missing = set(params) - set(given)
+        if missing:
+            raise MissingParameterError(missing)
+        out = {}
+        for name, v in given.items():
+            try:
+                out[params[name]] = float(v)
+            except (TypeError, ValueError):
+                raise InvalidGraphError(f"parameter {name!r} must be a number, got {v!r}") from None
+        return out
+
+    # ------------------------------------------------------------ validation
+
+    def validate(self) -> None:
+        """Check the structure; raise the first problem found, naming the element.
+
+        Checks: every element has bonds; one-ports have exactly one; TF/GY have
+        exactly two, one pointing in and one out; no two symbols (states,
+        parameters, inputs, bond variables, ``t``) share a name.
+        """
+        for name, el in self.elements.items():
+            bonds = self._bonds_of[name]
+            if not bonds:
+                what = "junction" if isinstance(el, Junction) else "element"
+                raise InvalidGraphError(f"{what} {el.kind} {name!r} has no bonds (dangling); connect it or remove it", [name])
+            if isinstance(el, OnePort) and len(bonds) != 1:
+                raise InvalidGraphError(
+                    f"{el.kind} {name!r} is a one-port but has {len(bonds)} bonds ({', '.join(bonds)}); "
+                    "join them through a 0- or 1-junction",
+                    [name],
+                )
+            if isinstance(el, TwoPort):
+                if len(bonds) != 2:
+                    raise InvalidGraphError(f"{el.kind} {name!r} needs exactly 2 bonds, has {len(bonds)}", [name])
+                ins = [b for b in bonds if self.bonds[b].head == name]
+                if len(ins) != 1:
+                    raise InvalidGraphError(
+                        f"{el.kind} {name!r} needs one bond pointing in and one out (power passes through it); "
+                        f"bonds {', '.join(bonds)} point {'both in' if len(ins) == 2 else 'both out'}",
+                        [name],
+                    )
+        self._check_symbol_names()
+
+    def _check_symbol_names(self) -> None:
+        seen: dict[str, str] = {"t": "time"}
+        groups = [
+            ("state", self.states),
+            ("input", self.inputs.values()),
+            ("bond variable", sorted(self.bond_symbols(), key=str)),
+            ("parameter", sorted(self.parameters, key=str)),
+        ]
+        for what, symbols in groups:
+            for s in symbols:
+                if s.name in seen and not (what == "parameter" and seen[s.name] == "parameter"):
+                    raise DuplicateNameError(
+                        f"the name {s.name!r} is used both as {seen[s.name]} and as {what}; rename one", s.name
+                    )
+                seen[s.name] = what
+
+    def two_port_bonds(self, element: str) -> tuple[Bond, Bond]:
+        """(bond in, bond out) of a TF/GY."""
+        b1, b2 = self.bonds_of(element)
+        return (b1, b2) if b1.head == element else (b2, b1)
+
+    # ------------------------------------------------------------ configurations
+
+    def configuration(self, config: Configuration | None = None, **on: bool) -> dict[str, bool]:
+        """Normalise a configuration: every controlled junction → on/off.
+
+        Junctions not mentioned are on.  Unknown or uncontrolled names raise.
+        """
+        merged = dict(config or {})
+        merged.update(on)
+        controlled = self.controlled_junctions
+        for name, value in merged.items():
+            if name not in self.elements:
+                raise UnknownNameError(f"configuration names unknown junction {name!r}{self._suggest(name)}", name)
+            if name not in controlled:
+                raise InvalidGraphError(
+                    f"configuration switches {name!r}, which is not a controlled junction "
+                    "(create it with controlled=True)",
+                    [name],
+                )
+            if not isinstance(value, (bool, int)):
+                raise InvalidGraphError(f"junction {name!r} must be switched True/False, got {value!r}", [name])
+        return {name: bool(merged.get(name, True)) for name in controlled}
+
+    def _cached(self, kind: str, config, compute):
+        key = (kind, tuple(sorted(self.configuration(config).items())))
+        if key not in self._cache:
+            self._cache[key] = compute(self.configuration(config))
+        return self._cache[key]
+
+    def causality(self, config: Configuration | None = None):
+        """The causal assignment for a configuration (cached); see :func:`bondgraph.causality.assign_causality`."""
+        from .causality import assign_causality
+
+        return self._cached("causality", config, lambda c: assign_causality(self, c))
+
+    def equations(self, config: Configuration | None = None):
+        """The symbolic equations of a configuration (cached); see :class:`bondgraph.equations.ConfigurationEquations`."""
+        from .equations import derive_equations
+
+        return self._cached("equations", config, lambda c: derive_equations(self, c, self.causality(c)))
+
+    @property
+    def version(self) -> int:
+        """Increases on every change of the graph (caches keyed on it go stale)."""
+        return self._version
+
+    def __repr__(self) -> str:
+        return f"BondGraph({self.name!r}, {len(self.elements)} elements, {len(self.bonds)} bonds)"
