@@ -59,7 +59,7 @@ def _solve_loop(members, equations, solved, owner, what) -> dict:
     elements = sorted({owner(v) for v in members})
     try:
         A, b = sp.linear_eq_to_matrix(residuals, members)
-    except (sp.polys.polyerrors.PolyNonlinearError, ValueError, NotImplementedError):
+    except (ValueError, NotImplementedError):  # sympy raises NonlinearError(ValueError)
         A = None
     if A is not None:
         det = A.det(method="berkowitz")
@@ -72,15 +72,59 @@ def _solve_loop(members, equations, solved, owner, what) -> dict:
             )
         solution = A.LUsolve(b)
         return {v: sp.cancel(solution[i]) if len(members) <= 4 else solution[i] for i, v in enumerate(members)}
-    try:
-        solutions = sp.solve(residuals, members, dict=True)
-    except NotImplementedError:
-        solutions = []
-    if len(solutions) != 1 or set(solutions[0]) != set(members):
-        raise AlgebraicLoopError(
-            f"nonlinear {what} through {', '.join(elements)} has {len(solutions)} closed-form solution(s), "
-            "not exactly one, so it cannot be solved symbolically. Break the loop with a storage element, "
-            "or give the resistive law in the causality the loop needs.",
-            elements,
-        )
-    return solutions[0]
+    return _solve_nonlinear_loop(residuals, list(members), elements, what)
+
+
+def _solve_nonlinear_loop(residuals, members, elements, what) -> dict:
+    """Eliminate the unknowns that appear linearly, one at a time; what is
+    left must have a unique closed-form solution (a polynomial of degree ≥ 2
+    in one unknown has several, and is refused at once)."""
+    eliminated: dict[sp.Symbol, sp.Expr] = {}
+    residuals = list(residuals)
+    progress = True
+    while progress and residuals:
+        progress = False
+        for i, r in enumerate(residuals):
+            for v in members:
+                if v in eliminated or not r.has(v):
+                    continue
+                coeff = sp.diff(r, v)
+                if coeff.has(*members) or coeff == 0:
+                    continue
+                value = -r.xreplace({v: 0}) / coeff
+                eliminated = {k: e.xreplace({v: value}) for k, e in eliminated.items()}
+                eliminated[v] = value
+                residuals = [x.xreplace({v: value}) for j, x in enumerate(residuals) if j != i]
+                progress = True
+                break
+            if progress:
+                break
+    remaining = [v for v in members if v not in eliminated]
+    solution: dict[sp.Symbol, sp.Expr] = {}
+    if remaining:
+        for r in residuals:
+            for v in remaining:
+                poly = sp.Poly(sp.numer(sp.together(r)), v) if r.is_polynomial(v) else None
+                if poly is not None and poly.degree() >= 2:
+                    raise AlgebraicLoopError(
+                        f"nonlinear {what} through {', '.join(elements)} reduces to a polynomial of degree "
+                        f"{poly.degree()} in {v}, which has several solutions, not exactly one: it cannot be "
+                        "solved symbolically. Break the loop with a storage element, or give the resistive law "
+                        "in the causality the loop needs.",
+                        elements,
+                    )
+        try:
+            solutions = sp.solve(residuals, remaining, dict=True)
+        except NotImplementedError:
+            solutions = []
+        if len(solutions) != 1 or set(solutions[0]) != set(remaining):
+            raise AlgebraicLoopError(
+                f"nonlinear {what} through {', '.join(elements)} has {len(solutions)} closed-form solution(s), "
+                "not exactly one, so it cannot be solved symbolically. Break the loop with a storage element, "
+                "or give the resistive law in the causality the loop needs.",
+                elements,
+            )
+        solution = solutions[0]
+    out = {v: e.xreplace(solution) for v, e in eliminated.items()}
+    out.update(solution)
+    return out

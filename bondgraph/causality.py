@@ -277,15 +277,19 @@ class _SCAP:
                     f"configuration {_fmt_config(self.config)}; the junction structure around it is inconsistent",
                     [name],
                 )
-        for name, el in g.elements.items():
-            if isinstance(el, R):
-                b = self.bonds_of[name][0]
-                if b in self.effort_by:
-                    continue
-                other = g.bonds[b].other(name)
-                first, second = (name, other) if el.prefers_resistance else (other, name)
-                if not self.trial(b, first, name) and not self.trial(b, second, name):
-                    raise CausalityConflictError(f"R {name!r} admits no causality", [name])
+        # R's with a one-way law first (linear ones work either way), so a
+        # nonlinear law keeps the causality it was written for where possible
+        resistors = [n for n, el in g.elements.items() if isinstance(el, R)]
+        resistors.sort(key=lambda n: g.elements[n].effort_law is not None and g.elements[n].flow_law is not None)
+        for name in resistors:
+            el = g.elements[name]
+            b = self.bonds_of[name][0]
+            if b in self.effort_by:
+                continue
+            other = g.bonds[b].other(name)
+            first, second = (name, other) if el.prefers_resistance else (other, name)
+            if not self.trial(b, first, name) and not self.trial(b, second, name):
+                raise CausalityConflictError(f"R {name!r} admits no causality", [name])
         for b in g.bonds.values():
             if b.name in self.effort_by or b.name in self.dead:
                 continue

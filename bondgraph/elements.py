@@ -92,7 +92,8 @@ class Element:
         return _copy_with(self, name=name)
 
     def __str__(self) -> str:
-        return f"{self.kind} {self.name!r}"
+        kind = f"{self.kind}-junction" if self.kind in ("0", "1") else self.kind
+        return f"{kind} {self.name!r}"
 
 
 @dataclass(frozen=True)
@@ -151,8 +152,9 @@ def _invert(expr: sp.Expr, var: sp.Symbol, value: sp.Expr, element: str, what: s
     y = sp.Dummy("y")
     solutions = sp.solve(sp.Eq(expr, y), var, dict=False)
     if len(solutions) != 1:
+        shown = expr.xreplace({var: sp.Symbol(var.name)})
         raise DerivationError(
-            f"cannot invert the {what} law of {element!r} ({expr} = {y.name}) uniquely "
+            f"cannot invert the {what} law of {element!r} ({shown} = y) for {var.name} uniquely "
             f"({len(solutions)} solutions); the graph forces the other causality on it. "
             "Give the inverse law as well, or change the graph so the element keeps its preferred causality.",
             [element],

@@ -435,21 +435,20 @@ class BondGraph:
         for name, el in self.elements.items():
             bonds = self._bonds_of[name]
             if not bonds:
-                what = "junction" if isinstance(el, Junction) else "element"
-                raise InvalidGraphError(f"{what} {el.kind} {name!r} has no bonds (dangling); connect it or remove it", [name])
+                raise InvalidGraphError(f"{el} has no bonds (dangling); connect it or remove it", [name])
             if isinstance(el, OnePort) and len(bonds) != 1:
                 raise InvalidGraphError(
-                    f"{el.kind} {name!r} is a one-port but has {len(bonds)} bonds ({', '.join(bonds)}); "
+                    f"{el} is a one-port but has {len(bonds)} bonds ({', '.join(bonds)}); "
                     "join them through a 0- or 1-junction",
                     [name],
                 )
             if isinstance(el, TwoPort):
                 if len(bonds) != 2:
-                    raise InvalidGraphError(f"{el.kind} {name!r} needs exactly 2 bonds, has {len(bonds)}", [name])
+                    raise InvalidGraphError(f"{el} needs exactly 2 bonds, has {len(bonds)}", [name])
                 ins = [b for b in bonds if self.bonds[b].head == name]
                 if len(ins) != 1:
                     raise InvalidGraphError(
-                        f"{el.kind} {name!r} needs one bond pointing in and one out (power passes through it); "
+                        f"{el} needs one bond pointing in and one out (power passes through it); "
                         f"bonds {', '.join(bonds)} point {'both in' if len(ins) == 2 else 'both out'}",
                         [name],
                     )

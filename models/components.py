@@ -15,7 +15,7 @@ Example — a chain of mass–spring–damper cells built in a loop::
     ...     _ = chain.connect(previous, inst.port("in"))
     ...     previous = inst.port("mass")
     >>> [s.name for s in chain.states][:2]
-    ['p_cell1/m', 'q_cell1/k']
+    ['q_cell1/k', 'p_cell1/m']
 """
 
 from __future__ import annotations

@@ -360,3 +360,40 @@ def test_pretty_and_latex_display():
     # the displayed equalities hold: each one is the rate or constraint itself
     for equality in eq.as_equalities():
         assert equality.lhs in eq.rate_symbols.values() or equality.lhs in eq.dependent
+
+
+def test_nonlinear_algebraic_loop_without_unique_solution_names_its_elements():
+    """switched_rl with a cubic freewheeling resistor: the node voltage solves a cubic."""
+    from bondgraph import AlgebraicLoopError
+
+    g = BondGraph("cubic_loop")
+    node, loop = g.add(Zero("node")), g.add(One("loop"))
+    g.connect(Se("V", "V0"), One("s"))
+    g.connect("s", R("R", "R"))
+    g.connect("s", node)
+    g.connect(node, loop)
+    g.connect(loop, I("L", "L"))
+    g.connect(node, R("R_fw", effort_law=lambda f: S("R0") * f**3))
+    with pytest.raises(AlgebraicLoopError) as info:
+        g.equations()
+    assert "R_fw" in info.value.elements and "R" in info.value.elements
+    assert "R_fw" in str(info.value) and "degree 3" in str(info.value) and "not exactly one" in str(info.value)
+
+
+def test_nonlinear_algebraic_loop_with_a_unique_solution_is_solved():
+    """An exponential freewheeling law, v = R0 exp(i_x): the loop is
+    transcendental with one (Lambert W) solution, which must satisfy it."""
+    g = BondGraph("exp_loop")
+    node, loop = g.add(Zero("node")), g.add(One("loop"))
+    g.connect(Se("V", "V0"), One("s"))
+    g.connect("s", R("R", "R"))
+    g.connect("s", node)
+    g.connect(node, loop)
+    g.connect(loop, I("L", "L"))
+    g.connect(node, R("R_x", effort_law=lambda f: S("R0") * sp.exp(f)))
+    eq = g.equations()
+    V0, R_, L, R0, p = sp.symbols("V0 R L R0 p_L")
+    v = eq.rate(p)  # the inductor sees the node voltage
+    i_x = (V0 - v) / R_ - p / L  # Kirchhoff at the node
+    residual = (v - R0 * sp.exp(i_x)).subs({V0: 2, R_: 1.5, L: 0.5, R0: 0.3, p: 0.2})
+    assert abs(complex(sp.N(residual))) < 1e-12
