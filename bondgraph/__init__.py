@@ -42,6 +42,9 @@ from .errors import InvalidGraphError as InvalidGraphError
 from .errors import MissingParameterError as MissingParameterError
 from .errors import UnknownNameError as UnknownNameError
 from .errors import UnknownParameterError as UnknownParameterError
+from .jump import JumpMap as JumpMap
+from .jump import JumpMapError as JumpMapError
+from .jump import derive_jump_map as derive_jump_map
 from .graph import Bond as Bond
 from .graph import BondGraph as BondGraph
 from .graph import Instance as Instance

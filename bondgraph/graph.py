@@ -196,7 +196,7 @@ class BondGraph:
         """Draw a bond with positive power from ``tail`` to ``head``.
 
         Either end may be an element (added if new) or an element name.  The
-        bond is named ``name``, or after its one-port end, or ``tail->head``.
+        bond is named ``name``, or after its one-port end, or ``<tail>__<head>`` (``_2``, ``_3``… for parallel bonds).
         """
         tail_name, head_name = self._resolve(tail), self._resolve(head)
         if tail_name == head_name:
@@ -207,10 +207,10 @@ class BondGraph:
             elif isinstance(self.elements[tail_name], OnePort):
                 name = tail_name
             else:
-                name = f"{tail_name}->{head_name}"
+                name = f"{tail_name}__{head_name}"
             base, k = name, 2
             while name in self.bonds:
-                name, k = f"{base}#{k}", k + 1
+                name, k = f"{base}_{k}", k + 1
         elif name in self.bonds:
             raise DuplicateNameError(f"graph {self.name!r} already has a bond named {name!r}", name)
         bond = Bond(name, tail_name, head_name)
@@ -515,6 +515,12 @@ class BondGraph:
         from .equations import derive_equations
 
         return self._cached("equations", config, lambda c: derive_equations(self, c, self.causality(c)))
+
+    def jump_map(self, config: Configuration | None = None):
+        """The jump map into a configuration (cached); see :mod:`bondgraph.jump`."""
+        from .jump import derive_jump_map
+
+        return self._cached("jump", config, lambda c: derive_jump_map(self, self.equations(c)))
 
     @property
     def version(self) -> int:

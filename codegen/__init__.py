@@ -1,6 +1,9 @@
 """Code generation: sympy expressions plus argument orderings → numerical
-functions, with in-memory and on-disk caches.
+functions.  It knows neither switching nor models.
 
-Not built yet: filled by the code-generation work (see the project's issues).
-It knows neither switching nor models.
+:func:`vector_function` is the plain path used by mode resolution: it
+compiles a list of expressions into ``fn(x, t, p) -> ndarray`` over the state
+array ``x`` (shape ``(n,)``), time ``t`` and the parameter array ``p``.
 """
+
+from .functions import vector_function as vector_function

@@ -1,6 +1,25 @@
-"""Switching semantics: local automata, modes, mode resolution (mythical modes,
-pinnacles), the hybrid simulator and trajectories.
+"""Switching semantics: local automata, modes, mode resolution (mythical
+modes, pinnacles, divergence of time), impulsive signals.
 
-Not built yet: this package is filled by the switching-semantics work (see the
-project's issues); it depends on :mod:`bondgraph` and :mod:`codegen`.
+Example — see :mod:`switching.model` and :mod:`switching.automaton`.
 """
+
+from .automaton import A_POSTERIORI as A_POSTERIORI
+from .automaton import A_PRIORI as A_PRIORI
+from .automaton import Automaton as Automaton
+from .automaton import Transition as Transition
+from .errors import DivergenceOfTimeError as DivergenceOfTimeError
+from .errors import GuardSyntaxError as GuardSyntaxError
+from .errors import ImpulseError as ImpulseError
+from .errors import ModelDefinitionError as ModelDefinitionError
+from .errors import TooManyStepsError as TooManyStepsError
+from .impulses import Impulsive as Impulsive
+from .impulses import Tolerance as Tolerance
+from .model import HybridModel as HybridModel
+from .model import InitialStateProjected as InitialStateProjected
+from .modes import Mode as Mode
+from .modes import ModeEquations as ModeEquations
+from .parsing import parse_condition as parse_condition
+from .parsing import parse_expression as parse_expression
+from .resolution import Instant as Instant
+from .resolution import Step as Step

@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs"]
+MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs", "switching.automaton", "switching.model"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -1,0 +1,221 @@
+"""The jump map ``g`` *into* a configuration, from conservation of state.
+
+Entering a configuration in which some storage elements are dependent, the
+state jumps onto that configuration's constraints ``x_d = φ(x_i, t)``.
+Impulses flow through the junction structure (moduli are evaluated at the
+current positions, which do not jump), so generalized momentum (charge) is
+conserved along every direction the constraints leave free.
+
+With the storage co-energies ``y = Φ(x)`` (I: flow, C: effort) and the
+constraint written as ``y_d = A y_i + b``, power conservation of the junction
+structure gives the impulse balance ``Δx_i = −Aᵀ Δx_d``.  For linear storage
+``x = M y`` (``M`` diagonal: masses, inductances, capacitances) this is the
+projection of DESIGN §5,
+
+    (M_i + Aᵀ M_d A) y_i⁺ = x_i + Aᵀ x_d − Aᵀ M_d b,     y_d⁺ = A y_i⁺ + b,
+
+which in terms of the constraint ``x_d = K x_i + c`` (``K = ∂φ/∂x_i``,
+``A = M_d⁻¹ K M_i``) reads
+
+    (I + M_i Kᵀ M_d⁻¹ K) x_i⁺ = x_i + M_i Kᵀ M_d⁻¹ (x_d − c),   x_d⁺ = K x_i⁺ + c.
+
+Only the independent storage states that appear in a constraint take part;
+every other state (and every displacement) is unchanged.  ``g`` is the
+identity on states already on the constraints.  For nonlinear storage the
+balance ``x_i⁺ − x_i + Aᵀ(φ(x_i⁺) − x_d) = 0`` is solved numerically
+(:meth:`JumpMap.apply`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from .errors import DerivationError, HybridBondGraphError
+
+__all__ = ["JumpMap", "derive_jump_map", "JumpMapError"]
+
+
+class JumpMapError(HybridBondGraphError):
+    """The conservation-of-state equations could not be solved (nonlinear
+    storage): names the configuration and the state values."""
+
+
+@dataclass(frozen=True)
+class JumpMap:
+    """``x⁺ = g(x)`` into one configuration.
+
+    ``expressions`` maps every state to its post-jump value as a sympy
+    expression of the pre-jump states (``None`` when the storage is nonlinear
+    and the map is numerical only; use :meth:`apply`).  ``participating`` are
+    the independent storage states that the constraints couple, ``dependent``
+    the dependent ones; all other states are left unchanged.
+    """
+
+    states: tuple
+    participating: tuple
+    dependent: tuple
+    expressions: dict | None
+    linear: bool
+    _numeric: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def is_identity(self) -> bool:
+        return not self.dependent
+
+    def vector(self) -> sp.Matrix | None:
+        """``x⁺`` as an ``n × 1`` matrix in state order (``None`` if numerical only)."""
+        if self.expressions is None:
+            return None
+        return sp.Matrix([self.expressions[x] for x in self.states])
+
+    def apply(self, x, t: float, parameters) -> np.ndarray:
+        """Numerical ``g(x)`` for state array ``x`` (shape ``(n,)``), time ``t``
+        and parameter values (mapping symbol → float)."""
+        return self._numeric(np.asarray(x, dtype=float), float(t), parameters)
+
+
+def _metric(element, x) -> sp.Expr | None:
+    """``M = 1/Φ'(x)`` for linear storage; ``None`` if the law is nonlinear."""
+    slope = sp.diff(element.law, element.state)
+    if slope.has(element.state) or element.law.xreplace({element.state: 0}) != 0:
+        return None
+    return 1 / slope
+
+
+def derive_jump_map(graph, equations) -> JumpMap:
+    """Derive the jump map into the configuration of ``equations``."""
+    states = tuple(equations.states)
+    dependent = tuple(equations.dependent)
+    if not dependent:
+        return JumpMap(states, (), (), {x: x for x in states}, True, _numeric=lambda x, t, p: np.array(x, dtype=float))
+
+    storage = {el.state: el for el in graph.storage}
+    constraints = equations.constraints
+    storage_states = set(storage)
+    participating = tuple(
+        x
+        for x in equations.independent
+        if x in storage_states and any(constraints[d].has(x) for d in dependent)
+    )
+    phi = sp.Matrix([constraints[d] for d in dependent])
+    K = phi.jacobian(list(participating)) if participating else sp.zeros(len(dependent), 0)
+    metrics = {x: _metric(storage[x], x) for x in (*participating, *dependent)}
+    linear_storage = all(m is not None for m in metrics.values())
+    linear_constraint = all(sp.diff(K[i, j], x) == 0 for i in range(K.rows) for j in range(K.cols) for x in participating)
+
+    if linear_storage and linear_constraint:
+        expressions = _linear_jump(states, participating, dependent, phi, K, metrics)
+        numeric = _lambdified(states, expressions)
+        return JumpMap(states, participating, dependent, expressions, True, _numeric=numeric)
+    return JumpMap(
+        states,
+        participating,
+        dependent,
+        None,
+        False,
+        _numeric=_nonlinear_jump(graph, equations, participating, dependent, phi, storage),
+    )
+
+
+def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:
+    xi = sp.Matrix(participating)
+    xd = sp.Matrix(dependent)
+    c = phi - K * xi if participating else phi
+    Mi = sp.diag(*[metrics[x] for x in participating]) if participating else sp.zeros(0, 0)
+    Md_inv = sp.diag(*[1 / metrics[x] for x in dependent])
+    if participating:
+        lhs = sp.eye(len(participating)) + Mi * K.T * Md_inv * K
+        rhs = xi + Mi * K.T * Md_inv * (xd - c)
+        xi_plus = _solve_small(lhs, rhs)
+        xd_plus = K * xi_plus + c
+    else:
+        xi_plus = sp.zeros(0, 1)
+        xd_plus = c
+    expressions = {x: x for x in states}
+    for k, x in enumerate(participating):
+        expressions[x] = _tidy(xi_plus[k])
+    for k, x in enumerate(dependent):
+        expressions[x] = _tidy(xd_plus[k])
+    return expressions
+
+
+def _solve_small(lhs: sp.Matrix, rhs: sp.Matrix) -> sp.Matrix:
+    if lhs.shape == (1, 1):
+        return rhs / lhs[0, 0]
+    return lhs.LUsolve(rhs)
+
+
+def _tidy(expr):
+    from .equations import SIMPLIFY_MAX_OPS
+
+    if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
+        return expr
+    return sp.simplify(expr)
+
+
+def _lambdified(states, expressions):
+    symbols = sorted({s for e in expressions.values() for s in e.free_symbols} - set(states), key=str)
+    from .symbols import t as time
+
+    params = [s for s in symbols if s != time]
+    fn = sp.lambdify([list(states), time, params], [expressions[x] for x in states], "numpy", cse=True)
+
+    def apply(x, t, parameters):
+        return np.array(fn(x, t, [parameters[s] for s in params]), dtype=float)
+
+    return apply
+
+
+def _nonlinear_jump(graph, equations, participating, dependent, phi, storage):
+    """Newton solve of ``x_i⁺ − x_i + Aᵀ(φ(x_i⁺) − x_d) = 0`` with
+    ``A = diag(Φ_d'(x_d)) K diag(1/Φ_i'(x_i))`` evaluated along the way."""
+    from scipy.optimize import root
+
+    from .symbols import t as time
+
+    states = list(equations.states)
+    K = phi.jacobian(list(participating))
+    slope_i = [sp.diff(storage[x].law, x) for x in participating]
+    slope_d = [sp.diff(storage[x].law, x).xreplace({x: phi[k]}) for k, x in enumerate(dependent)]
+    A = sp.diag(*slope_d) * K * sp.diag(*[1 / s for s in slope_i])
+    symbols = set()
+    for expr in (*phi, *A):
+        symbols |= expr.free_symbols
+    params = sorted(symbols - set(states) - {time}, key=str)
+    phi_fn = sp.lambdify([states, time, params], list(phi), "numpy")
+    A_fn = sp.lambdify([states, time, params], A, "numpy")
+    index = {x: k for k, x in enumerate(states)}
+    idx_i = [index[x] for x in participating]
+    idx_d = [index[x] for x in dependent]
+    config = equations.configuration
+
+    def apply(x, t, parameters):
+        pvals = [parameters[s] for s in params]
+        x = np.array(x, dtype=float)
+        x_i, x_d = x[idx_i], x[idx_d]
+
+        def full(xi):
+            trial = x.copy()
+            trial[idx_i] = xi
+            trial[idx_d] = np.asarray(phi_fn(trial, t, pvals), dtype=float).ravel()
+            return trial
+
+        def residual(xi):
+            trial = full(xi)
+            A_val = np.atleast_2d(np.asarray(A_fn(trial, t, pvals), dtype=float))
+            return xi - x_i + A_val.T @ (trial[idx_d] - x_d)
+
+        sol = root(residual, x_i, method="hybr", tol=1e-13)
+        if not sol.success or not np.all(np.isfinite(sol.x)):
+            raise JumpMapError(
+                f"conservation of state into configuration {config} did not converge for nonlinear storage "
+                f"({sol.message}); state before the jump: "
+                + ", ".join(f"{s}={v:.6g}" for s, v in zip(states, x))
+                + ". Check the storage laws are invertible near this state, or linearise them."
+            )
+        return full(sol.x)
+
+    return apply

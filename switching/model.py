@@ -1,0 +1,404 @@
+"""The hybrid model: a bond graph, local automata, parameters and an initial state.
+
+Example — an RC circuit whose switch opens when the capacitor is charged::
+
+    >>> from bondgraph import BondGraph, Se, R, C, One
+    >>> from switching import Automaton, HybridModel
+    >>> g = BondGraph("rc")
+    >>> sw = g.add(One("sw", controlled=True))
+    >>> _ = g.connect(Se("V", "V0"), sw)
+    >>> _ = g.connect(sw, R("R", "R"))
+    >>> _ = g.connect(sw, C("C", "C"))
+    >>> switch = Automaton("switch", {"closed": {"sw": True}, "open": {"sw": False}}, "closed")
+    >>> _ = switch.add_transition("closed", "open", "q_C >= 0.5*C*V0")
+    >>> model = HybridModel(g, [switch], {"V0": 1, "R": 1, "C": 1e-3})
+    >>> model.mode_equations("open").f[model.state("q_C")]
+    0
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+import sympy as sp
+from sympy.core.relational import Relational
+from sympy.logic.boolalg import BooleanAtom, BooleanFunction
+
+from bondgraph import BondGraph, t as TIME
+from bondgraph.errors import MissingParameterError, UnknownNameError, UnknownParameterError
+from bondgraph.symbols import check_name
+
+from .automaton import Automaton
+from .errors import ModelDefinitionError
+from .impulses import Tolerance
+from .modes import Mode, ModeEquations
+from .parsing import parse_condition, parse_expression
+
+__all__ = ["HybridModel", "InitialStateProjected"]
+
+
+class InitialStateProjected(UserWarning):
+    """The given initial state violated the initial mode's constraints and was
+    projected onto them with the mode's jump map."""
+
+
+class HybridModel:
+    """A bond graph with controlled junctions driven by local automata.
+
+    Parameters
+    ----------
+    graph : BondGraph
+    automata : sequence of Automaton
+        Every controlled junction is driven by exactly one automaton.
+    parameters : mapping name → number
+        A value for every parameter of the graph, the guards, the signals and
+        the restitution coefficients (all missing ones are listed at once).
+    initial_state : mapping name → number, optional
+        Initial values by state name; states not given start at 0.
+    signals : mapping name → expression, optional
+        Named signals (sympy expressions, or text parsed without executing
+        code) over states, bond variables (``e_<bond>``, ``f_<bond>``),
+        parameters, ``t`` and earlier signals.  States and bond variables are
+        signals by their own names too.
+    inputs : mapping name → callable(t), optional
+        Values of the graph's declared inputs.
+    tolerance : Tolerance, optional
+        Band for guard comparisons at an instant.
+    max_steps_per_instant : int
+        Cap on discrete steps in one instant (divergence of time otherwise).
+    """
+
+    def __init__(
+        self,
+        graph: BondGraph,
+        automata: Sequence[Automaton],
+        parameters: Mapping | None = None,
+        initial_state: Mapping | None = None,
+        signals: Mapping | None = None,
+        inputs: Mapping[str, Callable[[float], float]] | None = None,
+        name: str | None = None,
+        tolerance: Tolerance | None = None,
+        max_steps_per_instant: int = 1000,
+    ):
+        graph.validate()
+        self.graph = graph
+        self.name = name or graph.name
+        self.automata = tuple(automata)
+        self.tolerance = tolerance or Tolerance()
+        self.max_steps_per_instant = int(max_steps_per_instant)
+        self.time = TIME
+        self._check_automata()
+        self.states = tuple(graph.states)
+        self.state_index = {s: k for k, s in enumerate(self.states)}
+        self.rate_symbols = {s: sp.Symbol(f"d{s.name}/dt") for s in self.states}
+        self._names = self._base_names()
+        self._signals = self._parse_signals(signals or {})
+        self._guards = self._parse_guards()
+        self._inputs = self._check_inputs(inputs or {})
+        self.parameter_symbols = self._collect_parameters()
+        self.parameter_values = self._check_parameter_values(parameters or {})
+        self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
+        self._initial_given = self._check_initial_state(initial_state or {})
+        self._mode_cache: dict[Mode, ModeEquations] = {}
+        self.derivation_count = 0
+        self._initial = None
+
+    # ------------------------------------------------------------ checks
+
+    def _check_automata(self) -> None:
+        names = [a.name for a in self.automata]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ModelDefinitionError(f"automata share the name(s) {sorted(dup)}; names must be unique", sorted(dup))
+        owner: dict[str, str] = {}
+        controlled = set(self.graph.controlled_junctions)
+        for automaton in self.automata:
+            for junction in automaton.junctions:
+                if junction not in self.graph.elements:
+                    raise ModelDefinitionError(
+                        f"automaton {automaton.name!r} switches {junction!r}, which is not in graph {self.graph.name!r}",
+                        [automaton.name, junction],
+                    )
+                if junction not in controlled:
+                    raise ModelDefinitionError(
+                        f"automaton {automaton.name!r} switches {junction!r}, which is not a controlled junction "
+                        "(create it with controlled=True)",
+                        [automaton.name, junction],
+                    )
+                if junction in owner:
+                    raise ModelDefinitionError(
+                        f"junction {junction!r} is switched by both {owner[junction]!r} and {automaton.name!r}; "
+                        "one automaton per junction",
+                        [owner[junction], automaton.name, junction],
+                    )
+                owner[junction] = automaton.name
+        free = sorted(controlled - set(owner))
+        if free:
+            raise ModelDefinitionError(
+                f"controlled junction(s) {', '.join(map(repr, free))} are driven by no automaton; add one or make them plain",
+                free,
+            )
+
+    def _base_names(self) -> dict:
+        names = {"t": TIME}
+        for s in self.states:
+            names[s.name] = s
+        for bond in self.graph.bonds.values():
+            names[bond.effort.name] = bond.effort
+            names[bond.flow.name] = bond.flow
+        for p in self.graph.parameters:
+            names.setdefault(p.name, p)
+        for name, sym in self.graph.inputs.items():
+            names[name] = sym
+        return names
+
+    def _parse_signals(self, signals: Mapping) -> dict:
+        parsed = {}
+        for name, expr in signals.items():
+            check_name(name, "signal name")
+            if name in self._names and name not in parsed:
+                raise ModelDefinitionError(
+                    f"signal {name!r} has the name of a state, bond variable, parameter or input; rename it", [name]
+                )
+            if isinstance(expr, str):
+                value = parse_expression(expr, {**self._names, **parsed})
+            elif isinstance(expr, sp.Basic) and not isinstance(expr, (Relational, BooleanFunction, BooleanAtom)):
+                value = expr.xreplace({sp.Symbol(k): v for k, v in parsed.items()})
+            else:
+                raise ModelDefinitionError(f"signal {name!r} must be a sympy expression or a text, not {expr!r}", [name])
+            parsed[name] = value
+        return parsed
+
+    def _parse_guards(self) -> dict:
+        names = {**self._names, **self._signals}
+        guards = {}
+        for automaton in self.automata:
+            for tr in automaton.transitions:
+                if isinstance(tr.guard, str):
+                    condition = parse_condition(tr.guard, names)
+                    text = tr.guard
+                else:
+                    condition = tr.guard.xreplace({sp.Symbol(k): v for k, v in self._signals.items()})
+                    text = str(tr.guard)
+                guards[(automaton.name, tr)] = (condition, text)
+        return guards
+
+    def _check_inputs(self, inputs: Mapping) -> dict:
+        declared = self.graph.inputs
+        unknown = set(inputs) - set(declared)
+        if unknown:
+            raise UnknownNameError(f"values given for unknown input(s) {sorted(unknown)}; declared: {sorted(declared)}")
+        missing = set(declared) - set(inputs)
+        if missing:
+            raise MissingParameterError(missing)
+        for name, fn in inputs.items():
+            if not callable(fn):
+                raise ModelDefinitionError(f"input {name!r} must be a function of time t, got {fn!r}", [name])
+        return dict(inputs)
+
+    def _collect_parameters(self) -> tuple:
+        used = set(self.graph.parameters)
+        for value in self._signals.values():
+            used |= value.free_symbols
+        for condition, _ in self._guards.values():
+            used |= condition.free_symbols
+        for automaton in self.automata:
+            for e in automaton.restitution.values():
+                used |= e.free_symbols
+        reserved = {TIME} | set(self.states) | set(self.rate_symbols.values()) | set(self.graph.inputs.values())
+        reserved |= self.graph.bond_symbols()
+        return tuple(sorted(used - reserved, key=lambda s: s.name))
+
+    def _check_parameter_values(self, values: Mapping) -> dict:
+        by_name = {s.name: s for s in self.parameter_symbols}
+        given = {(k.name if isinstance(k, sp.Symbol) else str(k)): v for k, v in values.items()}
+        unknown = set(given) - set(by_name)
+        if unknown:
+            raise UnknownParameterError(unknown, by_name)
+        missing = set(by_name) - set(given)
+        if missing:
+            raise MissingParameterError(missing)
+        out = {}
+        for name, v in given.items():
+            try:
+                out[by_name[name]] = float(v)
+            except (TypeError, ValueError):
+                raise ModelDefinitionError(f"parameter {name!r} must be a number, got {v!r}", [name]) from None
+        return out
+
+    def _check_initial_state(self, initial: Mapping) -> np.ndarray:
+        x = np.zeros(len(self.states))
+        by_name = {s.name: k for k, s in enumerate(self.states)}
+        for name, value in initial.items():
+            key = name.name if isinstance(name, sp.Symbol) else name
+            if key not in by_name:
+                raise UnknownNameError(
+                    f"initial value for unknown state {key!r}; states are: {', '.join(by_name)}", key
+                )
+            x[by_name[key]] = float(value)
+        return x
+
+    # ------------------------------------------------------------ names and values
+
+    @property
+    def input_symbols(self) -> tuple:
+        return tuple(self.graph.inputs.values())
+
+    def input_values(self, t: float) -> list:
+        return [float(self._inputs[name](t)) for name in self.graph.inputs]
+
+    def parameter_values_with_inputs(self, t: float) -> dict:
+        values = dict(self.parameter_values)
+        for name, sym in self.graph.inputs.items():
+            values[sym] = float(self._inputs[name](t))
+        return values
+
+    def state(self, name: str) -> sp.Symbol:
+        return self.graph.state(name)
+
+    @property
+    def signal_names(self) -> tuple:
+        """User signals, then states by name."""
+        return tuple(self._signals) + tuple(s.name for s in self.states)
+
+    def signal_expression(self, name: str) -> sp.Expr:
+        """The defining expression of a named signal (state, bond variable or user signal)."""
+        if name in self._signals:
+            return self._signals[name]
+        if name in self._names and name != "t" and self._names[name] not in self.parameter_symbols:
+            return self._names[name]
+        raise UnknownNameError(
+            f"model {self.name!r} has no signal {name!r}; signals are: {', '.join(self.signal_names)} "
+            "and every bond's e_<bond>, f_<bond>",
+            name,
+        )
+
+    # ------------------------------------------------------------ modes
+
+    @property
+    def initial_mode(self) -> Mode:
+        return Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
+
+    def mode(self, spec) -> Mode:
+        """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
+        or a mapping {automaton: state} (automata not named keep their initial state)."""
+        names = tuple(a.name for a in self.automata)
+        if isinstance(spec, Mode):
+            states = spec.states
+        elif isinstance(spec, str):
+            states = tuple(spec.split("|")) if spec else ()
+        elif isinstance(spec, Mapping):
+            unknown = set(spec) - set(names)
+            if unknown:
+                raise UnknownNameError(f"no automaton named {sorted(unknown)}; automata: {list(names)}")
+            states = tuple(spec.get(a.name, a.initial) for a in self.automata)
+        else:
+            states = tuple(spec)
+        if len(states) != len(self.automata):
+            raise UnknownNameError(
+                f"mode {spec!r} has {len(states)} state(s) but the model has {len(self.automata)} automata ({', '.join(names)})"
+            )
+        for automaton, state in zip(self.automata, states):
+            if state not in automaton.states:
+                raise UnknownNameError(
+                    f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
+                )
+        return Mode(states, names)
+
+    def configuration_of(self, mode: Mode) -> dict:
+        config = {}
+        for automaton, state in zip(self.automata, mode.states):
+            config.update(automaton.states[state])
+        return config
+
+    def restitution_of(self, mode: Mode):
+        """The restitution coefficient of the mode (``None`` if no state carries one)."""
+        found = {}
+        for automaton, state in zip(self.automata, mode.states):
+            if state in automaton.restitution:
+                found[f"{automaton.name}={state}"] = automaton.restitution[state]
+        if not found:
+            return None
+        values = set(found.values())
+        if len(values) > 1:
+            raise ModelDefinitionError(
+                f"mode {mode.describe()} combines different restitution coefficients "
+                + ", ".join(f"{k}: e = {v}" for k, v in found.items())
+                + "; one jump cannot apply two; use one coefficient or separate the contacts",
+                list(found),
+            )
+        return values.pop()
+
+    def guards_from(self, mode: Mode) -> list:
+        """(automaton, transition, condition, text) of every transition leaving ``mode``."""
+        out = []
+        for automaton, state in zip(self.automata, mode.states):
+            for tr in automaton.transitions_from(state):
+                condition, text = self._guards[(automaton.name, tr)]
+                out.append((automaton.name, tr, condition, text))
+        return out
+
+    def mode_equations(self, mode) -> ModeEquations:
+        """f, g, h and guards of one mode, derived on first request and cached.
+        Asking for a mode never derives any other."""
+        mode = self.mode(mode)
+        if mode not in self._mode_cache:
+            self._mode_cache[mode] = ModeEquations(self, mode)
+            self.derivation_count += 1
+        return self._mode_cache[mode]
+
+    @property
+    def derived_modes(self) -> tuple:
+        return tuple(self._mode_cache)
+
+    # ------------------------------------------------------------ initial state
+
+    def initial_state(self) -> np.ndarray:
+        """The initial state vector, projected onto the initial mode's
+        constraints with its jump map (an :class:`InitialStateProjected`
+        warning says so when that changes it)."""
+        if self._initial is None:
+            me = self.mode_equations(self.initial_mode)
+            x0 = self._initial_given
+            projected = me.jump.apply(x0, 0.0, self.parameter_values_with_inputs(0.0)) if not me.jump.is_identity else x0
+            projected = np.asarray(projected, dtype=float)
+            self.initial_projection = None
+            if not np.allclose(projected, x0, rtol=1e-12, atol=1e-14):
+                changed = [
+                    f"{s}: {a:.6g} → {b:.6g}" for s, a, b in zip(self.states, x0, projected) if not np.isclose(a, b)
+                ]
+                self.initial_projection = (x0.copy(), projected.copy())
+                warnings.warn(
+                    f"initial state violates the constraints of mode {self.initial_mode.describe()}; projected by "
+                    f"conservation of state: {', '.join(changed)}",
+                    InitialStateProjected,
+                    stacklevel=2,
+                )
+            self._initial = projected
+        return self._initial.copy()
+
+    # ------------------------------------------------------------ instants
+
+    def resolve(self, x, mode=None, t: float = 0.0, max_steps: int | None = None):
+        """Resolve the instant at time ``t`` from the a priori state ``x`` in
+        ``mode`` (default: the initial mode); returns an
+        :class:`~switching.resolution.Instant`.  See DESIGN §6."""
+        from .resolution import resolve_instant
+
+        mode = self.initial_mode if mode is None else self.mode(mode)
+        return resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
+
+    def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):
+        """Static divergence-of-time check from sampled states on each
+        reachable mode's guard boundaries; see :func:`switching.verify.verify`."""
+        from .verify import verify
+
+        return verify(self, samples=samples, seed=seed, max_modes=max_modes, scale=scale)
+
+    def __repr__(self) -> str:
+        return (
+            f"HybridModel({self.name!r}, {len(self.states)} states, "
+            f"automata={[a.name for a in self.automata]}, derived modes={len(self._mode_cache)})"
+        )

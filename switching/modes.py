@@ -1,0 +1,225 @@
+"""Modes and their equations.
+
+A :class:`Mode` is the tuple of the current states of all local automata; it
+fixes the configuration of every controlled junction.  Its
+:class:`ModeEquations` bundle (derived lazily, once, on first request):
+
+* **f** — ``dx/dt = f(x, t)`` of the configuration (every state, dependent
+  ones by the chain rule);
+* **g** — the jump map into the mode, from conservation of state; with a
+  restitution coefficient ``e`` carried by one of the mode's automaton states,
+  ``x⁺ = x + (1 + e)(g(x) − x)``;
+* **h** — named signals, each as a *raw* expression of the states, ``t``,
+  parameters and state derivatives ``ẋ`` (:meth:`ModeEquations.signal`): its
+  finite part substitutes ``ẋ = f(x)``; its impulse at a jump ``x → x⁺`` is
+  ``a(x)ᵀ (x⁺ − x)`` with ``a = ∂s/∂ẋ``;
+* **guards** — the transitions leaving the mode's automaton states, with their
+  conditions in terms of raw signals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from bondgraph.elements import C, I
+
+__all__ = ["Mode", "ModeEquations", "SignalForm", "GuardForm"]
+
+
+@dataclass(frozen=True)
+class Mode:
+    """The states of all automata, in the model's automaton order."""
+
+    states: tuple
+    automata: tuple = field(compare=False, hash=False)
+
+    @property
+    def label(self) -> str:
+        """A short readable label: the automaton states joined by ``|``."""
+        return "|".join(self.states)
+
+    def describe(self) -> str:
+        return ", ".join(f"{a}={s}" for a, s in zip(self.automata, self.states))
+
+    def state_of(self, automaton: str) -> str:
+        return self.states[self.automata.index(automaton)]
+
+    def __str__(self) -> str:
+        return self.label
+
+
+@dataclass(frozen=True)
+class SignalForm:
+    """A signal in one mode: ``raw`` (may contain ``ẋ`` symbols), ``finite``
+    (``ẋ = f(x)`` substituted) and ``impulse`` coefficients ``a_k = ∂raw/∂ẋ_k``
+    (state → expression; only non-zero ones are kept)."""
+
+    name: str
+    raw: sp.Expr
+    finite: sp.Expr
+    impulse: dict
+
+    @property
+    def can_pulse(self) -> bool:
+        return bool(self.impulse)
+
+
+@dataclass(frozen=True)
+class GuardForm:
+    """A transition leaving the mode, with its condition in raw signals."""
+
+    automaton: str
+    transition: object
+    condition: sp.Basic
+    text: str
+
+
+class ModeEquations:
+    """Everything derived for one mode (see the module docstring).
+
+    Attributes: ``mode``, ``configuration``, ``equations``
+    (:class:`bondgraph.ConfigurationEquations`), ``jump``
+    (:class:`bondgraph.JumpMap`), ``restitution`` (expression or ``None``),
+    ``guards`` (list of :class:`GuardForm`).
+    """
+
+    def __init__(self, model, mode: Mode):
+        self.model = model
+        self.mode = mode
+        self.configuration = model.configuration_of(mode)
+        graph = model.graph
+        self.equations = graph.equations(self.configuration)
+        self.jump = graph.jump_map(self.configuration)
+        self.restitution = model.restitution_of(mode)
+        self.states = self.equations.states
+        self._bond_values = self._raw_bond_values(graph)
+        self.guards = [
+            GuardForm(auto, tr, self.to_raw(cond), text)
+            for auto, tr, cond, text in model.guards_from(mode)
+        ]
+        self._signals: dict[str, SignalForm] = {}
+        self._numeric_f = None
+
+    # ------------------------------------------------------------ symbolic
+
+    def _raw_bond_values(self, graph) -> dict:
+        """Bond symbol → raw expression in this mode.  A storage element's own
+        co-energy (I: flow, C: effort) is taken from its own state, so signals
+        evaluated a priori on a state off this mode's constraints see the
+        physical value (e.g. the velocity of each mass)."""
+        eq = self.equations
+        values = {}
+        for name, bond in graph.bonds.items():
+            values[bond.effort] = eq.efforts[name]
+            values[bond.flow] = eq.flows[name]
+        for el in graph.storage:
+            (bond,) = graph.bonds_of(el.name)
+            s = bond.sign_at(el.name)
+            if isinstance(el, I):
+                values[bond.flow] = s * el.output(el.state)
+            elif isinstance(el, C):
+                values[bond.effort] = el.output(el.state)
+        return values
+
+    def to_raw(self, expr: sp.Basic) -> sp.Basic:
+        """Replace bond variables in ``expr`` by this mode's raw expressions."""
+        subs = {s: self._bond_values[s] for s in expr.free_symbols if s in self._bond_values}
+        return expr.xreplace(subs) if subs else expr
+
+    @property
+    def f(self) -> dict:
+        """``dx/dt`` for every state (the configuration's rates)."""
+        return self.equations.rates
+
+    @property
+    def g(self) -> dict | None:
+        """``x⁺`` for every state as expressions of ``x``, restitution
+        included; ``None`` when the storage is nonlinear (numerical jump)."""
+        base = self.jump.expressions
+        if base is None:
+            return None
+        if self.restitution is None:
+            return dict(base)
+        e = self.restitution
+        return {x: x + (1 + e) * (base[x] - x) for x in self.states}
+
+    def finite(self, raw: sp.Expr) -> sp.Expr:
+        """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
+        rates = {self.equations.rate_symbols[x]: self.f[x] for x in self.states}
+        subs = {s: rates[s] for s in raw.free_symbols if s in rates}
+        return raw.xreplace(subs) if subs else raw
+
+    def signal(self, name: str) -> SignalForm:
+        """The form of a named signal in this mode (derived on first request)."""
+        if name not in self._signals:
+            raw = self.to_raw(self.model.signal_expression(name))
+            impulse = {}
+            for x in self.states:
+                rate = self.equations.rate_symbols[x]
+                if raw.has(rate):
+                    impulse[x] = sp.diff(raw, rate)
+            self._signals[name] = SignalForm(name, raw, self.finite(raw), impulse)
+        return self._signals[name]
+
+    @property
+    def h(self) -> dict:
+        """Every named signal of the model in this mode."""
+        return {name: self.signal(name) for name in self.model.signal_names}
+
+    # ------------------------------------------------------------ numerical
+
+    def rates(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Numerical ``f(x, t)``."""
+        if self._numeric_f is None:
+            from codegen import vector_function
+
+            model = self.model
+            self._numeric_f = vector_function(
+                [self.f[s] for s in self.states], self.states, model.time, model.parameter_symbols, model.input_symbols
+            )
+        return self._numeric_f(x, t, self.model.parameter_array, self.model.input_values(t))
+
+    def apply_jump(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Numerical ``x⁺ = g(x)`` into this mode (restitution included);
+        differences at round-off level are snapped back to ``x``."""
+        x = np.asarray(x, dtype=float)
+        if self.jump.is_identity:
+            return x.copy()
+        values = self.model.parameter_values_with_inputs(t)
+        plus = self.jump.apply(x, t, values)
+        if self.restitution is not None:
+            e = float(self.restitution.xreplace(values)) if self.restitution.free_symbols else float(self.restitution)
+            plus = x + (1.0 + e) * (plus - x)
+        moved = [self.model.state_index[s] for s in (*self.jump.participating, *self.jump.dependent)]
+        scale = max(1.0e-300, float(np.max(np.abs(np.concatenate([x[moved], plus[moved]])))))
+        snap = np.abs(plus - x) <= 1e-12 * scale
+        plus[snap] = x[snap]
+        return plus
+
+    def __repr__(self) -> str:
+        return f"ModeEquations({self.mode.describe()})"
+
+    def pretty(self) -> str:
+        """A text listing of f, g (when symbolic), the guards and the constraints."""
+        lines = [f"mode {self.mode.describe()}", self.equations.pretty()]
+        g = self.g
+        if self.jump.is_identity:
+            lines.append("  g: identity (no dependent storage)")
+        elif g is None:
+            lines.append("  g: numerical (nonlinear storage)")
+        else:
+            lines.append("  g (x⁺ =):" + (f"  [restitution e = {self.restitution}]" if self.restitution is not None else ""))
+            for x in self.states:
+                if g[x] != x:
+                    lines.append(f"    {x}⁺ = {g[x]}")
+        if self.guards:
+            lines.append("  guards:")
+            for guard in self.guards:
+                tr = guard.transition
+                lines.append(f"    {guard.automaton}: {tr.source} → {tr.target} when {guard.text} ({tr.when})")
+        return "\n".join(lines)
+
+    __str__ = pretty

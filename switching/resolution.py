@@ -1,0 +1,312 @@
+"""Mode resolution at an instant (the paper's selMode, Eq. 11, Alg. 1–2; DESIGN §6).
+
+From an a priori state ``x`` in mode α:
+
+1. evaluate the guards of the current candidate mode β on ``(x, x⁺)`` with
+   ``x⁺ = g_β(x)`` — always from the a priori ``x`` of the last real mode;
+   a priori guards see ``x``, a posteriori guards see ``x⁺`` and the impulses
+   of the jump ``x → x⁺``;
+2. if some hold, every automaton with a holding guard steps (the first of
+   its holding transitions, in the order they were added) and β was
+   *mythical*; a mode repeating in one mythical chain is a divergence of time;
+3. if none holds, β is real: ``x ← x⁺``.  If a guard now holds on the updated
+   ``x`` (with ``x⁺ = x``), β was a *pinnacle* and resolution continues;
+   otherwise β is *continuous* and the instant ends.  A repeated
+   (mode, x) pair among pinnacles, or more steps than the cap, is an error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+from sympy.core.relational import Relational
+from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
+
+from .errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
+from .impulses import Impulsive, compare, evaluate
+from .modes import Mode
+
+__all__ = ["Instant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
+
+
+@dataclass(frozen=True)
+class FiredGuard:
+    """A transition whose guard held, with the values of its comparisons."""
+
+    automaton: str
+    source: str
+    target: str
+    guard: str
+    when: str
+    comparisons: tuple  # (text, left Impulsive, right Impulsive, result)
+
+    def __str__(self) -> str:
+        values = "; ".join(f"{text}: {left} vs {right} → {result}" for text, left, right, result in self.comparisons)
+        return f"{self.automaton}: {self.source} → {self.target} [{self.guard}] ({self.when}; {values})"
+
+
+@dataclass(frozen=True)
+class Step:
+    """One mode passed at an instant.
+
+    ``kind``: ``"start"`` (the mode the instant began in, left without a
+    jump), ``"mythical"``, ``"pinnacle"`` or ``"continuous"``.  ``x_before`` /
+    ``x_after``: the state on entering and leaving the mode (equal unless it
+    was real and jumped); ``fired``: the guards that made it leave.
+    """
+
+    mode: Mode
+    kind: str
+    x_before: np.ndarray = field(repr=False)
+    x_after: np.ndarray = field(repr=False)
+    fired: tuple = ()
+
+    @property
+    def jumped(self) -> bool:
+        return not np.array_equal(self.x_before, self.x_after)
+
+    def __str__(self) -> str:
+        text = f"{self.mode.label} ({self.kind})"
+        if self.fired:
+            text += " --" + "; ".join(str(f) for f in self.fired) + "-->"
+        return text
+
+
+@dataclass
+class Instant:
+    """The record of one instant: every mode passed, with kinds and states."""
+
+    t: float
+    steps: list
+    model: object = field(repr=False, default=None)
+
+    @property
+    def x_before(self) -> np.ndarray:
+        return self.steps[0].x_before
+
+    @property
+    def x_after(self) -> np.ndarray:
+        return self.steps[-1].x_after
+
+    @property
+    def mode_before(self) -> Mode:
+        return self.steps[0].mode
+
+    @property
+    def mode_after(self) -> Mode:
+        return self.steps[-1].mode
+
+    @property
+    def modes(self) -> list:
+        return [s.mode for s in self.steps]
+
+    @property
+    def kinds(self) -> list:
+        return [s.kind for s in self.steps]
+
+    @property
+    def mythical(self) -> list:
+        return [s.mode for s in self.steps if s.kind == "mythical"]
+
+    @property
+    def pinnacles(self) -> list:
+        return [s.mode for s in self.steps if s.kind == "pinnacle"]
+
+    @property
+    def real_steps(self) -> list:
+        return [s for s in self.steps if s.kind in ("pinnacle", "continuous") and s.jumped]
+
+    def impulse(self, signal: str) -> float:
+        """Total impulse area of a named signal over the instant's jumps:
+        ``Σ a_β(x)ᵀ(x⁺ − x)`` over the real steps (``a = ∂s/∂ẋ`` in the mode jumped into)."""
+        total = 0.0
+        for step in self.real_steps:
+            total += impulse_area(self.model, step.mode, signal, step.x_before, step.x_after, self.t)
+        return total
+
+    def __str__(self) -> str:
+        lines = [f"instant at t = {self.t:.12g}:"]
+        for step in self.steps:
+            lines.append(f"  {step.mode.describe()}  [{step.kind}]")
+            for fired in step.fired:
+                lines.append(f"      fired {fired}")
+            if step.jumped:
+                changes = ", ".join(
+                    f"{s}: {a:.6g} → {b:.6g}"
+                    for s, a, b in zip(self.model.states, step.x_before, step.x_after)
+                    if a != b
+                )
+                lines.append(f"      jump {changes}")
+        return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ guards
+
+
+def _values(model, me, x: np.ndarray, t: float) -> dict:
+    values = dict(model.parameter_values_with_inputs(t))
+    values[model.time] = t
+    rates = me.rates(x, t)
+    for k, s in enumerate(model.states):
+        values[s] = float(x[k])
+        values[me.equations.rate_symbols[s]] = float(rates[k])
+    return values
+
+
+def _decide(condition, values, impulses, tol, comparisons) -> bool:
+    if isinstance(condition, BooleanTrue):
+        return True
+    if isinstance(condition, BooleanFalse):
+        return False
+    if isinstance(condition, And):
+        return all(_decide(c, values, impulses, tol, comparisons) for c in condition.args)
+    if isinstance(condition, Or):
+        return any(_decide(c, values, impulses, tol, comparisons) for c in condition.args)
+    if isinstance(condition, Not):
+        return not _decide(condition.args[0], values, impulses, tol, comparisons)
+    if isinstance(condition, Relational):
+        left = evaluate(condition.lhs, values, impulses)
+        right = evaluate(condition.rhs, values, impulses)
+        result = compare(type(condition), left, right, tol)
+        comparisons.append((str(condition), left, right, result))
+        return result
+    raise ImpulseError(f"cannot evaluate {condition} as a guard condition")
+
+
+def evaluate_guards(model, me, x: np.ndarray, x_plus: np.ndarray, t: float) -> list:
+    """The first holding transition of each automaton in mode ``me.mode``.
+
+    A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
+    with the impulses of the jump ``x → x_plus``."""
+    fired = []
+    done = set()
+    prior_values = post_values = impulses = None
+    for guard in me.guards:
+        if guard.automaton in done:
+            continue
+        tr = guard.transition
+        if tr.a_posteriori:
+            if post_values is None:
+                post_values = _values(model, me, x_plus, t)
+                delta = x_plus - x
+                impulses = {me.equations.rate_symbols[s]: float(delta[k]) for k, s in enumerate(model.states) if delta[k]}
+            values, pulses = post_values, impulses
+        else:
+            if prior_values is None:
+                prior_values = _values(model, me, x, t)
+            values, pulses = prior_values, {}
+        comparisons: list = []
+        try:
+            holds = _decide(guard.condition, values, pulses, model.tolerance, comparisons)
+        except ImpulseError as exc:
+            raise ImpulseError(
+                f"guard {guard.text!r} of automaton {guard.automaton!r} in mode {me.mode.describe()} at t = {t:.12g}: {exc}"
+            ) from None
+        if holds:
+            done.add(guard.automaton)
+            fired.append(FiredGuard(guard.automaton, tr.source, tr.target, guard.text, tr.when, tuple(comparisons)))
+    return fired
+
+
+def impulse_area(model, mode: Mode, signal: str, x: np.ndarray, x_plus: np.ndarray, t: float) -> float:
+    """``a(x)ᵀ(x⁺ − x)`` of ``signal`` in ``mode``."""
+    me = model.mode_equations(mode)
+    form = me.signal(signal)
+    if not form.impulse:
+        return 0.0
+    values = _values(model, me, x, t)
+    total = 0.0
+    for state, coeff in form.impulse.items():
+        k = model.state_index[state]
+        if x_plus[k] != x[k]:
+            total += float(evaluate(coeff, values, {}).finite) * (x_plus[k] - x[k])
+    return total
+
+
+# ------------------------------------------------------------------ resolution
+
+
+def _next_mode(model, mode: Mode, fired: list) -> Mode:
+    states = list(mode.states)
+    names = list(mode.automata)
+    for f in fired:
+        states[names.index(f.automaton)] = f.target
+    return Mode(tuple(states), mode.automata)
+
+
+def _loop_message(t, steps, kind_text) -> str:
+    lines = [f"divergence of time at t = {t:.12g}: {kind_text}; the loop:"]
+    for step in steps:
+        lines.append(f"  {step.mode.describe()} [{step.kind}]")
+        for f in step.fired:
+            lines.append(f"      fired {f}")
+    lines.append(
+        "Make the guards leave only one mode consistent with each state (e.g. add a threshold such as "
+        "a separating-velocity condition or a holding current below the actual one), or model the "
+        "fast dynamics continuously."
+    )
+    return "\n".join(lines)
+
+
+def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) -> Instant:
+    """Resolve the instant at ``t`` from a priori ``x`` in ``mode``; see the module docstring."""
+    x = np.array(x, dtype=float)
+    steps: list[Step] = []
+    instant = Instant(t, steps, model)
+    chain = [mode]
+    chain_start = 0  # index in `steps` where the current mythical chain began
+    pinnacles: list[tuple[Mode, np.ndarray]] = []
+    current = mode
+    for n in range(max_steps):
+        me = model.mode_equations(current)
+        x_plus = me.apply_jump(x, t)
+        fired = evaluate_guards(model, me, x, x_plus, t)
+        if fired:
+            kind = "start" if n == 0 and np.array_equal(x_plus, x) else "mythical"
+            steps.append(Step(current, kind, x, x, tuple(fired)))
+            nxt = _next_mode(model, current, fired)
+            if nxt in chain:
+                first = chain.index(nxt)
+                loop = steps[chain_start + first :]
+                raise DivergenceOfTimeError(
+                    _loop_message(t, loop, f"mode {nxt.describe()} repeats in a chain of mythical modes"),
+                    loop=loop,
+                    instant=instant,
+                )
+            chain.append(nxt)
+            current = nxt
+            continue
+        x_before, x = x, x_plus
+        if not np.all(np.isfinite(x)):
+            from bondgraph.errors import HybridBondGraphError
+
+            raise HybridBondGraphError(
+                f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
+                + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
+            )
+        fired = evaluate_guards(model, me, x, x, t)
+        if fired:
+            for other_mode, other_x in pinnacles:
+                if other_mode == current and np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
+                    steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
+                    loop = [s for s in steps if s.kind == "pinnacle"]
+                    raise DivergenceOfTimeError(
+                        _loop_message(t, loop, f"pinnacle {current.describe()} repeats with the same state"),
+                        loop=loop,
+                        instant=instant,
+                    )
+            pinnacles.append((current, x.copy()))
+            steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
+            current = _next_mode(model, current, fired)
+            chain = [current]
+            chain_start = len(steps)
+            continue
+        steps.append(Step(current, "continuous", x_before, x, ()))
+        return instant
+    raise TooManyStepsError(
+        _loop_message(t, steps[-10:], f"more than {max_steps} discrete steps at one instant (last 10 shown)"),
+        loop=steps[-10:],
+        instant=instant,
+    )

@@ -1,0 +1,114 @@
+"""Small hybrid models used by the switching tests (built here, independently
+of the model library, so the tests check the semantics, not the library)."""
+
+import sympy as sp
+
+from bondgraph import BondGraph, C, I, One, R, Se, Sf, Zero
+from models.components import rigid_planar_body
+from switching import Automaton, HybridModel
+
+
+def diode_circuit(I_th=0.1, p0=1.0, t_open=1.0):
+    """Source V → switch → node; node → (L + R) loop; node → ideal diode (drop V_th) to ground."""
+    g = BondGraph("diode")
+    sw, n, loop, D = g.add(One("sw", controlled=True)), g.add(Zero("n")), g.add(One("loop")), g.add(One("D", controlled=True))
+    g.connect(Se("V", "V"), sw)
+    g.connect(sw, n)
+    g.connect(n, loop)
+    g.connect(loop, I("L", "L"))
+    g.connect(loop, R("R", "R"))
+    g.connect(n, D, name="diode")
+    g.connect(D, Se("Vd", -sp.Symbol("V_th")))
+    switch = Automaton("switch", {"closed": {"sw": True}, "open": {"sw": False}}, "closed")
+    switch.add_transition("closed", "open", "t >= t_open")
+    diode = Automaton("diode", {"off": {"D": False}, "on": {"D": True}}, "off")
+    diode.add_transition("off", "on", "v_D >= V_th", "a posteriori")
+    diode.add_transition("on", "off", "i_D <= I_th", "a posteriori")
+    return HybridModel(
+        g,
+        [switch, diode],
+        dict(V=10, R=1, L=0.1, V_th=0.7, I_th=I_th, t_open=t_open),
+        initial_state={"p_L": p0},
+        signals={"i_D": "-f_diode", "v_D": "-e_diode", "i_L": "p_L/L", "v_L": "e_L"},
+    )
+
+
+def ball_row(masses, restitution, separating=True, v_th=0.0, gaps=None):
+    """Balls on a line joined by contact 0-junctions c<i> (on = touching, same velocity)."""
+    n = len(masses)
+    g = BondGraph("balls")
+    params = {"e": restitution, **({"v_th": v_th} if separating else {})}
+    signals = {}
+    for i in range(1, n + 1):
+        v = g.add(One(f"v{i}"))
+        g.connect(v, I(f"m{i}", f"m{i}", state=f"p{i}"))
+        g.displacement(f"x{i}", of=v)
+        params[f"m{i}"] = masses[i - 1]
+        signals[f"v{i}"] = f"p{i}/m{i}"
+    automata = []
+    for i in range(1, n):
+        c = g.add(Zero(f"c{i}", controlled=True))
+        g.connect(f"v{i}", c)
+        g.connect(c, f"v{i + 1}")
+        contact = Automaton(f"contact{i}", {"free": {f"c{i}": False}, "collide": {f"c{i}": True}}, "free",
+                            restitution={"collide": "e"})
+        approach = f"x{i + 1} - x{i} <= 0"
+        if separating:
+            approach += f" and v{i} - v{i + 1} > v_th"
+        contact.add_transition("free", "collide", approach, "a priori")
+        contact.add_transition("collide", "free", f"v{i} <= v{i + 1}", "a priori")
+        automata.append(contact)
+    return HybridModel(g, automata, params, signals=signals)
+
+
+def parallel_capacitors(C1=1e-3, C2=2e-3, v1=5.0, v2=1.0, initial="open"):
+    g = BondGraph("caps")
+    n1, n2, sw = g.add(Zero("n1")), g.add(Zero("n2")), g.add(One("sw", controlled=True))
+    g.connect(n1, C("C1", "C1"))
+    g.connect(n2, C("C2", "C2"))
+    g.connect(n1, sw)
+    g.connect(sw, n2)
+    switch = Automaton("switch", {"open": {"sw": False}, "closed": {"sw": True}}, initial)
+    switch.add_transition("open", "closed", "t >= t_close")
+    return HybridModel(g, [switch], {"C1": C1, "C2": C2, "t_close": 0.0},
+                       initial_state={"q_C1": C1 * v1, "q_C2": C2 * v2})
+
+
+def falling_rod(m=1.0, J=None, l=0.5, g_=9.81):
+    """A rod that sticks where its tip hits the floor (contact automaton only)."""
+    if J is None:
+        J = m * (2 * l) ** 2 / 12
+    scene = BondGraph("rod")
+    rod = scene.add_submodel(rigid_planar_body(), "rod", share=["m", "J", "l", "g"])
+    cx, cy = scene.add(Zero("cx", controlled=True)), scene.add(Zero("cy", controlled=True))
+    scene.connect(rod.port("tip_x"), cx, name="tip_x")
+    scene.connect(cx, Sf("floor_x", 0))
+    scene.connect(rod.port("tip_y"), cy, name="tip_y")
+    scene.connect(cy, Sf("floor_y", 0))
+    contact = Automaton("contact", {"free": {"cx": False, "cy": False}, "stuck": {"cx": True, "cy": True}}, "free")
+    contact.add_transition("free", "stuck", "tip_y <= 0 and tip_vy < 0", "a priori")
+    contact.add_transition("stuck", "free", "normal_force <= 0", "a posteriori")
+    signals = {
+        "tip_y": "rod/y - l*sin(rod/theta)",
+        "tip_vy": "rod/p_y/m - l*cos(rod/theta)*rod/p_J/J",
+        "tip_vx": "rod/p_x/m + l*sin(rod/theta)*rod/p_J/J",
+        "normal_force": "-e_tip_y",
+        "friction_force": "-e_tip_x",
+    }
+    return HybridModel(scene, [contact], {"m": m, "J": J, "l": l, "g": g_}, signals=signals)
+
+
+def independent_switches(n=20):
+    """n separate RC cells, each with its own switched junction and automaton."""
+    g = BondGraph("switches")
+    automata = []
+    params = {}
+    for i in range(n):
+        sw = g.add(One(f"sw{i}", controlled=True))
+        g.connect(Se(f"V{i}", "V"), sw)
+        g.connect(sw, R(f"R{i}", "R"))
+        g.connect(sw, C(f"C{i}", "C"))
+        a = Automaton(f"a{i}", {"open": {f"sw{i}": False}, "closed": {f"sw{i}": True}}, "open")
+        a.add_transition("open", "closed", f"t >= {i + 1}")
+        automata.append(a)
+    return HybridModel(g, automata, {"V": 1.0, "R": 1.0, "C": 1.0})

@@ -1,0 +1,164 @@
+"""Guard language, impulsive comparisons and automaton/model definition errors."""
+
+import pytest
+import sympy as sp
+from switching_models import ball_row, diode_circuit
+
+from bondgraph import BondGraph, C, MissingParameterError, One, R, Se, UnknownParameterError
+from switching import (
+    Automaton,
+    GuardSyntaxError,
+    HybridModel,
+    ImpulseError,
+    Impulsive,
+    ModelDefinitionError,
+    Tolerance,
+    parse_condition,
+    parse_expression,
+)
+from switching.impulses import compare, evaluate
+
+x, y, a, b = sp.symbols("x y a b")
+
+
+def test_parse_precedence_and_logic():
+    c = parse_condition("x + 2*y**2 <= 3 and not (a > b or x == 1)")
+    expected = sp.And(sp.Le(x + 2 * y**2, 3), sp.Not(sp.Or(sp.Gt(a, b), sp.Eq(x, 1))))
+    assert c == expected
+    assert parse_condition("x < y && y != 2 || !(a >= 0)") == sp.Or(sp.And(x < y, sp.Ne(y, 2)), sp.Not(a >= 0))
+    assert parse_expression("-x^2 + abs(y)/2 - max(a, b)") == -(x**2) + sp.Abs(y) / 2 - sp.Max(a, b)
+    assert parse_expression("2.5e-3*x + .5") == sp.Float("2.5e-3") * x + sp.Float(0.5)
+
+
+def test_chained_comparison_is_a_conjunction():
+    assert parse_condition("0 <= x < 1") == sp.And(sp.Le(0, x, evaluate=False), sp.Lt(x, 1))
+
+
+def test_hierarchical_names_and_division():
+    theta, rod_y = sp.Symbol("rod/theta"), sp.Symbol("rod/y")
+    names = {"rod/theta": theta, "rod/y": rod_y}
+    assert parse_expression("rod/y - l*sin(rod/theta)", names) == rod_y - sp.Symbol("l") * sp.sin(theta)
+    assert parse_expression("rod/y/m", names) == rod_y / sp.Symbol("m")
+    assert parse_expression("a/b") == a / b  # unknown: a division
+
+
+def test_text_is_never_executed():
+    # looks like code, is parsed as names or refused
+    with pytest.raises(GuardSyntaxError) as info:
+        parse_condition("__import__('os').system('echo hi') > 0")
+    assert "unexpected character" in str(info.value) and "^" in str(info.value)
+    with pytest.raises(GuardSyntaxError, match="unknown function 'eval'"):
+        parse_condition("eval(x) > 0")
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("x +", "expected a number"),
+        ("x > ", "expected a number"),
+        ("(x > 1", "expected ')'"),
+        ("x + 1", "not a condition"),
+        ("(x > 1) + 2 > 0", "a condition is used where a number is expected"),
+        ("sin(x, y) > 0", "wrong number of arguments"),
+        ("x > 1 y", "unexpected 'y'"),
+        ("", "non-empty"),
+    ],
+)
+def test_syntax_errors_point_at_the_problem(text, fragment):
+    with pytest.raises(GuardSyntaxError) as info:
+        parse_condition(text)
+    assert fragment in str(info.value)
+
+
+def test_impulsive_arithmetic_and_comparisons():
+    v = {x: 2.0, y: -1.0, a: 0.5}
+    # x carries an impulse of area 3
+    value = evaluate(sp.Abs(x) - a * y, v, {x: -3.0})
+    assert value == Impulsive(3.0, -2.0 + 0.5)
+    tol = Tolerance()
+    big = Impulsive(1.0, -100.0)
+    assert compare(sp.Gt, big, Impulsive(0.0, 1e9), tol)  # a positive pulse beats any finite value
+    assert compare(sp.Le, Impulsive(-1e-3, 5.0), Impulsive(0.0, 0.0), tol)
+    # equal pulses: the finite parts decide (the paper's Lemma 5.3)
+    assert compare(sp.Gt, Impulsive(2.0, 1.0), Impulsive(2.0, 0.5), tol)
+    assert not compare(sp.Gt, Impulsive(2.0, 0.5), Impulsive(2.0, 1.0), tol)
+    with pytest.raises(ImpulseError, match="two Dirac pulses"):
+        evaluate(x * y, v, {x: 1.0, y: 1.0})
+    with pytest.raises(ImpulseError, match="nonlinear function"):
+        evaluate(sp.sin(x), v, {x: 1.0})
+
+
+def test_tolerance_band_separates_le_from_lt():
+    tol = Tolerance(rtol=1e-9, atol=1e-12)
+    at = Impulsive(0.0, 1.0 + 1e-12)
+    one = Impulsive(0.0, 1.0)
+    assert compare(sp.Le, at, one, tol) and not compare(sp.Lt, at, one, tol)
+    assert compare(sp.Ge, one, at, tol) and not compare(sp.Gt, one, at, tol)
+    assert compare(sp.Eq, at, one, tol) and not compare(sp.Ne, at, one, tol)
+
+
+def rc_graph():
+    g = BondGraph("rc")
+    sw = g.add(One("sw", controlled=True))
+    g.connect(Se("V", "V0"), sw)
+    g.connect(sw, R("R", "R"))
+    g.connect(sw, C("C", "C"))
+    return g
+
+
+def switch_automaton(**kwargs):
+    return Automaton("switch", {"open": {"sw": False}, "closed": {"sw": True}}, "open", **kwargs)
+
+
+def test_model_definition_errors_name_the_culprit():
+    g = rc_graph()
+    with pytest.raises(ModelDefinitionError, match="'sw'.*driven by no automaton"):
+        HybridModel(g, [], {"V0": 1, "R": 1, "C": 1})
+    other = Automaton("other", {"a": {"nope": True}}, "a")
+    with pytest.raises(ModelDefinitionError, match="'nope', which is not in graph"):
+        HybridModel(g, [switch_automaton(), other], {"V0": 1, "R": 1, "C": 1})
+    twice = Automaton("twice", {"a": {"sw": True}}, "a")
+    with pytest.raises(ModelDefinitionError, match="switched by both 'switch' and 'twice'"):
+        HybridModel(g, [switch_automaton(), twice], {"V0": 1, "R": 1, "C": 1})
+    with pytest.raises(ModelDefinitionError, match="initial state 'shut'"):
+        Automaton("s", {"open": {"sw": False}}, "shut")
+    with pytest.raises(ModelDefinitionError, match="same junctions"):
+        Automaton("s", {"open": {"sw": False}, "closed": {"sw2": True}}, "open")
+    automaton = switch_automaton()
+    with pytest.raises(ModelDefinitionError, match="unknown state 'ajar'"):
+        automaton.add_transition("open", "ajar", "t > 1")
+    with pytest.raises(ModelDefinitionError, match="'a priori' or 'a posteriori'"):
+        automaton.add_transition("open", "closed", "t > 1", "sometimes")
+
+
+def test_guard_parameters_are_required_all_at_once():
+    automaton = switch_automaton()
+    automaton.add_transition("open", "closed", "q_C <= q_min and t >= t_on")
+    with pytest.raises(MissingParameterError) as info:
+        HybridModel(rc_graph(), [automaton], {"V0": 1})
+    assert info.value.missing == ("C", "R", "q_min", "t_on")
+    with pytest.raises(UnknownParameterError, match="Rr"):
+        HybridModel(rc_graph(), [automaton], {"V0": 1, "R": 1, "C": 1, "q_min": 0, "t_on": 0, "Rr": 2})
+
+
+def test_conflicting_restitution_in_one_mode_is_refused():
+    model = ball_row([1.0, 1.0, 1.0], 0.5)
+    model.automata[1].restitution["collide"] = sp.Symbol("e") / 2
+    with pytest.raises(ModelDefinitionError, match="different restitution"):
+        model.mode_equations("collide|collide")
+
+
+def test_mode_lookup_by_label_tuple_and_mapping():
+    model = diode_circuit()
+    assert model.mode("open|on") == model.mode(("open", "on")) == model.mode({"switch": "open", "diode": "on"})
+    from bondgraph import UnknownNameError
+
+    with pytest.raises(UnknownNameError, match="no state 'ajar'"):
+        model.mode("ajar|on")
+    with pytest.raises(UnknownNameError, match="2 automata"):
+        model.mode("open")
+
+
+def test_mode_equations_print_f_g_and_guards():
+    text = diode_circuit().mode_equations("open|off").pretty()
+    assert "p_L⁺ = 0" in text and "off → on when v_D >= V_th (a posteriori)" in text
