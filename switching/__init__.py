@@ -13,10 +13,10 @@ from .errors import GuardSyntaxError as GuardSyntaxError
 from .errors import ImpulseError as ImpulseError
 from .errors import ModelDefinitionError as ModelDefinitionError
 from .errors import TooManyStepsError as TooManyStepsError
-from .impulses import Impulsive as Impulsive
-from .impulses import Tolerance as Tolerance
+from codegen.runtime import Hyper as Hyper
 from .model import HybridModel as HybridModel
 from .model import InitialStateProjected as InitialStateProjected
+from .model import Tolerance as Tolerance
 from .modes import Mode as Mode
 from .modes import ModeEquations as ModeEquations
 from .parsing import parse_condition as parse_condition

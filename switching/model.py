@@ -19,6 +19,7 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -32,11 +33,22 @@ from bondgraph.symbols import check_name
 
 from .automaton import Automaton
 from .errors import ModelDefinitionError
-from .impulses import Tolerance
+from codegen.cache import default_cache, fingerprint
+
+from .compiled import CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 
-__all__ = ["HybridModel", "InitialStateProjected"]
+__all__ = ["HybridModel", "InitialStateProjected", "Tolerance"]
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Band for guard comparisons at an instant: ``rtol·max(|lhs|, |rhs|) + atol``
+    (``<=`` includes the band, ``<`` excludes it)."""
+
+    rtol: float = 1e-11
+    atol: float = 1e-14
 
 
 class InitialStateProjected(UserWarning):
@@ -102,6 +114,9 @@ class HybridModel:
         self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
         self._initial_given = self._check_initial_state(initial_state or {})
         self._mode_cache: dict[Mode, ModeEquations] = {}
+        self._compiled: dict = {}
+        self._fingerprint = None
+        self.cache = default_cache()
         self.derivation_count = 0
         self._initial = None
 
@@ -352,6 +367,48 @@ class HybridModel:
     @property
     def derived_modes(self) -> tuple:
         return tuple(self._mode_cache)
+
+    @property
+    def fingerprint(self) -> str:
+        """A hash of the model's symbolic definition (structure, laws, guards,
+        signals, parameter order) and the toolkit version: the disk-cache key."""
+        if self._fingerprint is None:
+            from bondgraph import __version__
+
+            parts = [__version__, self.name]
+            for el in self.graph.elements.values():
+                parts.append(f"{type(el).__name__} {el.name} " + " ".join(sp.srepr(e) for e in el.expressions()))
+                if hasattr(el, "state"):
+                    parts.append(el.state.name)
+                parts.append(str(getattr(el, "controlled", "")))
+            parts += [f"{b.name} {b.tail} {b.head}" for b in self.graph.bonds.values()]
+            parts += [f"{d.symbol} {d.bond} {d.sign}" for d in self.graph.displacements.values()]
+            parts += [" ".join(self.graph.inputs), " ".join(s.name for s in self.parameter_symbols)]
+            for automaton in self.automata:
+                parts.append(f"{automaton.name} {automaton.states!r} {automaton.initial}")
+                parts += [f"{k} {sp.srepr(v)}" for k, v in automaton.restitution.items()]
+            for (name, tr), (condition, _) in self._guards.items():
+                parts.append(f"{name} {tr.source} {tr.target} {tr.when} {sp.srepr(condition)}")
+            parts += [f"{k} {sp.srepr(v)}" for k, v in self._signals.items()]
+            self._fingerprint = fingerprint(*parts)
+        return self._fingerprint
+
+    def compiled_mode(self, mode) -> CompiledMode:
+        """The generated numerical functions of a mode: from memory, else from
+        the disk cache, else derived and generated now (and cached)."""
+        mode = self.mode(mode)
+        if mode not in self._compiled:
+            key = fingerprint(self.fingerprint, "mode", mode.label)
+            source = self.cache.load(key)
+            if source is None:
+                source = generate_mode_source(self, self.mode_equations(mode))
+                self.cache.store(key, source)
+            self._compiled[mode] = CompiledMode(self, mode, source)
+        return self._compiled[mode]
+
+    def mode_source(self, mode) -> str:
+        """The generated Python source of one mode's functions."""
+        return self.compiled_mode(mode).source
 
     # ------------------------------------------------------------ initial state
 

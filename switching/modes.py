@@ -199,6 +199,8 @@ class ModeEquations:
         plus[snap] = x[snap]
         return plus
 
+    numeric_jump = apply_jump
+
     def __repr__(self) -> str:
         return f"ModeEquations({self.mode.describe()})"
 

@@ -20,12 +20,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
-from sympy.core.relational import Relational
-from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
+from codegen.runtime import PulseError
+
+from .automaton import A_POSTERIORI
+from .compiled import decide_tree
 from .errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
-from .impulses import Impulsive, compare, evaluate
 from .modes import Mode
 
 __all__ = ["Instant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
@@ -145,84 +145,55 @@ class Instant:
 # ------------------------------------------------------------------ guards
 
 
-def _values(model, me, x: np.ndarray, t: float) -> dict:
-    values = dict(model.parameter_values_with_inputs(t))
-    values[model.time] = t
-    rates = me.rates(x, t)
-    for k, s in enumerate(model.states):
-        values[s] = float(x[k])
-        values[me.equations.rate_symbols[s]] = float(rates[k])
-    return values
-
-
-def _decide(condition, values, impulses, tol, comparisons) -> bool:
-    if isinstance(condition, BooleanTrue):
-        return True
-    if isinstance(condition, BooleanFalse):
-        return False
-    if isinstance(condition, And):
-        return all(_decide(c, values, impulses, tol, comparisons) for c in condition.args)
-    if isinstance(condition, Or):
-        return any(_decide(c, values, impulses, tol, comparisons) for c in condition.args)
-    if isinstance(condition, Not):
-        return not _decide(condition.args[0], values, impulses, tol, comparisons)
-    if isinstance(condition, Relational):
-        left = evaluate(condition.lhs, values, impulses)
-        right = evaluate(condition.rhs, values, impulses)
-        result = compare(type(condition), left, right, tol)
-        comparisons.append((str(condition), left, right, result))
-        return result
-    raise ImpulseError(f"cannot evaluate {condition} as a guard condition")
-
-
-def evaluate_guards(model, me, x: np.ndarray, x_plus: np.ndarray, t: float) -> list:
-    """The first holding transition of each automaton in mode ``me.mode``.
+def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float) -> list:
+    """The first holding transition of each automaton in compiled mode ``cm``.
 
     A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
     with the impulses of the jump ``x → x_plus``."""
     fired = []
     done = set()
-    prior_values = post_values = impulses = None
-    for guard in me.guards:
-        if guard.automaton in done:
+    prior = post = None
+    rtol, atol = model.tolerance.rtol, model.tolerance.atol
+    for guard in cm.guards:
+        if guard["automaton"] in done:
             continue
-        tr = guard.transition
-        if tr.a_posteriori:
-            if post_values is None:
-                post_values = _values(model, me, x_plus, t)
-                delta = x_plus - x
-                impulses = {me.equations.rate_symbols[s]: float(delta[k]) for k, s in enumerate(model.states) if delta[k]}
-            values, pulses = post_values, impulses
+        if guard["when"] == A_POSTERIORI:
+            if post is None:
+                try:
+                    post = cm.sides_impulsive(x, x_plus, t)
+                except PulseError as exc:
+                    raise ImpulseError(
+                        f"a guard of mode {cm.mode.describe()} at t = {t:.12g} combines pulses wrongly: {exc}"
+                    ) from None
+            sides = post
         else:
-            if prior_values is None:
-                prior_values = _values(model, me, x, t)
-            values, pulses = prior_values, {}
+            if prior is None:
+                prior = cm.sides(x, t)
+            sides = prior
         comparisons: list = []
-        try:
-            holds = _decide(guard.condition, values, pulses, model.tolerance, comparisons)
-        except ImpulseError as exc:
-            raise ImpulseError(
-                f"guard {guard.text!r} of automaton {guard.automaton!r} in mode {me.mode.describe()} at t = {t:.12g}: {exc}"
-            ) from None
-        if holds:
-            done.add(guard.automaton)
-            fired.append(FiredGuard(guard.automaton, tr.source, tr.target, guard.text, tr.when, tuple(comparisons)))
+        if decide_tree(guard["tree"], sides, rtol, atol, comparisons):
+            done.add(guard["automaton"])
+            fired.append(
+                FiredGuard(guard["automaton"], guard["source"], guard["target"], guard["text"], guard["when"],
+                           tuple(comparisons))
+            )
     return fired
 
 
 def impulse_area(model, mode: Mode, signal: str, x: np.ndarray, x_plus: np.ndarray, t: float) -> float:
-    """``a(x)ᵀ(x⁺ − x)`` of ``signal`` in ``mode``."""
+    """``a(x)ᵀ(x⁺ − x)`` of ``signal`` in ``mode`` (``a = ∂s/∂ẋ``)."""
+    from codegen import vector_function
+
     me = model.mode_equations(mode)
     form = me.signal(signal)
     if not form.impulse:
         return 0.0
-    values = _values(model, me, x, t)
-    total = 0.0
-    for state, coeff in form.impulse.items():
-        k = model.state_index[state]
-        if x_plus[k] != x[k]:
-            total += float(evaluate(coeff, values, {}).finite) * (x_plus[k] - x[k])
-    return total
+    states = list(form.impulse)
+    coefficients = vector_function([form.impulse[s] for s in states], model.states, model.time,
+                                   model.parameter_symbols, model.input_symbols)
+    a = coefficients(x, t, model.parameter_array, model.input_values(t))
+    idx = [model.state_index[s] for s in states]
+    return float(np.dot(a, (x_plus - x)[idx]))
 
 
 # ------------------------------------------------------------------ resolution
@@ -260,9 +231,9 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     pinnacles: list[tuple[Mode, np.ndarray]] = []
     current = mode
     for n in range(max_steps):
-        me = model.mode_equations(current)
-        x_plus = me.apply_jump(x, t)
-        fired = evaluate_guards(model, me, x, x_plus, t)
+        cm = model.compiled_mode(current)
+        x_plus = cm.jump(x, t)
+        fired = evaluate_guards(model, cm, x, x_plus, t)
         if fired:
             kind = "start" if n == 0 and np.array_equal(x_plus, x) else "mythical"
             steps.append(Step(current, kind, x, x, tuple(fired)))
@@ -286,7 +257,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
                 f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
                 + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
             )
-        fired = evaluate_guards(model, me, x, x, t)
+        fired = evaluate_guards(model, cm, x, x, t)
         if fired:
             for other_mode, other_x in pinnacles:
                 if other_mode == current and np.allclose(other_x, x, rtol=1e-12, atol=1e-300):

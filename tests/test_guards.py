@@ -5,18 +5,8 @@ import sympy as sp
 from switching_models import ball_row, diode_circuit
 
 from bondgraph import BondGraph, C, MissingParameterError, One, R, Se, UnknownParameterError
-from switching import (
-    Automaton,
-    GuardSyntaxError,
-    HybridModel,
-    ImpulseError,
-    Impulsive,
-    ModelDefinitionError,
-    Tolerance,
-    parse_condition,
-    parse_expression,
-)
-from switching.impulses import compare, evaluate
+from codegen.runtime import H, Hyper, PulseError, decide
+from switching import Automaton, GuardSyntaxError, HybridModel, ModelDefinitionError, parse_condition, parse_expression
 
 x, y, a, b = sp.symbols("x y a b")
 
@@ -71,30 +61,30 @@ def test_syntax_errors_point_at_the_problem(text, fragment):
 
 
 def test_impulsive_arithmetic_and_comparisons():
-    v = {x: 2.0, y: -1.0, a: 0.5}
-    # x carries an impulse of area 3
-    value = evaluate(sp.Abs(x) - a * y, v, {x: -3.0})
-    assert value == Impulsive(3.0, -2.0 + 0.5)
-    tol = Tolerance()
-    big = Impulsive(1.0, -100.0)
-    assert compare(sp.Gt, big, Impulsive(0.0, 1e9), tol)  # a positive pulse beats any finite value
-    assert compare(sp.Le, Impulsive(-1e-3, 5.0), Impulsive(0.0, 0.0), tol)
+    # x carries an impulse of area -3 on top of its finite value 2
+    xv, yv, av = Hyper(-3.0, 2.0), -1.0, 0.5
+    value = abs(xv) - av * yv
+    assert (value.impulse, value.finite) == (3.0, -2.0 + 0.5)
+    big = Hyper(1.0, -100.0)
+    assert decide(">", big, 1e9, 1e-11, 1e-14)  # a positive pulse beats any finite value
+    assert decide("<=", Hyper(-1e-3, 5.0), 0.0, 1e-11, 1e-14)
     # equal pulses: the finite parts decide (the paper's Lemma 5.3)
-    assert compare(sp.Gt, Impulsive(2.0, 1.0), Impulsive(2.0, 0.5), tol)
-    assert not compare(sp.Gt, Impulsive(2.0, 0.5), Impulsive(2.0, 1.0), tol)
-    with pytest.raises(ImpulseError, match="two Dirac pulses"):
-        evaluate(x * y, v, {x: 1.0, y: 1.0})
-    with pytest.raises(ImpulseError, match="nonlinear function"):
-        evaluate(sp.sin(x), v, {x: 1.0})
+    assert decide(">", Hyper(2.0, 1.0), Hyper(2.0, 0.5), 1e-11, 1e-14)
+    assert not decide(">", Hyper(2.0, 0.5), Hyper(2.0, 1.0), 1e-11, 1e-14)
+    with pytest.raises(PulseError, match="two Dirac pulses"):
+        Hyper(1.0, 0.0) * Hyper(1.0, 0.0)
+    with pytest.raises(PulseError, match="sin of a Dirac pulse"):
+        H.sin(Hyper(1.0, 0.0))
+    with pytest.raises(PulseError, match="denominator"):
+        1.0 / Hyper(1.0, 2.0)
 
 
 def test_tolerance_band_separates_le_from_lt():
-    tol = Tolerance(rtol=1e-9, atol=1e-12)
-    at = Impulsive(0.0, 1.0 + 1e-12)
-    one = Impulsive(0.0, 1.0)
-    assert compare(sp.Le, at, one, tol) and not compare(sp.Lt, at, one, tol)
-    assert compare(sp.Ge, one, at, tol) and not compare(sp.Gt, one, at, tol)
-    assert compare(sp.Eq, at, one, tol) and not compare(sp.Ne, at, one, tol)
+    rtol, atol = 1e-9, 1e-12
+    at, one = 1.0 + 1e-12, 1.0
+    assert decide("<=", at, one, rtol, atol) and not decide("<", at, one, rtol, atol)
+    assert decide(">=", one, at, rtol, atol) and not decide(">", one, at, rtol, atol)
+    assert decide("==", at, one, rtol, atol) and not decide("!=", at, one, rtol, atol)
 
 
 def rc_graph():

@@ -1,0 +1,149 @@
+"""Readable Python source from sympy expressions.
+
+A :class:`FunctionSpec` names a function, its array arguments (each an
+ordered list of symbols) and its outputs; :func:`function_source` prints it
+with common subexpressions eliminated, every used array entry unpacked into a
+sanitized local name, a docstring listing the order of every array, and the
+outputs written in place into ``out`` (or returned as a list for *raw*
+functions, which run on :class:`codegen.runtime.Hyper` values).
+
+Only sanitized identifiers reach the source: symbol names such as
+``rod/theta`` become ``rod_theta``.
+"""
+
+from __future__ import annotations
+
+import keyword
+import math
+import re
+from dataclasses import dataclass, field
+from collections.abc import Sequence
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+__all__ = ["Argument", "FunctionSpec", "function_source", "sanitize", "module_namespace"]
+
+
+@dataclass(frozen=True)
+class Argument:
+    """An argument: ``name`` and, for an array, the symbol of each entry (a
+    scalar argument has exactly one symbol and ``scalar=True``)."""
+
+    name: str
+    symbols: tuple
+    scalar: bool = False
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    name: str
+    arguments: tuple
+    outputs: tuple
+    doc: str = ""
+    output_names: tuple = ()
+    raw: bool = False  # outputs computed on Hyper values and returned as a list
+
+
+_RESERVED = set(keyword.kwlist) | {"out", "H", "math", "abs", "max", "min", "pi", "e", "inf", "float", "range"}
+_RESERVED |= {name for name in dir(math) if not name.startswith("_")}
+
+
+def sanitize(name: str) -> str:
+    """A Python identifier for a symbol name (``rod/theta`` → ``rod_theta``)."""
+    ident = re.sub(r"\W", "_", name)
+    if not ident or ident[0].isdigit():
+        ident = "_" + ident
+    if ident in _RESERVED:
+        ident += "_"
+    return ident
+
+
+class _Printer(PythonCodePrinter):
+    """Prints known functions as bare names (numeric namespace) or ``H.name`` (raw)."""
+
+    def __init__(self, raw: bool, names: dict):
+        super().__init__({"fully_qualified_modules": False, "standard": "python3"})
+        self._raw = raw
+        self._names = names
+
+    def _module_format(self, fqn, register=True):
+        leaf = fqn.split(".")[-1]
+        return f"H.{leaf}" if self._raw else leaf
+
+    def _print_Symbol(self, expr):
+        return self._names.get(expr, super()._print_Symbol(expr))
+
+    def _print_Infinity(self, expr):
+        return "H.inf" if self._raw else "inf"
+
+    def _print_NegativeInfinity(self, expr):
+        return "-H.inf" if self._raw else "-inf"
+
+
+def function_source(spec: FunctionSpec) -> str:
+    """The source text of one function (see the module docstring)."""
+    names: dict[sp.Symbol, str] = {}
+    used_names = {a.name for a in spec.arguments} | {"out"}
+    for arg in spec.arguments:
+        if arg.scalar:
+            names[arg.symbols[0]] = arg.name
+            continue
+        for sym in arg.symbols:
+            if sym in names:
+                continue
+            ident = sanitize(sym.name)
+            while ident in used_names:
+                ident += "_"
+            names[sym] = ident
+            used_names.add(ident)
+
+    outputs = [sp.sympify(o) for o in spec.outputs]
+    temporaries = sp.numbered_symbols("_c")
+    replacements, reduced = sp.cse(outputs, symbols=temporaries, optimizations="basic") if outputs else ([], [])
+    for sym, _ in replacements:
+        names[sym] = sym.name
+    printer = _Printer(spec.raw, names)
+
+    needed = set()
+    for expr in [e for _, e in replacements] + list(reduced):
+        needed |= expr.free_symbols
+
+    signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
+    lines = [f"def {spec.name}({signature}):"]
+    doc = [spec.doc.strip() or spec.name, ""]
+    for arg in spec.arguments:
+        if arg.scalar:
+            doc.append(f"{arg.name}: {arg.doc or arg.symbols[0]}")
+        else:
+            doc.append(f"{arg.name}[{len(arg.symbols)}]: {arg.doc}")
+            doc.extend(f"    {arg.name}[{k}] = {s}" for k, s in enumerate(arg.symbols))
+    out_labels = spec.output_names or tuple(str(k) for k in range(len(outputs)))
+    doc.append(("returns" if spec.raw else "out") + f"[{len(outputs)}]:")
+    doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
+    lines.append('    """' + "\n    ".join(doc).replace('"""', "'''") + '\n    """')
+    for arg in spec.arguments:
+        if arg.scalar:
+            continue
+        for k, sym in enumerate(arg.symbols):
+            if sym in needed:
+                lines.append(f"    {names[sym]} = {arg.name}[{k}]")
+    for sym, expr in replacements:
+        lines.append(f"    {names[sym]} = {printer.doprint(expr)}")
+    if spec.raw:
+        lines.append("    return [" + ", ".join(printer.doprint(e) for e in reduced) + "]")
+    else:
+        for k, expr in enumerate(reduced):
+            lines.append(f"    out[{k}] = {printer.doprint(expr)}")
+        lines.append("    return out")
+    return "\n".join(lines) + "\n"
+
+
+def module_namespace() -> dict:
+    """The globals generated code runs in: ``math`` functions, builtins, ``H``."""
+    from .runtime import H
+
+    namespace = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
+    namespace.update({"H": H, "abs": abs, "max": max, "min": min, "inf": math.inf})
+    return namespace

@@ -1,0 +1,227 @@
+"""Per-mode numerical functions, generated from a mode's symbolic f, g, h
+and guards, compiled on the mode's first visit and cached (in memory, and on
+disk keyed by a fingerprint of the model's symbolic definition, the mode and
+the toolkit version — so a second process pays no symbolic derivation).
+
+Generated functions of one mode (arrays: ``x`` states, ``p`` parameters,
+``u`` inputs, ``xdot`` state derivatives as :class:`codegen.runtime.Hyper`):
+
+``phi(x, t, p, u, out)``       dependent states from the independent ones
+``rates(x, t, p, u, out)``     ``dx/dt`` of every state
+``jump(x, t, p, u, out)``      ``x⁺ = g(x)`` with restitution (symbolic jumps only)
+``sides(x, t, p, u, out)``     finite left and right sides of every guard comparison
+``sides_raw(x, t, p, u, xdot)``  the same on raw signals, impulse-aware
+
+The metadata ``META`` (independent / dependent indices, the guards as trees
+of comparisons) is part of the same source, so a module loaded from disk
+needs nothing else.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+from sympy.core.relational import Relational
+from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
+
+from codegen.runtime import Hyper, decide
+from codegen.source import Argument, FunctionSpec, function_source, module_namespace
+
+__all__ = ["CompiledMode", "generate_mode_source", "decide_tree"]
+
+_OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
+
+
+def _op(relation) -> str:
+    for cls, op in _OPS.items():
+        if isinstance(relation, cls):
+            return op
+    raise TypeError(f"unsupported comparison {relation}")
+
+
+def _tree(condition, relations: list):
+    """A guard condition as nested plain tuples; comparisons are collected in ``relations``."""
+    if isinstance(condition, BooleanTrue):
+        return ("const", True)
+    if isinstance(condition, BooleanFalse):
+        return ("const", False)
+    if isinstance(condition, And):
+        return ("and", tuple(_tree(c, relations) for c in condition.args))
+    if isinstance(condition, Or):
+        return ("or", tuple(_tree(c, relations) for c in condition.args))
+    if isinstance(condition, Not):
+        return ("not", _tree(condition.args[0], relations))
+    if isinstance(condition, Relational):
+        relations.append(condition)
+        return ("rel", len(relations) - 1, _op(condition), str(condition))
+    raise TypeError(f"cannot compile {condition} as a guard")
+
+
+def decide_tree(tree, sides, rtol, atol, record=None) -> bool:
+    """Evaluate a guard tree on the values of the comparison sides."""
+    kind = tree[0]
+    if kind == "const":
+        return tree[1]
+    if kind == "and":
+        return all(decide_tree(t, sides, rtol, atol, record) for t in tree[1])
+    if kind == "or":
+        return any(decide_tree(t, sides, rtol, atol, record) for t in tree[1])
+    if kind == "not":
+        return not decide_tree(tree[1], sides, rtol, atol, record)
+    _, k, op, text = tree
+    left, right = sides[2 * k], sides[2 * k + 1]
+    result = decide(op, left, right, rtol, atol)
+    if record is not None:
+        record.append((text, left, right, result))
+    return result
+
+
+def generate_mode_source(model, me) -> str:
+    """The generated module (source text) of one mode from its ModeEquations."""
+    states = list(model.states)
+    rates = [me.equations.rate_symbols[s] for s in states]
+    params = list(model.parameter_symbols)
+    inputs = list(model.input_symbols)
+    dependent = [s for s in states if s in me.equations.dependent]
+    independent = [s for s in states if s not in me.equations.dependent]
+    label = me.mode.describe()
+    base_args = (
+        Argument("x", tuple(states), doc="state vector"),
+        Argument("t", (model.time,), scalar=True, doc="time [s]"),
+        Argument("p", tuple(params), doc="parameters"),
+        Argument("u", tuple(inputs), doc="inputs"),
+    )
+    raw_args = base_args + (Argument("xdot", tuple(rates), doc="state derivatives (Hyper: impulse, finite)"),)
+
+    relations: list = []
+    guards = []
+    for guard in me.guards:
+        tr = guard.transition
+        guards.append(
+            {
+                "automaton": guard.automaton,
+                "source": tr.source,
+                "target": tr.target,
+                "when": tr.when,
+                "text": guard.text,
+                "tree": _tree(guard.condition, relations),
+            }
+        )
+    finite_sides, raw_sides = [], []
+    for rel in relations:
+        raw_sides += [rel.lhs, rel.rhs]
+        finite_sides += [me.finite(rel.lhs), me.finite(rel.rhs)]
+    side_names = tuple(f"{side} of {rel}" for rel in relations for side in ("left", "right"))
+
+    g = me.g
+    jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
+    specs = [
+        FunctionSpec("phi", base_args, tuple(me.equations.constraints[s] for s in dependent),
+                     f"Dependent states of mode {label} (x_d = phi(x_i, t)).", tuple(map(str, dependent))),
+        FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
+                     tuple(map(str, states))),
+        FunctionSpec("sides", base_args, tuple(finite_sides), f"Guard comparison sides in mode {label} (finite).",
+                     side_names),
+        FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
+                     f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names, raw=True),
+    ]
+    if jump_kind == "symbolic":
+        specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
+                                  f"x+ = g(x) into mode {label}.", tuple(map(str, states))))
+    meta = {
+        "mode": tuple(me.mode.states),
+        "automata": tuple(me.mode.automata),
+        "independent": tuple(model.state_index[s] for s in independent),
+        "dependent": tuple(model.state_index[s] for s in dependent),
+        "moved": tuple(model.state_index[s] for s in (*me.jump.participating, *me.jump.dependent)),
+        "jump": jump_kind,
+        "guards": tuple(guards),
+        "n_states": len(states),
+    }
+    header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
+    return header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s) for s in specs)
+
+
+class CompiledMode:
+    """Executable functions and metadata of one mode (see the module docstring)."""
+
+    def __init__(self, model, mode, source: str):
+        self.model = model
+        self.mode = mode
+        self.source = source
+        namespace = module_namespace()
+        exec(compile(source, f"<hbg mode {mode.label}>", "exec"), namespace)  # our own generated, sanitized code
+        meta = namespace["META"]
+        self.meta = meta
+        self.independent = np.array(meta["independent"], dtype=int)
+        self.dependent = np.array(meta["dependent"], dtype=int)
+        self.moved = np.array(meta["moved"], dtype=int)
+        self.jump_kind = meta["jump"]
+        self.guards = meta["guards"]
+        self._phi = namespace["phi"]
+        self._rates = namespace["rates"]
+        self._sides = namespace["sides"]
+        self._sides_raw = namespace["sides_raw"]
+        self._jump = namespace.get("jump")
+        self.n = meta["n_states"]
+        self.n_sides = 2 * sum(_count_rel(g["tree"]) for g in self.guards)
+
+    # ----------------------------------------------------------- evaluation
+
+    def complete(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Set the dependent entries of ``x`` (in place) from the independent ones."""
+        if len(self.dependent):
+            model = self.model
+            out = np.empty(len(self.dependent))
+            self._phi(x, t, model.parameter_array, model.input_values(t), out)
+            x[self.dependent] = out
+        return x
+
+    def rates(self, x: np.ndarray, t: float, out: np.ndarray | None = None) -> np.ndarray:
+        model = self.model
+        out = np.empty(self.n) if out is None else out
+        return self._rates(x, t, model.parameter_array, model.input_values(t), out)
+
+    def jump(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``x⁺ = g(x)`` (restitution included); round-off changes snapped back."""
+        x = np.asarray(x, dtype=float)
+        if self.jump_kind == "identity":
+            return x.copy()
+        if self.jump_kind == "symbolic":
+            plus = self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
+        else:
+            plus = self.model.mode_equations(self.mode).numeric_jump(x, t)
+        scale = max(1e-300, float(np.max(np.abs(np.concatenate([x[self.moved], plus[self.moved]])))))
+        snap = np.abs(plus - x) <= 1e-12 * scale
+        plus[snap] = x[snap]
+        return plus
+
+    def sides(self, x, t) -> np.ndarray:
+        model = self.model
+        return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
+
+    def sides_impulsive(self, x, x_plus, t) -> list:
+        """Comparison sides a posteriori: on ``x_plus`` with the pulses of ``x → x_plus``."""
+        model = self.model
+        finite = self.rates(x_plus, t)
+        delta = x_plus - x
+        xdot = [Hyper(delta[k], finite[k]) for k in range(self.n)]
+        return self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
+
+    def holds(self, x, t, rtol, atol) -> bool:
+        """Does any guard hold during flow at ``x`` (no jump)?"""
+        if not self.guards:
+            return False
+        sides = self.sides(x, t)
+        return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
+
+
+def _count_rel(tree) -> int:
+    kind = tree[0]
+    if kind == "rel":
+        return 1
+    if kind in ("and", "or"):
+        return sum(_count_rel(t) for t in tree[1])
+    if kind == "not":
+        return _count_rel(tree[1])
+    return 0
