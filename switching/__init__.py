@@ -12,7 +12,11 @@ from .errors import DivergenceOfTimeError as DivergenceOfTimeError
 from .errors import GuardSyntaxError as GuardSyntaxError
 from .errors import ImpulseError as ImpulseError
 from .errors import ModelDefinitionError as ModelDefinitionError
+from .errors import NonFiniteStateError as NonFiniteStateError
+from .errors import SimulationError as SimulationError
+from .errors import StepSizeError as StepSizeError
 from .errors import TooManyStepsError as TooManyStepsError
+from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper
 from .model import HybridModel as HybridModel
 from .model import InitialStateProjected as InitialStateProjected
@@ -23,3 +27,5 @@ from .parsing import parse_condition as parse_condition
 from .parsing import parse_expression as parse_expression
 from .resolution import Instant as Instant
 from .resolution import Step as Step
+from .simulator import METHODS as METHODS
+from .trajectory import Trajectory as Trajectory

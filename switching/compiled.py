@@ -183,7 +183,9 @@ class CompiledMode:
         return self._rates(x, t, model.parameter_array, model.input_values(t), out)
 
     def jump(self, x: np.ndarray, t: float) -> np.ndarray:
-        """``x⁺ = g(x)`` (restitution included); round-off changes snapped back."""
+        """``x⁺ = g(x)`` (restitution included).  Changes within the jump
+        tolerance (``jump_rtol`` of the largest moved state, plus ``jump_atol``)
+        are round-off, not jumps: they are snapped back, so they carry no pulse."""
         x = np.asarray(x, dtype=float)
         if self.jump_kind == "identity":
             return x.copy()
@@ -191,8 +193,9 @@ class CompiledMode:
             plus = self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
         else:
             plus = self.model.mode_equations(self.mode).numeric_jump(x, t)
-        scale = max(1e-300, float(np.max(np.abs(np.concatenate([x[self.moved], plus[self.moved]])))))
-        snap = np.abs(plus - x) <= 1e-12 * scale
+        tol = self.model.tolerance
+        scale = float(np.max(np.abs(np.concatenate([x[self.moved], plus[self.moved]])))) if len(self.moved) else 0.0
+        snap = np.abs(plus - x) <= tol.jump_rtol * scale + tol.jump_atol
         plus[snap] = x[snap]
         return plus
 

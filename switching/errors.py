@@ -11,6 +11,10 @@ __all__ = [
     "DivergenceOfTimeError",
     "TooManyStepsError",
     "ImpulseError",
+    "SimulationError",
+    "ZenoError",
+    "NonFiniteStateError",
+    "StepSizeError",
 ]
 
 
@@ -51,3 +55,32 @@ class TooManyStepsError(DivergenceOfTimeError):
 class ImpulseError(HybridBondGraphError):
     """A guard combines impulsive signals in a way that has no meaning
     (a product of two Dirac pulses, or a nonlinear function of one)."""
+
+
+class SimulationError(HybridBondGraphError):
+    """A simulation that cannot go on.  ``trajectory`` holds everything
+    computed up to the failure (nothing is lost); ``t`` and ``mode`` say where."""
+
+    def __init__(self, message: str, trajectory=None, t: float | None = None, mode=None):
+        super().__init__(message)
+        self.trajectory = trajectory
+        self.t = t
+        self.mode = mode
+
+
+class ZenoError(SimulationError):
+    """Events pile up in shrinking time (Zeno behaviour); ``accumulation_time``
+    is the estimated time at which they would accumulate."""
+
+    def __init__(self, message: str, trajectory=None, t=None, mode=None, accumulation_time=None):
+        super().__init__(message, trajectory, t, mode)
+        self.accumulation_time = accumulation_time
+
+
+class NonFiniteStateError(SimulationError):
+    """The state became NaN or infinite during flow."""
+
+
+class StepSizeError(SimulationError):
+    """An adaptive method could not keep its step above the round-off limit
+    (often a stiff problem on an explicit method, or a singularity)."""

@@ -44,11 +44,18 @@ __all__ = ["HybridModel", "InitialStateProjected", "Tolerance"]
 
 @dataclass(frozen=True)
 class Tolerance:
-    """Band for guard comparisons at an instant: ``rtol·max(|lhs|, |rhs|) + atol``
-    (``<=`` includes the band, ``<`` excludes it)."""
+    """Tolerances at an instant.
 
-    rtol: float = 1e-11
-    atol: float = 1e-14
+    Guard comparisons use the band ``rtol·max(|lhs|, |rhs|) + atol`` (``<=``
+    includes it, ``<`` excludes it).  A state change at a jump smaller than
+    ``jump_rtol·(largest moved state) + jump_atol`` is round-off: it is no
+    jump and carries no Dirac pulse.  Absolute values are in the states' own
+    units; scale them for models whose states are far from 1."""
+
+    rtol: float = 1e-13
+    atol: float = 1e-15
+    jump_rtol: float = 1e-12
+    jump_atol: float = 1e-13
 
 
 class InitialStateProjected(UserWarning):
@@ -446,6 +453,21 @@ class HybridModel:
 
         mode = self.initial_mode if mode is None else self.mode(mode)
         return resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
+
+    def simulate(self, t_end: float, method: str = "RK45", **options):
+        """Simulate from the initial state (or ``x0=``) to ``t_end``; returns a
+        :class:`~switching.trajectory.Trajectory`.
+
+        ``method``: ``"euler"`` or ``"rk4"`` with step ``dt=``; ``"RK45"``,
+        ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
+        ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``).  Output:
+        every step (default), ``output="events"`` (instants only) or
+        ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
+        See :func:`switching.simulator.simulate`.
+        """
+        from .simulator import simulate
+
+        return simulate(self, t_end, method, **options)
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):
         """Static divergence-of-time check from sampled states on each

@@ -183,8 +183,8 @@ class ModeEquations:
         return self._numeric_f(x, t, self.model.parameter_array, self.model.input_values(t))
 
     def apply_jump(self, x: np.ndarray, t: float) -> np.ndarray:
-        """Numerical ``x⁺ = g(x)`` into this mode (restitution included);
-        differences at round-off level are snapped back to ``x``."""
+        """Numerical ``x⁺ = g(x)`` into this mode, restitution included (the
+        symbolic-free path for nonlinear storage; generated code does the rest)."""
         x = np.asarray(x, dtype=float)
         if self.jump.is_identity:
             return x.copy()
@@ -193,10 +193,6 @@ class ModeEquations:
         if self.restitution is not None:
             e = float(self.restitution.xreplace(values)) if self.restitution.free_symbols else float(self.restitution)
             plus = x + (1.0 + e) * (plus - x)
-        moved = [self.model.state_index[s] for s in (*self.jump.participating, *self.jump.dependent)]
-        scale = max(1.0e-300, float(np.max(np.abs(np.concatenate([x[moved], plus[moved]])))))
-        snap = np.abs(plus - x) <= 1e-12 * scale
-        plus[snap] = x[snap]
         return plus
 
     numeric_jump = apply_jump

@@ -112,3 +112,42 @@ def independent_switches(n=20):
         a.add_transition("open", "closed", f"t >= {i + 1}")
         automata.append(a)
     return HybridModel(g, automata, {"V": 1.0, "R": 1.0, "C": 1.0})
+
+
+def rc_relay(R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
+    """A capacitor charged through R1 from V until v_C >= v_hi, then
+    discharged through R2 until v_C <= v_lo, and so on (closed form between events)."""
+    g = BondGraph("relay")
+    n = g.add(Zero("n"))
+    a, b = g.add(One("a", controlled=True)), g.add(One("b", controlled=True))
+    g.connect(Se("V", "V"), a)
+    g.connect(a, R("R1", "R1"))
+    g.connect(a, n)
+    g.connect(n, C("C", "C"))
+    g.connect(n, b)
+    g.connect(b, R("R2", "R2"))
+    relay = Automaton("relay", {"charge": {"a": True, "b": False}, "discharge": {"a": False, "b": True}}, "charge")
+    relay.add_transition("charge", "discharge", "q_C/C >= v_hi")
+    relay.add_transition("discharge", "charge", "q_C/C <= v_lo")
+    return HybridModel(g, [relay], dict(R1=R1, R2=R2, C=C_, V=V, v_hi=v_hi, v_lo=v_lo))
+
+
+def rc_relay_exact(t_end, R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
+    """(v_C(t_end), event times) of :func:`rc_relay` from v_C = 0, in closed form."""
+    import math
+
+    t, v, charging, events = 0.0, 0.0, True, []
+    while True:
+        if charging:
+            duration = R1 * C_ * math.log((V - v) / (V - v_hi))
+        else:
+            duration = R2 * C_ * math.log(v / v_lo)
+        if t + duration > t_end:
+            s = t_end - t
+            if charging:
+                return V + (v - V) * math.exp(-s / (R1 * C_)), events
+            return v * math.exp(-s / (R2 * C_)), events
+        t += duration
+        v = v_hi if charging else v_lo
+        charging = not charging
+        events.append(t)

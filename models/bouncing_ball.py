@@ -1,0 +1,80 @@
+"""A ball bouncing on a floor, with Newton's restitution and a resting rule.
+
+Bond graph (power directions by arrows)::
+
+    Se: −m·g ──► 1_v ──► I: m          (p = m v, y = ∫ v dt)
+                  │
+                  ▼
+               0_floor (controlled) ──► Sf: 0     (the floor does not move)
+
+The controlled 0-junction ``floor`` is off in flight (no force) and on in
+contact (the ball's velocity equals the floor's, 0).
+
+Automaton ``contact`` (states: ``flight``, ``impact`` with restitution ``e``,
+``rest``):
+
+* ``flight → rest``   when ``y <= 0 and v < 0 and -v <= v_rest`` (a priori:
+  an impact too slow to bounce, time-scale abstraction of a soft landing);
+* ``flight → impact`` when ``y <= 0 and v < 0`` (a priori: the collision is
+  seen on the velocity before it);
+* ``impact → flight`` when ``v >= 0`` (a priori, on the state after the
+  jump ``v⁺ = −e·v``: the impact is a pinnacle).
+
+``rest`` keeps the floor on: the ball lies still.  ``v_rest = 0`` removes the
+rule, and the bounces then accumulate (Zeno) at
+``t∞ = t₁ (1 + e)/(1 − e)``, ``t₁ = sqrt(2 y0/g)`` (4.0637 s for the defaults).
+
+Sign conventions: ``y`` [m] up from the floor, ``v`` [m/s] up.
+Signals: ``y``, ``v``.
+"""
+
+from __future__ import annotations
+
+from bondgraph import BondGraph, I, One, Se, Sf, Zero
+from switching import Automaton, HybridModel
+
+__all__ = ["build", "DEFAULTS"]
+
+DEFAULTS = {"m": 1.0, "g": 9.81, "e": 0.8, "y0": 1.0, "v0": 0.0, "v_rest": 0.0}
+
+
+def build(**parameters) -> HybridModel:
+    """The bouncing ball with ``DEFAULTS`` overridden by ``parameters``."""
+    unknown = set(parameters) - set(DEFAULTS)
+    if unknown:
+        from bondgraph.errors import UnknownParameterError
+
+        raise UnknownParameterError(unknown, DEFAULTS)
+    p = {**DEFAULTS, **parameters}
+    g = BondGraph("bouncing_ball")
+    v = g.add(One("v"))
+    g.connect(Se("gravity", -g_symbol("m") * g_symbol("g")), v)
+    g.connect(v, I("ball", "m", state="p"))
+    g.displacement("y", of=v)
+    floor = g.add(Zero("floor", controlled=True))
+    g.connect(v, floor)
+    g.connect(floor, Sf("ground", 0))
+    contact = Automaton(
+        "contact",
+        {"flight": {"floor": False}, "impact": {"floor": True}, "rest": {"floor": True}},
+        initial="flight",
+        restitution={"impact": "e"},
+    )
+    contact.add_transition("flight", "rest", "y <= 0 and v < 0 and -v <= v_rest", "a priori")
+    contact.add_transition("flight", "impact", "y <= 0 and v < 0", "a priori")
+    contact.add_transition("impact", "flight", "v >= 0", "a priori")
+    model_parameters = {k: p[k] for k in ("m", "g", "e", "v_rest")}
+    return HybridModel(
+        g,
+        [contact],
+        model_parameters,
+        initial_state={"y": p["y0"], "p": p["m"] * p["v0"]},
+        signals={"v": "p/m"},
+        name="bouncing_ball",
+    )
+
+
+def g_symbol(name):
+    import sympy as sp
+
+    return sp.Symbol(name)

@@ -1,0 +1,161 @@
+"""Simulation results on hybrid time.
+
+A :class:`Trajectory` holds samples ``(t_k, x_k, mode_k)``; at every
+instant it holds two samples with the same time: the state just before (in
+the mode that was flowing) and just after (in the mode that flows next), so
+jumps are kept, not smeared.  ``events`` lists the
+:class:`~switching.resolution.Instant` records; ``event_index[k]`` is the
+sample index of the "after" sample of event ``k``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections import Counter
+
+import numpy as np
+import sympy as sp
+
+__all__ = ["Trajectory"]
+
+
+class Trajectory:
+    """Samples of a hybrid run.
+
+    Attributes
+    ----------
+    t : ndarray (N,)            sample times [s]
+    x : ndarray (N, n)          states, columns in ``state_names`` order
+    state_names : list[str]
+    modes : list[Mode]          the mode of each sample
+    events : list[Instant]      every instant resolved, in order
+    event_index : list[int]     the sample index just after each event
+    stopped : str | None        why the run ended early (``"zeno"``) or None
+    """
+
+    def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None):
+        self.model = model
+        self.t = np.asarray(t, dtype=float)
+        self.x = np.asarray(x, dtype=float).reshape(len(self.t), len(model.states))
+        self.state_names = [s.name for s in model.states]
+        self.modes = list(modes)
+        self.events = list(events)
+        self.event_index = list(event_index)
+        self.stopped = stopped
+        self.stats = dict(stats or {})
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def mode_labels(self) -> list[str]:
+        return [m.label for m in self.modes]
+
+    @property
+    def event_times(self) -> np.ndarray:
+        return np.array([e.t for e in self.events])
+
+    def state(self, name: str) -> np.ndarray:
+        """The column of one state."""
+        return self.x[:, self.state_names.index(self.model.state(name).name)]
+
+    def signal(self, name: str) -> np.ndarray:
+        """A named signal's finite part at every sample, evaluated in each sample's mode."""
+        if name in self.state_names:
+            return self.state(name)
+        out = np.empty(len(self.t))
+        model = self.model
+        for mode in set(self.modes):
+            mask = np.array([m == mode for m in self.modes])
+            form = model.mode_equations(mode).signal(name)
+            args = [list(model.states), model.time, list(model.parameter_symbols), list(model.input_symbols)]
+            fn = sp.lambdify(args, form.finite, "numpy")
+            times = self.t[mask]
+            inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
+            result = fn(self.x[mask].T, times, model.parameter_array, inputs)
+            out[mask] = np.broadcast_to(np.asarray(result, dtype=float), (int(mask.sum()),))
+        return out
+
+    # ---------------------------------------------------------------- summaries
+
+    def time_in_modes(self) -> dict:
+        """Total time spent flowing in each mode [s]."""
+        spent: Counter = Counter()
+        for k in range(len(self.t) - 1):
+            if self.modes[k] == self.modes[k + 1]:
+                spent[self.modes[k]] += self.t[k + 1] - self.t[k]
+        return dict(spent)
+
+    def summary(self) -> str:
+        """Modes visited, time in each, event count, mythical modes passed."""
+        lines = [
+            f"trajectory of {self.model.name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
+            f"{len(self.t)} samples, {len(self.events)} instants"
+            + (f", stopped early ({self.stopped})" if self.stopped else "")
+        ]
+        spent = self.time_in_modes()
+        kinds: dict = {}
+        for instant in self.events:
+            for step in instant.steps:
+                kinds.setdefault(step.mode, Counter())[step.kind] += 1
+        lines.append("  mode                              time [s]  passed as")
+        for mode in dict.fromkeys(self.modes + [s.mode for e in self.events for s in e.steps]):
+            passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
+            lines.append(f"  {mode.describe():<32} {spent.get(mode, 0.0):>9.4g}  {passed}")
+        mythical = sum(len(e.mythical) for e in self.events)
+        pinnacles = sum(len(e.pinnacles) for e in self.events)
+        lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
+        for key, value in self.stats.items():
+            lines.append(f"  {key}: {value}")
+        return "\n".join(lines)
+
+    __str__ = summary
+
+    # ---------------------------------------------------------------- export
+
+    def _table(self, signals=()):
+        columns = {"t": self.t}
+        for k, name in enumerate(self.state_names):
+            columns[name] = self.x[:, k]
+        for name in signals:
+            columns[name] = self.signal(name)
+        return columns
+
+    def to_csv(self, path=None, signals=()) -> str | None:
+        """Write ``t``, every state, the mode label and the requested signals as CSV."""
+        columns = self._table(signals)
+        buffer = io.StringIO()
+        writer = csv.writer(buffer)
+        writer.writerow(list(columns) + ["mode"])
+        for k in range(len(self.t)):
+            writer.writerow([repr(float(col[k])) for col in columns.values()] + [self.modes[k].label])
+        text = buffer.getvalue()
+        if path is None:
+            return text
+        with open(path, "w", newline="") as handle:
+            handle.write(text)
+        return None
+
+    def to_npz(self, path, signals=()) -> None:
+        """Save arrays ``t``, ``x``, ``state_names``, ``modes`` (labels), ``event_times`` and signals."""
+        extra = {f"signal:{name}": self.signal(name) for name in signals}
+        np.savez(
+            path,
+            t=self.t,
+            x=self.x,
+            state_names=np.array(self.state_names),
+            modes=np.array(self.mode_labels),
+            event_times=self.event_times,
+            **extra,
+        )
+
+    def to_dataframe(self, signals=()):
+        """A pandas DataFrame (pandas is optional: ``pip install pandas``)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError("to_dataframe() needs pandas: pip install pandas") from exc
+        frame = pd.DataFrame(self._table(signals))
+        frame["mode"] = self.mode_labels
+        return frame
