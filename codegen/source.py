@@ -140,10 +140,21 @@ def function_source(spec: FunctionSpec) -> str:
     return "\n".join(lines) + "\n"
 
 
-def module_namespace() -> dict:
-    """The globals generated code runs in: ``math`` functions, builtins, ``H``."""
+def module_namespace(vectorized: bool = False) -> dict:
+    """The globals generated code runs in: ``math`` functions (or their numpy
+    versions, so that whole arrays of samples pass at once), builtins, ``H``."""
     from .runtime import H
 
     namespace = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
     namespace.update({"H": H, "abs": abs, "max": max, "min": min, "inf": math.inf})
+    if vectorized:
+        import numpy as np
+
+        for name in list(namespace):
+            if name in ("H", "inf", "pi", "e", "tau", "nan"):
+                continue
+            if hasattr(np, name) and callable(getattr(np, name)):
+                namespace[name] = getattr(np, name)
+        namespace.update({"abs": np.abs, "max": np.maximum, "min": np.minimum, "atan2": np.arctan2,
+                          "copysign": np.copysign})
     return namespace

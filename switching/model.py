@@ -413,6 +413,47 @@ class HybridModel:
             self._compiled[mode] = CompiledMode(self, mode, source)
         return self._compiled[mode]
 
+    def signal_function(self, mode, names):
+        """Generated ``fn(x, t, p, u, out)`` giving the finite parts of the
+        named signals in one mode; ``x`` may be an ``(n, N)`` array of N
+        samples (numpy functions are used)."""
+        from codegen.source import Argument, FunctionSpec, function_source, module_namespace
+
+        mode = self.mode(mode)
+        names = tuple(names)
+        key = fingerprint(self.fingerprint, "signals", mode.label, *names)
+        source = self.cache.load(key)
+        if source is None:
+            me = self.mode_equations(mode)
+            spec = FunctionSpec(
+                "signals",
+                (
+                    Argument("x", tuple(self.states), doc="state vector"),
+                    Argument("t", (self.time,), scalar=True, doc="time [s]"),
+                    Argument("p", tuple(self.parameter_symbols), doc="parameters"),
+                    Argument("u", tuple(self.input_symbols), doc="inputs"),
+                ),
+                tuple(me.signal(name).finite for name in names),
+                f"Signals {', '.join(names)} in mode {mode.describe()} (finite parts).",
+                names,
+            )
+            source = function_source(spec)
+            self.cache.store(key, source)
+        namespace = module_namespace(vectorized=True)
+        exec(compile(source, f"<hbg signals {mode.label}>", "exec"), namespace)  # our own generated code
+        return namespace["signals"]
+
+    def export_module(self, path, modes="visited") -> list:
+        """Write the generated functions of several modes to one standalone
+        Python module that needs neither sympy nor this toolkit.
+
+        ``modes``: ``"visited"`` (those compiled so far), ``"reachable"``
+        (explored from the initial mode by :meth:`verify`), or a list.
+        Returns the mode labels written."""
+        from .export import export_module
+
+        return export_module(self, path, modes)
+
     def mode_source(self, mode) -> str:
         """The generated Python source of one mode's functions."""
         return self.compiled_mode(mode).source

@@ -15,7 +15,6 @@ import io
 from collections import Counter
 
 import numpy as np
-import sympy as sp
 
 __all__ = ["Trajectory"]
 
@@ -61,20 +60,21 @@ class Trajectory:
         return self.x[:, self.state_names.index(self.model.state(name).name)]
 
     def signal(self, name: str) -> np.ndarray:
-        """A named signal's finite part at every sample, evaluated in each sample's mode."""
+        """A named signal's finite part at every sample, evaluated in each
+        sample's mode (generated code, one vectorized call per mode)."""
         if name in self.state_names:
             return self.state(name)
         out = np.empty(len(self.t))
         model = self.model
-        for mode in set(self.modes):
-            mask = np.array([m == mode for m in self.modes])
-            form = model.mode_equations(mode).signal(name)
-            args = [list(model.states), model.time, list(model.parameter_symbols), list(model.input_symbols)]
-            fn = sp.lambdify(args, form.finite, "numpy")
+        labels = np.array(self.mode_labels)
+        for mode in dict.fromkeys(self.modes):
+            mask = labels == mode.label
+            fn = model.signal_function(mode, [name])
             times = self.t[mask]
             inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
-            result = fn(self.x[mask].T, times, model.parameter_array, inputs)
-            out[mask] = np.broadcast_to(np.asarray(result, dtype=float), (int(mask.sum()),))
+            values = np.empty((1, int(mask.sum())))
+            fn(self.x[mask].T, times, model.parameter_array, inputs, values)
+            out[mask] = values[0]
         return out
 
     # ---------------------------------------------------------------- summaries
