@@ -72,6 +72,7 @@ class SourceCache:
         self.hits["built"] += 1
         if self.directory is None:
             return
+        tmp = None
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             header = _HEADER.format(key=key, digest=hashlib.sha256(source.encode()).hexdigest())
@@ -79,8 +80,12 @@ class SourceCache:
             with os.fdopen(fd, "w") as handle:
                 handle.write(header + source)
             os.replace(tmp, self._path(key))
+            tmp = None
         except OSError:
             pass  # a read-only or full cache directory only costs speed
+        finally:
+            if tmp is not None and os.path.exists(tmp):
+                os.unlink(tmp)
 
 
 def default_cache() -> SourceCache:

@@ -30,25 +30,27 @@ Signals: ``y``, ``v``.
 
 from __future__ import annotations
 
+import sympy as sp
+
 from bondgraph import BondGraph, I, One, Se, Sf, Zero
 from switching import Automaton, HybridModel
 
-__all__ = ["build", "DEFAULTS"]
+from ._common import merged
+
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
 
 DEFAULTS = {"m": 1.0, "g": 9.81, "e": 0.8, "y0": 1.0, "v0": 0.0, "v_rest": 0.0}
+#: a meaningful default run (used by ``hbg run``)
+RUN = {"t_end": 2.5, "method": "RK45", "rtol": 1e-8}
+SIGNALS = ("y", "v")
 
 
 def build(**parameters) -> HybridModel:
     """The bouncing ball with ``DEFAULTS`` overridden by ``parameters``."""
-    unknown = set(parameters) - set(DEFAULTS)
-    if unknown:
-        from bondgraph.errors import UnknownParameterError
-
-        raise UnknownParameterError(unknown, DEFAULTS)
-    p = {**DEFAULTS, **parameters}
+    p = merged(DEFAULTS, parameters)
     g = BondGraph("bouncing_ball")
     v = g.add(One("v"))
-    g.connect(Se("gravity", -g_symbol("m") * g_symbol("g")), v)
+    g.connect(Se("gravity", -sp.Symbol("m") * sp.Symbol("g")), v)
     g.connect(v, I("ball", "m", state="p"))
     g.displacement("y", of=v)
     floor = g.add(Zero("floor", controlled=True))
@@ -72,9 +74,3 @@ def build(**parameters) -> HybridModel:
         signals={"v": "p/m"},
         name="bouncing_ball",
     )
-
-
-def g_symbol(name):
-    import sympy as sp
-
-    return sp.Symbol(name)

@@ -227,3 +227,14 @@ def test_trajectory_exports(tmp_path):
     assert list(data["state_names"]) == ["p", "y"] and data["signal:v"].shape == trajectory.t.shape
     summary = trajectory.summary()
     assert "contact=impact" in summary and "pinnacle ×1" in summary and "1 instants" in summary
+
+
+def test_divergence_during_a_run_keeps_the_partial_trajectory():
+    from switching import DivergenceOfTimeError
+
+    model = diode_circuit(I_th=20.0, p0=0.0, t_open=0.5)
+    with pytest.raises(DivergenceOfTimeError) as info:
+        model.simulate(1.0, "RK45")
+    partial = info.value.trajectory
+    assert partial is not None and partial.t[-1] == pytest.approx(0.5)
+    assert partial.state("p_L")[-1] > 0.5  # the charging phase is all there
