@@ -16,11 +16,22 @@ def merged(defaults: Mapping, overrides: Mapping) -> dict:
         raise UnknownParameterError(unknown, defaults)
     values = dict(defaults)
     for name, value in overrides.items():
-        if isinstance(defaults[name], bool) or isinstance(defaults[name], int) and not isinstance(value, float):
-            values[name] = value
-            continue
+        default = defaults[name]
         try:
-            values[name] = float(value)
+            if isinstance(default, bool):
+                if isinstance(value, str):
+                    if value.lower() not in ("true", "false", "1", "0", "yes", "no"):
+                        raise ValueError
+                    value = value.lower() in ("true", "1", "yes")
+                values[name] = bool(value)
+            elif isinstance(default, int):
+                number = float(value)
+                if number != int(number):
+                    raise ValueError
+                values[name] = int(number)
+            else:
+                values[name] = float(value)
         except (TypeError, ValueError):
-            raise InvalidGraphError(f"parameter {name!r} must be a number, got {value!r}") from None
+            kind = "true/false" if isinstance(default, bool) else "an integer" if isinstance(default, int) else "a number"
+            raise InvalidGraphError(f"parameter {name!r} must be {kind}, got {value!r}") from None
     return values
