@@ -25,7 +25,7 @@ Shapes: ``x`` has ``n = len(states)`` entries in every configuration;
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -67,6 +67,25 @@ class ConfigurationEquations:
     _dependent_rates: dict = field(repr=False, compare=False, default_factory=dict)
 
     # ---------------------------------------------------------------- access
+
+    def substituted(self, values: dict) -> "ConfigurationEquations":
+        """A copy with symbols replaced by ``values`` (e.g. mode-dependent
+        constants set by an automaton state)."""
+        if not values:
+            return self
+
+        def sub(table):
+            return {k: sp.sympify(v).xreplace(values) for k, v in table.items()}
+
+        return replace(
+            self,
+            constraints=sub(self.constraints),
+            implicit_rates=sub(self.implicit_rates),
+            rates=sub(self.rates),
+            efforts=sub(self.efforts),
+            flows=sub(self.flows),
+            _dependent_rates=sub(self._dependent_rates),
+        )
 
     @property
     def dependent_rate_symbols(self) -> tuple:

@@ -28,7 +28,7 @@ balance ``x_i⁺ − x_i + Aᵀ(φ(x_i⁺) − x_d) = 0`` is solved numerically
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import sympy as sp
@@ -70,6 +70,25 @@ class JumpMap:
         if self.expressions is None:
             return None
         return sp.Matrix([self.expressions[x] for x in self.states])
+
+    def substituted(self, values: dict) -> "JumpMap":
+        """A copy with symbols replaced by ``values`` (mode-dependent constants)."""
+        if not values:
+            return self
+        expressions = None
+        if self.expressions is not None:
+            expressions = {k: sp.sympify(v).xreplace(values) for k, v in self.expressions.items()}
+        numeric = self._numeric
+        fixed = {k: float(v) for k, v in values.items() if not sp.sympify(v).free_symbols}
+        symbolic = {k: sp.sympify(v) for k, v in values.items() if sp.sympify(v).free_symbols}
+
+        def apply(x, t, parameters):
+            merged = dict(parameters)
+            merged.update(fixed)
+            merged.update({k: float(v.xreplace(parameters)) for k, v in symbolic.items()})
+            return numeric(x, t, merged)
+
+        return replace(self, expressions=expressions, _numeric=apply)
 
     def apply(self, x, t: float, parameters) -> np.ndarray:
         """Numerical ``g(x)`` for state array ``x`` (shape ``(n,)``), time ``t``

@@ -19,6 +19,7 @@ from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper
 from .model import HybridModel as HybridModel
+from .model import InMode as InMode
 from .model import InitialStateProjected as InitialStateProjected
 from .model import Tolerance as Tolerance
 from .modes import Mode as Mode

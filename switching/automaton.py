@@ -87,6 +87,11 @@ class Automaton:
         expression): entering a mode that has this state, the jump is
         ``x⁺ = x + (1 + e)(g(x) − x)`` (Newton's rule; ``e = 0`` is the plastic
         conservation-of-state jump).
+    values : mapping, optional
+        state name → {symbol name → value}: mode-dependent constants used in
+        the bond graph (e.g. the direction ``sigma`` of a Coulomb friction
+        source ``−sigma·mu·N``: +1 sliding forward, −1 backward, 0 stuck).
+        Every state must set the same names.
     """
 
     def __init__(
@@ -95,6 +100,7 @@ class Automaton:
         states: Mapping[str, Mapping[str, bool]],
         initial: str,
         restitution: Mapping[str, object] | None = None,
+        values: Mapping[str, Mapping[str, object]] | None = None,
     ):
         self.name = check_name(name, "automaton name")
         if not states:
@@ -123,6 +129,21 @@ class Automaton:
         for state, e in dict(restitution or {}).items():
             self._check_state(state, "restitution")
             self.restitution[state] = as_expr(e, f"restitution of {name}={state}")
+        self.values: dict[str, dict[str, sp.Expr]] = {}
+        names = None
+        for state, table in dict(values or {}).items():
+            self._check_state(state, "values")
+            table = {check_name(k, "value name"): as_expr(v, f"value of {k} in {name}={state}") for k, v in table.items()}
+            if names is not None and set(table) != names:
+                raise ModelDefinitionError(
+                    f"automaton {name!r}: state {state!r} sets values {sorted(table)}, others set {sorted(names)}",
+                    [name],
+                )
+            names = set(table)
+            self.values[state] = table
+        if self.values and set(self.values) != set(self.states):
+            missing = sorted(set(self.states) - set(self.values))
+            raise ModelDefinitionError(f"automaton {name!r}: states {missing} set no values; every state must", [name])
         self.transitions: list[Transition] = []
 
     def _check_state(self, state: str, what: str) -> None:

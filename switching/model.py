@@ -39,7 +39,27 @@ from .compiled import CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 
-__all__ = ["HybridModel", "InitialStateProjected", "Tolerance"]
+__all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
+
+
+@dataclass(frozen=True)
+class InMode:
+    """A signal as it would be in another mode: ``expression`` evaluated with
+    the equations of the current mode with some automata put in other states
+    (``states``: automaton → state), at the state that mode's jump map would
+    give, finite part only — the paper's ``F^{α01}`` computed from
+    ``h(g^{α01}(x))`` (section 5.6), e.g. the friction force a sliding rod
+    would need to stay stuck::
+
+        signals={"F_stick": InMode("-e_tip_x", friction="stuck")}
+    """
+
+    expression: object
+    states: dict
+
+    def __init__(self, expression, **states):
+        object.__setattr__(self, "expression", expression)
+        object.__setattr__(self, "states", dict(states))
 
 
 @dataclass(frozen=True)
@@ -113,6 +133,7 @@ class HybridModel:
         self.state_index = {s: k for k, s in enumerate(self.states)}
         self.rate_symbols = {s: sp.Symbol(f"d{s.name}/dt") for s in self.states}
         self._names = self._base_names()
+        self._cross: dict = {}
         self._signals = self._parse_signals(signals or {})
         self._guards = self._parse_guards()
         self._inputs = self._check_inputs(inputs or {})
@@ -184,6 +205,13 @@ class HybridModel:
                 raise ModelDefinitionError(
                     f"signal {name!r} has the name of a state, bond variable, parameter or input; rename it", [name]
                 )
+            if isinstance(expr, InMode):
+                inner = expr.expression
+                names = {**self._names, **parsed}
+                value = parse_expression(inner, names) if isinstance(inner, str) else sp.sympify(inner)
+                self._cross[name] = (value, dict(expr.states))
+                parsed[name] = sp.Symbol(name)
+                continue
             if isinstance(expr, str):
                 value = parse_expression(expr, {**self._names, **parsed})
             elif isinstance(expr, sp.Basic) and not isinstance(expr, (Relational, BooleanFunction, BooleanAtom)):
@@ -230,6 +258,16 @@ class HybridModel:
             for e in automaton.restitution.values():
                 used |= e.free_symbols
         reserved = {TIME} | set(self.states) | set(self.rate_symbols.values()) | set(self.graph.inputs.values())
+        reserved |= {sp.Symbol(name) for name in self._cross}
+        for automaton in self.automata:
+            for table in automaton.values.values():
+                reserved |= {sp.Symbol(k) for k in table}
+                for value in table.values():
+                    used |= value.free_symbols
+        for value, overrides in self._cross.values():
+            used |= value.free_symbols
+            for automaton, state in overrides.items():
+                self.mode({automaton: state})  # unknown automata or states fail here, at construction
         reserved |= self.graph.bond_symbols()
         return tuple(sorted(used - reserved, key=lambda s: s.name))
 
@@ -329,11 +367,34 @@ class HybridModel:
                 )
         return Mode(states, names)
 
+    def cross_signal(self, mode: Mode, name: str, current=None) -> sp.Expr:
+        """The :class:`InMode` signal ``name`` seen from ``mode``: an expression
+        of ``x`` (``current``: the ModeEquations of ``mode`` while it is being built)."""
+        expression, overrides = self._cross[name]
+        target = self.mode({**dict(zip(mode.automata, mode.states)), **overrides})
+        me = current if (target == mode and current is not None) else self.mode_equations(target)
+        g = me.jump.expressions
+        if g is None:
+            raise ModelDefinitionError(
+                f"signal {name!r} is taken in mode {target.describe()}, whose jump map is numerical "
+                "(nonlinear storage); such cross-mode signals need a symbolic jump map",
+                [name],
+            )
+        return me.finite(me.to_raw(expression)).xreplace(g)
+
     def configuration_of(self, mode: Mode) -> dict:
         config = {}
         for automaton, state in zip(self.automata, mode.states):
             config.update(automaton.states[state])
         return config
+
+    def mode_values(self, mode: Mode) -> dict:
+        """Mode-dependent constants set by the automaton states of ``mode`` (symbol → value)."""
+        values = {}
+        for automaton, state in zip(self.automata, mode.states):
+            for name, value in automaton.values.get(state, {}).items():
+                values[sp.Symbol(name)] = value
+        return values
 
     def restitution_of(self, mode: Mode):
         """The restitution coefficient of the mode (``None`` if no state carries one)."""
@@ -393,10 +454,12 @@ class HybridModel:
             parts += [" ".join(self.graph.inputs), " ".join(s.name for s in self.parameter_symbols)]
             for automaton in self.automata:
                 parts.append(f"{automaton.name} {automaton.states!r} {automaton.initial}")
+                parts += [f"{k} {sorted((n, sp.srepr(v)) for n, v in t.items())}" for k, t in automaton.values.items()]
                 parts += [f"{k} {sp.srepr(v)}" for k, v in automaton.restitution.items()]
             for (name, tr), (condition, _) in self._guards.items():
                 parts.append(f"{name} {tr.source} {tr.target} {tr.when} {sp.srepr(condition)}")
             parts += [f"{k} {sp.srepr(v)}" for k, v in self._signals.items()]
+            parts += [f"{k} {sp.srepr(v)} {o!r}" for k, (v, o) in self._cross.items()]
             self._fingerprint = fingerprint(*parts)
         return self._fingerprint
 

@@ -91,8 +91,9 @@ class ModeEquations:
         self.mode = mode
         self.configuration = model.configuration_of(mode)
         graph = model.graph
-        self.equations = graph.equations(self.configuration)
-        self.jump = graph.jump_map(self.configuration)
+        self.values = model.mode_values(mode)
+        self.equations = graph.equations(self.configuration).substituted(self.values)
+        self.jump = graph.jump_map(self.configuration).substituted(self.values)
         self.restitution = model.restitution_of(mode)
         self.states = self.equations.states
         self._bond_values = self._raw_bond_values(graph)
@@ -125,7 +126,12 @@ class ModeEquations:
         return values
 
     def to_raw(self, expr: sp.Basic) -> sp.Basic:
-        """Replace bond variables in ``expr`` by this mode's raw expressions."""
+        """Replace bond variables in ``expr`` by this mode's raw expressions
+        (and signals taken in another mode by their expressions of ``x``)."""
+        cross = {s: self.model.cross_signal(self.mode, s.name, self) for s in expr.free_symbols
+                 if s.name in self.model._cross and isinstance(s, sp.Symbol)}
+        if cross:
+            expr = expr.xreplace(cross)
         subs = {s: self._bond_values[s] for s in expr.free_symbols if s in self._bond_values}
         return expr.xreplace(subs) if subs else expr
 

@@ -1,0 +1,184 @@
+"""A thin rod falling onto a floor with Coulomb friction (the paper's Figs. 7–9, 19–20).
+
+The rod (mass ``m``, inertia ``J`` about its centre) is
+:func:`models.components.rigid_planar_body`; its tip ``A`` is at distance
+``l`` from the centre, at ``r_A = r − l (cos θ, sin θ)`` (the paper's
+convention with ``l → −l``: its ``l = −0.1`` is our ``l = 0.1``).
+
+Bond graph (the rod's ports ``tip_x``, ``tip_y`` carry the tip velocity)::
+
+    rod.tip_y ──► 0_cy (controlled: contact) ──► Sf: 0            bond "normal"
+
+    rod.tip_x ──► 1_A ──► 0_cx (controlled: contact) ──► 0_stick (controlled: friction) ──► Sf: 0
+          bond     └────► Se: σ·μ·N      (Coulomb friction, σ set by the friction state)
+       "tangent"
+
+An off controlled 0-junction carries no force.  In contact the floor holds
+the tip's vertical velocity at zero; stuck, ``0_cx`` and ``0_stick`` hold its
+horizontal velocity too; sliding, a Coulomb force ``−σ μ N`` opposes the
+tip's motion, with the mode-dependent constant ``σ`` = +1 (sliding towards
++x), −1 (towards −x), 0 (stuck).  ``N`` is the normal force, itself a bond
+variable: the friction source is modulated by it (an algebraic loop, solved
+symbolically); in the air ``N = 0`` and so is the friction.
+
+Forces on the rod: ``normal_force N = −e_normal`` (up), ``friction_force
+F = −e_tangent`` (along +x).
+
+Automata and guards:
+
+``contact``
+    free → contact   ``tip_y <= 0 and tip_vy < 0``  a priori — a collision
+                     (time-scale abstraction), judged on the velocity before it;
+                     ``tip_vy < 0`` keeps a separating rod from re-colliding
+                     (the paper's section 4.2 fix);
+    contact → free   ``normal_force <= 0``          a posteriori — the floor
+                     can only push (parameter abstraction of a stiff floor).
+``friction``
+    stuck → slide_pos / slide_neg   ``F < −μN`` / ``F > μN``   a posteriori —
+                     Coulomb's law judged on the forces the stuck state would
+                     need, impulses included (Lemma 5.3: pulses dominate);
+    slide_± → stuck  ``|tip_vx| <= v_th and |F_stick| <= μ N_stick``  a priori
+                     — the velocity threshold ``v_th`` of the paper, plus its
+                     section 5.6 fix: stick only if the forces of the stuck
+                     mode, computed from ``h(g_stuck(x))`` (``InMode`` signals
+                     ``F_stick``, ``N_stick``), allow it; otherwise a
+                     slide → stuck → slide loop would stop time;
+    slide_± → slide_∓  the tip velocity changes sign (a priori);
+    slide_± → stuck  ``tip_y > y_lift`` a priori: in the air the friction
+                     automaton returns to its initial state.
+
+Impacts are plastic (no restitution).  During an impact the friction force
+of a sliding tip stays finite, as in the paper (its tiny μ values): the
+impact carries no tangential impulse — this is the model's default and only
+friction-impact law here; the Newton–Coulomb law (a tangential impulse
+``−μσP_n``) is not offered yet.
+
+The paper does not print ``m`` and ``J``; ``m = 1 kg``, ``J = 1 kg·m²``
+reproduce its Figs. 19–20: at impact the stuck mode needs a tangential
+impulse ``|P_x| = 0.0049 P_n``, so ``μ = 0.005`` sticks and smaller ``μ``
+slide.  ``mu`` sweep (defaults θ0 = 0.862, y0 = 0.23, l = 0.1, v_th = 0.0015): small
+μ (0.002, 0.004) slide right after impact — the stuck mode is passed as
+*mythical*; large μ (0.005) sticks.  A long rod (``l = 10``, ``y0 = 23``)
+slides for a point in time and lifts off (Fig. 20).
+
+Units: kg, m, s, rad, N.  Signals: ``theta``, ``omega``, ``vx``, ``vy``,
+``x_cm``, ``y_cm``, ``tip_x``, ``tip_y``, ``tip_vx``, ``tip_vy``,
+``normal_force``, ``friction_force`` (and ``F_stick``, ``N_stick``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy as sp
+
+from bondgraph import BondGraph, One, Se, Sf, Zero
+from switching import Automaton, HybridModel, InMode
+
+from ._common import merged
+from .components import rigid_planar_body
+
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+
+DEFAULTS = {
+    "m": 1.0,
+    "l": 0.1,
+    "J": 1.0,
+    "g": 9.81,
+    "mu": 0.005,
+    "v_th": 0.0015,
+    "theta0": 0.862,
+    "y0": 0.23,
+    "x0": 0.0,
+    "y_lift": 1e-9,
+}
+RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
+SIGNALS = (
+    "theta",
+    "omega",
+    "vx",
+    "vy",
+    "x_cm",
+    "y_cm",
+    "tip_x",
+    "tip_y",
+    "tip_vx",
+    "tip_vy",
+    "normal_force",
+    "friction_force",
+)
+
+
+def build(**parameters) -> HybridModel:
+    """The falling rod with ``DEFAULTS`` overridden by ``parameters``.
+
+    ``y0`` is the height of the centre, ``theta0`` the initial angle; the rod
+    starts at rest."""
+    p = merged(DEFAULTS, parameters)
+    mu = sp.Symbol("mu")
+
+    scene = BondGraph("falling_rod")
+    rod = scene.add_submodel(rigid_planar_body(), "rod", share=["m", "J", "l", "g"])
+    cy = scene.add(Zero("cy", controlled=True))
+    scene.connect(rod.port("tip_y"), cy, name="normal")
+    scene.connect(cy, Sf("floor_y", 0))
+    normal = -scene.effort("normal")
+
+    hub = scene.add(One("A"))
+    scene.connect(rod.port("tip_x"), hub, name="tangent")
+    cx, stick = scene.add(Zero("cx", controlled=True)), scene.add(Zero("stick", controlled=True))
+    scene.connect(hub, cx)
+    scene.connect(cx, stick)
+    scene.connect(stick, Sf("floor_x", 0))
+    scene.connect(hub, Se("coulomb", sp.Symbol("sigma") * mu * normal))
+
+    contact = Automaton(
+        "contact", {"free": {"cy": False, "cx": False}, "contact": {"cy": True, "cx": True}}, "free"
+    )
+    contact.add_transition("free", "contact", "tip_y <= 0 and tip_vy < 0", "a priori")
+    contact.add_transition("contact", "free", "normal_force <= 0", "a posteriori")
+
+    friction = Automaton(
+        "friction",
+        {"stuck": {"stick": True}, "slide_pos": {"stick": False}, "slide_neg": {"stick": False}},
+        "stuck",
+        values={"stuck": {"sigma": 0}, "slide_pos": {"sigma": 1}, "slide_neg": {"sigma": -1}},
+    )
+    friction.add_transition("stuck", "slide_pos", "friction_force < -mu*normal_force", "a posteriori")
+    friction.add_transition("stuck", "slide_neg", "friction_force > mu*normal_force", "a posteriori")
+    for state, sign in (("slide_pos", 1), ("slide_neg", -1)):
+        friction.add_transition(state, "stuck", "tip_y > y_lift", "a priori")
+        near = "tip_vx <= v_th" if sign > 0 else "tip_vx >= -v_th"
+        friction.add_transition(state, "stuck", f"{near} and abs(F_stick) <= mu*N_stick", "a priori")
+        other = "slide_neg" if sign > 0 else "slide_pos"
+        friction.add_transition(state, other, "tip_vx < 0" if sign > 0 else "tip_vx > 0", "a priori")
+
+    signals = {
+        "theta": "rod/theta",
+        "omega": "rod/p_J/J",
+        "vx": "rod/p_x/m",
+        "vy": "rod/p_y/m",
+        "x_cm": "rod/x",
+        "y_cm": "rod/y",
+        "tip_x": "rod/x - l*cos(rod/theta)",
+        "tip_y": "rod/y - l*sin(rod/theta)",
+        "tip_vx": "vx + l*sin(rod/theta)*omega",
+        "tip_vy": "vy - l*cos(rod/theta)*omega",
+        "normal_force": "-e_normal",
+        "friction_force": "-e_tangent",
+        "F_stick": InMode("-e_tangent", friction="stuck"),
+        "N_stick": InMode("-e_normal", friction="stuck"),
+    }
+    return HybridModel(
+        scene,
+        [contact, friction],
+        {k: p[k] for k in ("m", "J", "l", "g", "mu", "v_th", "y_lift")},
+        initial_state={"rod/theta": p["theta0"], "rod/y": p["y0"], "rod/x": p["x0"]},
+        signals=signals,
+        name="falling_rod",
+    )
+
+
+def impact_time(y0: float, theta0: float, l: float, g: float = 9.81) -> float:
+    """When the tip of a rod released at rest reaches the floor: ``sqrt(2 (y0 − l sin θ0)/g)``."""
+    return math.sqrt(2 * (y0 - l * math.sin(theta0)) / g)
