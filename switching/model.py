@@ -567,6 +567,7 @@ class HybridModel:
         ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``).  Output:
         every step (default), ``output="events"`` (instants only) or
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
+        ``progress``: a callable receiving the time after every step.
         See :func:`switching.simulator.simulate`.
         """
         from .simulator import simulate

@@ -148,6 +148,7 @@ def simulate(
     zeno_window: int = 8,
     zeno_min_gap: float | None = None,
     max_events: int = 1_000_000,
+    progress=None,
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
     _check_options(method, dt, rtol, atol)
@@ -227,6 +228,8 @@ def simulate(
                     "or a state may be running into a singularity.",
                 ) from None
             n_steps += 1
+            if progress is not None:
+                progress(t_new)
             x_new = state_at(t_new, y_new)
             if not np.all(np.isfinite(x_new)):
                 bad = [model.states[k].name for k in np.flatnonzero(~np.isfinite(x_new))]
