@@ -74,3 +74,24 @@ def build(**parameters) -> HybridModel:
         signals={"v": "p/m"},
         name="bouncing_ball",
     )
+
+
+def error_estimate(trajectory) -> str:
+    """Largest error of the bounce times against the closed form (flight times
+    ``t1 = sqrt(2 y0/g)`` then ``2 e^k v1/g``, from rest at ``y0``)."""
+    import math
+
+    model = trajectory.model
+    values = {s.name: v for s, v in model.parameter_values.items()}
+    g, e = values["g"], values["e"]
+    y0 = float(trajectory.state("y")[0])
+    v0 = float(trajectory.state("p")[0]) / values["m"]
+    if v0 != 0 or not len(trajectory.events):
+        return "n/a (closed form for a release from rest)"
+    t1 = math.sqrt(2 * y0 / g)
+    exact, t, v = [], t1, g * t1
+    for k in range(len(trajectory.events)):
+        exact.append(t)
+        t += 2 * e ** (k + 1) * v / g
+    errors = [abs(a - b) for a, b in zip(trajectory.event_times, exact)]
+    return f"{max(errors):.2e} s on {len(errors)} bounce times (closed form)"

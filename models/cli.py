@@ -269,22 +269,26 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")
     p.add_argument("model")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--mode", help="one mode, by label (states joined by |)")
     p.add_argument("--latex", action="store_true")
     p.set_defaults(run=_cmd_modes)
 
     p = sub.add_parser("verify", help="static divergence-of-time check")
     p.add_argument("model")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--samples", type=int, default=10)
     p.set_defaults(run=_cmd_verify)
 
     p = sub.add_parser("codegen", help="export the generated per-mode functions")
     p.add_argument("model")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("-o", "--output", required=True, metavar="DIR")
     p.set_defaults(run=_cmd_codegen)
 
     p = sub.add_parser("draw", help="draw the bond graph with causal strokes")
     p.add_argument("model")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--mode")
     p.add_argument("-o", "--output", required=True, metavar="FILE.png")
     p.set_defaults(run=_cmd_draw)

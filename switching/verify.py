@@ -128,11 +128,13 @@ def _boundary_point(residual, rng, state_scale, time_scale):
     n = len(state_scale)
     start = np.concatenate([rng.normal(size=n) * state_scale, [rng.uniform(0, 2 * time_scale)]])
     direction = np.concatenate([rng.normal(size=n) * state_scale, [rng.normal() * time_scale]])
-    s_grid = np.linspace(-3.0, 3.0, 31)
-    try:
-        values = [residual(start + s * direction) for s in s_grid]
-    except (ZeroDivisionError, FloatingPointError, HybridBondGraphError, ValueError):
-        return None
+    s_grid = np.linspace(-10.0, 10.0, 201)
+    values = []
+    for s in s_grid:
+        try:
+            values.append(residual(start + s * direction))
+        except (ZeroDivisionError, FloatingPointError, HybridBondGraphError, ValueError, OverflowError):
+            values.append(np.nan)
     for k in range(len(s_grid) - 1):
         a, b = values[k], values[k + 1]
         if not (np.isfinite(a) and np.isfinite(b)):
