@@ -183,21 +183,25 @@ class CompiledMode:
         return self._rates(x, t, model.parameter_array, model.input_values(t), out)
 
     def jump(self, x: np.ndarray, t: float) -> np.ndarray:
-        """``x⁺ = g(x)`` (restitution included).  Changes within the jump
-        tolerance (``jump_rtol`` of the largest moved state, plus ``jump_atol``)
-        are round-off, not jumps: they are snapped back, so they carry no pulse."""
+        """``x⁺ = g(x)`` (restitution included), exactly as the jump map gives it."""
         x = np.asarray(x, dtype=float)
         if self.jump_kind == "identity":
             return x.copy()
         if self.jump_kind == "symbolic":
-            plus = self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
-        else:
-            plus = self.model.mode_equations(self.mode).numeric_jump(x, t)
+            return self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
+        return np.asarray(self.model.mode_equations(self.mode).numeric_jump(x, t), dtype=float)
+
+    def pulse(self, x: np.ndarray, x_plus: np.ndarray) -> np.ndarray:
+        """The jump ``x⁺ − x`` with round-off removed: components within
+        ``jump_rtol·(largest moved state) + jump_atol`` are no jump and carry
+        no Dirac pulse (the state itself still takes the exact ``x⁺``)."""
+        delta = np.asarray(x_plus, dtype=float) - x
+        if not len(self.moved):
+            return np.zeros_like(delta)
         tol = self.model.tolerance
-        scale = float(np.max(np.abs(np.concatenate([x[self.moved], plus[self.moved]])))) if len(self.moved) else 0.0
-        snap = np.abs(plus - x) <= tol.jump_rtol * scale + tol.jump_atol
-        plus[snap] = x[snap]
-        return plus
+        scale = float(np.max(np.abs(np.concatenate([x[self.moved], x_plus[self.moved]]))))
+        delta[np.abs(delta) <= tol.jump_rtol * scale + tol.jump_atol] = 0.0
+        return delta
 
     def sides(self, x, t) -> np.ndarray:
         model = self.model
@@ -207,7 +211,7 @@ class CompiledMode:
         """Comparison sides a posteriori: on ``x_plus`` with the pulses of ``x → x_plus``."""
         model = self.model
         finite = self.rates(x_plus, t)
-        delta = x_plus - x
+        delta = self.pulse(x, x_plus)
         xdot = [Hyper(delta[k], finite[k]) for k in range(self.n)]
         return self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
 

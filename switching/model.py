@@ -568,6 +568,10 @@ class HybridModel:
         every step (default), ``output="events"`` (instants only) or
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
+        ``event_samples`` (default 3): guards are also tested at this many
+        interior points of every step, so an interval in which a guard holds is
+        found when it is longer than about ``step/(event_samples + 1)``;
+        bound ``max_step`` for shorter ones.
         See :func:`switching.simulator.simulate`.
         """
         from .simulator import simulate

@@ -235,7 +235,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         x_plus = cm.jump(x, t)
         fired = evaluate_guards(model, cm, x, x_plus, t)
         if fired:
-            kind = "start" if n == 0 and np.array_equal(x_plus, x) else "mythical"
+            kind = "start" if n == 0 and not np.any(cm.pulse(x, x_plus)) else "mythical"
             steps.append(Step(current, kind, x, x, tuple(fired)))
             nxt = _next_mode(model, current, fired)
             if nxt in chain:

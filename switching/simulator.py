@@ -149,6 +149,7 @@ def simulate(
     zeno_min_gap: float | None = None,
     max_events: int = 1_000_000,
     progress=None,
+    event_samples: int = 3,
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
     _check_options(method, dt, rtol, atol)
@@ -238,8 +239,9 @@ def simulate(
                     f"state became non-finite ({', '.join(bad)}) at t ≈ {t_new:.12g} in mode {current.describe()}; "
                     "check parameters for divisions by zero, or use a smaller step / tighter tolerance.",
                 )
-            if cm.holds(x_new, t_new, rtol_g, atol_g):
-                t_ev = _locate(cm, stepper, state_at, t_prev, t_new, rtol_g, atol_g)
+            bracket = _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, rtol_g, atol_g, event_samples)
+            if bracket is not None:
+                t_ev = _locate(cm, stepper, state_at, *bracket, rtol_g, atol_g)
                 x_ev = state_at(t_ev, stepper.interpolate(t_ev))
                 recorder.dense(t_prev, np.nextafter(t_ev, -np.inf), lambda tau: state_at(tau, stepper.interpolate(tau)),
                                current)
@@ -283,6 +285,25 @@ def simulate(
     if output == "events" and (not recorder.t or recorder.t[-1] != t):
         recorder.sample(t, x, current, force=True)
     return recorder.trajectory(stopped=stopped, stats=stats)
+
+
+def _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, rtol, atol, samples):
+    """``(a, b)``: a guard does not hold at ``a`` and holds at ``b``, for the
+    first such pair among ``samples`` interior points of the step and its end
+    (so a guard that holds only inside the step is still found when that
+    interval is longer than a fraction of the step); ``None`` if none holds."""
+    if not cm.guards:
+        return None
+    a = t_prev
+    h = t_new - t_prev
+    for j in range(1, samples + 1):
+        tau = t_prev + h * j / (samples + 1)
+        if cm.holds(state_at(tau, stepper.interpolate(tau)), tau, rtol, atol):
+            return a, tau
+        a = tau
+    if cm.holds(x_new, t_new, rtol, atol):
+        return a, t_new
+    return None
 
 
 def _locate(cm, stepper, state_at, a, b, rtol, atol) -> float:
