@@ -96,7 +96,8 @@ NOTEBOOKS = {
         py("runs = {mu: falling_rod.build(mu=mu).simulate(0.5, 'RK45', rtol=1e-9, atol=1e-12) for mu in (0.002, 0.004, 0.005)}\n"
         "for mu, run in runs.items():\n    print(mu, [(s.mode.label, s.kind) for s in run.events[0].steps])\n"
         "fig, ax = plt.subplots(figsize=(6, 4))\n"
-        "for mu, run in runs.items():\n    phase_portrait(run, 'theta', 'tip_vx', ax=ax, label=f'mu = {mu}')"),
+        "for (mu, run), color in zip(runs.items(), ['tab:blue', 'tab:orange', 'tab:green']):\n"
+           "    phase_portrait(run, 'theta', 'tip_vx', ax=ax, label=f'mu = {mu}', color=color)"),
         md("Forces while in contact: the floor only pushes, friction stays within the cone."),
         py("plot_trajectory(runs[0.005], ['normal_force', 'friction_force', 'tip_vx']);"),
         md("## A long rod (Fig. 20)\n\nIt slides for a point in time, then lifts off."),

@@ -53,9 +53,10 @@ def _intervals(trajectory):
     return spans
 
 
-def plot_trajectory(trajectory, signals=None, axes=None, title=None):
+def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instants=60):
     """One axis per signal (default: every state), mode intervals shaded,
-    instants marked.  Returns the figure."""
+    instants marked (when there are at most ``max_instants`` of them).
+    Returns the figure."""
     plt = _plt()
     signals = list(signals or trajectory.state_names)
     if axes is None:
@@ -71,9 +72,10 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None):
         ax.plot(trajectory.t, values, color="black", lw=1.2)
         for t0, t1, mode in spans:
             ax.axvspan(t0, t1, color=colors[mode], alpha=0.18, lw=0)
-        for instant in trajectory.events:
-            style = "-" if instant.pinnacles else "--"
-            ax.axvline(instant.t, color="0.35", ls=style, lw=0.8)
+        if len(trajectory.events) <= max_instants:
+            for instant in trajectory.events:
+                style = "-" if instant.pinnacles else "--"
+                ax.axvline(instant.t, color="0.35", ls=style, lw=0.8)
         ax.set_ylabel(name)
         ax.grid(alpha=0.25)
     axes[-1].set_xlabel("t [s]")
@@ -89,8 +91,9 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None):
     return fig
 
 
-def phase_portrait(trajectory, x: str, y: str, ax=None, label=None):
-    """``y`` against ``x``, each mode in its colour, jumps dotted.  Returns the axis."""
+def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):
+    """``y`` against ``x``, each mode in its colour (or all in ``color``, to
+    compare runs on one axis), jumps dotted.  Returns the axis."""
     plt = _plt()
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 4))
@@ -99,13 +102,13 @@ def phase_portrait(trajectory, x: str, y: str, ax=None, label=None):
     colors = mode_colors([m for *_, m in spans])
     for t0, t1, mode in spans:
         mask = (trajectory.t >= t0) & (trajectory.t <= t1) & np.array([m == mode for m in trajectory.modes])
-        ax.plot(xs[mask], ys[mask], color=colors[mode], lw=1.4)
+        ax.plot(xs[mask], ys[mask], color=color or colors[mode], lw=1.4)
     for k in trajectory.event_index:
-        ax.plot(xs[k - 1 : k + 1], ys[k - 1 : k + 1], ":", color="0.3", lw=1)
+        ax.plot(xs[k - 1 : k + 1], ys[k - 1 : k + 1], ":", color=color or "0.3", lw=1)
     ax.set_xlabel(x)
     ax.set_ylabel(y)
     if label:
-        ax.plot([], [], color="black", label=label)
+        ax.plot([], [], color=color or "black", label=label)
         ax.legend(fontsize=8)
     ax.grid(alpha=0.25)
     return ax
