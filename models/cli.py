@@ -2,7 +2,7 @@
 
     hbg list                                  shipped models, descriptions, parameters
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
-                  [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
+                  [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...] [--samples N]
     hbg modes MODEL [--mode LABEL] [--latex]  f, g, h and guards of the visited modes (or one)
     hbg verify MODEL                          static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
@@ -142,6 +142,12 @@ def _cmd_run(args) -> int:
             b.flow.name for b in model.graph.bonds.values()
         }:
             raise _UsageError(f"unknown signal {s!r}; signals: {', '.join(model.signal_names)}")
+    if args.samples < 0:
+        raise _UsageError("--samples must be 0 (every step) or positive")
+    if args.samples:
+        import numpy as np
+
+        options["t_eval"] = np.linspace(0.0, t_end, args.samples)
     progress = _Progress(t_end)
     try:
         trajectory = model.simulate(t_end, method, progress=progress, **options)
@@ -265,6 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="FILE")
     p.add_argument("--npz", metavar="FILE")
     p.add_argument("--signals", help="comma-separated signals to plot/save")
+    p.add_argument("--samples", type=int, default=500,
+                   help="output at this many equally spaced times plus every instant (0: every step)")
     p.set_defaults(run=_cmd_run)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")

@@ -41,11 +41,12 @@ def mode_colors(modes) -> dict:
 
 
 def _intervals(trajectory):
-    """(t_start, t_end, mode) of each flow interval."""
+    """(t_start, t_end, mode) of each flow interval (a new one after every instant)."""
+    breaks = set(trajectory.event_index)
     spans = []
     start = 0
     for k in range(1, len(trajectory.t) + 1):
-        if k == len(trajectory.t) or trajectory.modes[k] != trajectory.modes[start]:
+        if k == len(trajectory.t) or k in breaks or trajectory.modes[k] != trajectory.modes[start]:
             t0, t1 = trajectory.t[start], trajectory.t[k - 1]
             if t1 > t0:
                 spans.append((t0, t1, trajectory.modes[start]))
