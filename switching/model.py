@@ -143,6 +143,7 @@ class HybridModel:
         self._initial_given = self._check_initial_state(initial_state or {})
         self._mode_cache: dict[Mode, ModeEquations] = {}
         self._compiled: dict = {}
+        self._jit: dict = {}
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0
@@ -516,6 +517,18 @@ class HybridModel:
         from .export import export_module
 
         return export_module(self, path, modes)
+
+    def jit_mode(self, mode):
+        """The numba-compiled flow kernels of a mode (module; see :mod:`codegen.jit`)."""
+        from codegen.jit import jit_module
+
+        mode = self.mode(mode)
+        if mode not in self._jit:
+            cm = self.compiled_mode(mode)
+            key = fingerprint(self.fingerprint, "jit", mode.label)
+            directory = self.cache.directory / "jit" if self.cache.directory else None
+            self._jit[mode] = jit_module(key, cm.source, [g["tree"] for g in cm.guards], cm.n_sides, directory)
+        return self._jit[mode]
 
     def mode_source(self, mode) -> str:
         """The generated Python source of one mode's functions."""

@@ -30,7 +30,8 @@ from .trajectory import Trajectory
 
 __all__ = ["simulate", "METHODS"]
 
-METHODS = FIXED_STEP + ADAPTIVE
+COMPILED = ("euler-jit", "rk4-jit", "RK45-jit")
+METHODS = FIXED_STEP + ADAPTIVE + COMPILED
 
 
 class _Recorder:
@@ -120,7 +121,7 @@ class _ZenoWatch:
 def _check_options(method, dt, rtol, atol):
     if method not in METHODS:
         raise SimulationError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}")
-    if method in FIXED_STEP:
+    if method in FIXED_STEP or method in ("euler-jit", "rk4-jit"):
         if dt is None or not (dt > 0 and math.isfinite(dt)):
             raise SimulationError(f"method {method!r} is fixed-step: give a positive step dt=…")
     elif dt is not None:
@@ -190,69 +191,29 @@ def simulate(
     x, current = instant.x_after, instant.mode_after
     recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
 
+    compiled = method in COMPILED
+    if compiled:
+        from codegen.jit import available
+
+        if not available():
+            raise SimulationError(f"method {method!r} needs numba: pip install '.[fast]'")
+        if model.input_symbols:
+            raise SimulationError(f"method {method!r} does not take models with inputs; use {method[:-4]!r}")
+        if t_eval is not None:
+            raise SimulationError(f"method {method!r} saves every step or events only; t_eval needs {method[:-4]!r}")
     stopped = None
     while t < t_end:
         cm = model.compiled_mode(current)
-        ind = cm.independent
-        template = x.copy()
-        work = np.empty(cm.n)
-
-        def full(y, tau, cm=cm, ind=ind, template=template):
-            z = template.copy()
-            z[ind] = y
-            return cm.complete(z, tau)
-
-        if len(ind):
-            def fun(tau, y, cm=cm, ind=ind):
-                return cm.rates(full(y, tau), tau, work)[ind].copy()
-            y0 = x[ind]
-        else:  # nothing flows: step a dummy variable so time guards are still found
-            def fun(tau, y):
-                return np.zeros(1)
-            y0 = np.zeros(1)
-
-        def state_at(tau, y):
-            return full(y, tau) if len(ind) else template.copy()
-
-        stepper = make_stepper(method, fun, t, y0, t_end, dt=dt, rtol=rtol, atol=atol, max_step=max_step,
-                               first_step=first_step)
-        event = None
-        while True:
-            t_prev = stepper.t
-            try:
-                t_new, y_new = stepper.step()
-            except RuntimeError as exc:
-                raise fail(
-                    StepSizeError,
-                    f"{method} failed at t = {t:.12g} in mode {current.describe()}: {exc}. "
-                    "The step size collapsed: the problem may be stiff here (try method='Radau' or 'BDF'), "
-                    "or a state may be running into a singularity.",
-                ) from None
-            n_steps += 1
-            if progress is not None:
-                progress(t_new)
-            x_new = state_at(t_new, y_new)
-            if not np.all(np.isfinite(x_new)):
-                bad = [model.states[k].name for k in np.flatnonzero(~np.isfinite(x_new))]
-                raise fail(
-                    NonFiniteStateError,
-                    f"state became non-finite ({', '.join(bad)}) at t ≈ {t_new:.12g} in mode {current.describe()}; "
-                    "check parameters for divisions by zero, or use a smaller step / tighter tolerance.",
-                )
-            bracket = _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, rtol_g, atol_g, event_samples)
-            if bracket is not None:
-                t_ev = _locate(cm, stepper, state_at, *bracket, rtol_g, atol_g)
-                x_ev = state_at(t_ev, stepper.interpolate(t_ev))
-                recorder.dense(t_prev, np.nextafter(t_ev, -np.inf), lambda tau: state_at(tau, stepper.interpolate(tau)),
-                               current)
-                event = (t_ev, x_ev)
-                break
-            recorder.dense(t_prev, t_new, lambda tau: state_at(tau, stepper.interpolate(tau)), current)
-            t, x = t_new, x_new
-            if t >= t_end:
-                recorder.sample(t, x, current, force=True)
-                break
-            recorder.sample(t, x, current)
+        flow = _flow_compiled if compiled else _flow_python
+        try:
+            event, t, x, steps = flow(model, cm, current, method, x, t, t_end, dict(
+                dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
+                save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g), recorder)
+        except _FlowFailure as failure:
+            t, x = failure.t, failure.x
+            n_steps += failure.steps
+            raise fail(failure.cls, failure.message) from None
+        n_steps += steps
         if event is None:
             break
         t, x = event
@@ -285,6 +246,119 @@ def simulate(
     if output == "events" and (not recorder.t or recorder.t[-1] != t):
         recorder.sample(t, x, current, force=True)
     return recorder.trajectory(stopped=stopped, stats=stats)
+
+
+class _FlowFailure(Exception):
+    def __init__(self, cls, message, t, x, steps=0):
+        super().__init__(message)
+        self.cls, self.message, self.t, self.x, self.steps = cls, message, t, x, steps
+
+
+def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
+    """Flow in one mode with a Python/scipy integrator until ``t_end`` or an
+    event; returns ``(event or None, t, x, steps)``, ``event = (t_ev, x_ev)``."""
+    ind = cm.independent
+    template = x.copy()
+    work = np.empty(cm.n)
+
+    def full(y, tau):
+        z = template.copy()
+        z[ind] = y
+        return cm.complete(z, tau)
+
+    if len(ind):
+        def fun(tau, y):
+            return cm.rates(full(y, tau), tau, work)[ind].copy()
+        y0 = x[ind]
+    else:  # nothing flows: step a dummy variable so time guards are still found
+        def fun(tau, y):
+            return np.zeros(1)
+        y0 = np.zeros(1)
+
+    def state_at(tau, y):
+        return full(y, tau) if len(ind) else template.copy()
+
+    stepper = make_stepper(method, fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
+                           max_step=o["max_step"], first_step=o["first_step"])
+    steps = 0
+    while True:
+        t_prev = stepper.t
+        try:
+            t_new, y_new = stepper.step()
+        except RuntimeError as exc:
+            raise _FlowFailure(
+                StepSizeError,
+                f"{method} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
+                "The step size collapsed: the problem may be stiff here (try method='Radau' or 'BDF'), "
+                "or a state may be running into a singularity.", t, x, steps,
+            ) from None
+        steps += 1
+        if o["progress"] is not None:
+            o["progress"](t_new)
+        x_new = state_at(t_new, y_new)
+        if not np.all(np.isfinite(x_new)):
+            raise _FlowFailure(NonFiniteStateError, _nonfinite_message(model, mode, t_new, x_new), t, x, steps)
+        bracket = _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, o["rtol_g"], o["atol_g"], o["samples"])
+        if bracket is not None:
+            t_ev = _locate(cm, stepper, state_at, *bracket, o["rtol_g"], o["atol_g"])
+            x_ev = state_at(t_ev, stepper.interpolate(t_ev))
+            recorder.dense(t_prev, np.nextafter(t_ev, -np.inf), lambda tau: state_at(tau, stepper.interpolate(tau)),
+                           mode)
+            return (t_ev, x_ev), t, x, steps
+        recorder.dense(t_prev, t_new, lambda tau: state_at(tau, stepper.interpolate(tau)), mode)
+        t, x = t_new, x_new
+        if t >= t_end:
+            recorder.sample(t, x, mode, force=True)
+            return None, t, x, steps
+        recorder.sample(t, x, mode)
+
+
+def _nonfinite_message(model, mode, t, x) -> str:
+    bad = [model.states[k].name for k in np.flatnonzero(~np.isfinite(x))] or ["the state"]
+    return (f"state became non-finite ({', '.join(bad)}) at t ≈ {t:.12g} in mode {mode.describe()}; "
+            "check parameters for divisions by zero, or use a smaller step / tighter tolerance.")
+
+
+def _flow_compiled(model, cm, mode, method, x, t, t_end, o, recorder):
+    """The same flow in compiled code (numba): one call per flow, Python only at events."""
+    module = model.jit_mode(mode)
+    ind = cm.independent.astype(np.int64)
+    dep = cm.dependent.astype(np.int64)
+    p = model.parameter_array
+    u = np.zeros(0)
+    capacity = 4096 if o["save"] else 1
+    out_t = np.empty(capacity)
+    out_x = np.empty((capacity, cm.n))
+    steps = 0
+    while True:
+        if method == "RK45-jit":
+            max_step = o["max_step"] if np.isfinite(o["max_step"]) else np.inf
+            status, n_saved, t_stop, x_stop, k = module.flow_rk45(
+                x, t, t_end, o["rtol"], o["atol"], max_step, p, u, ind, dep, o["rtol_g"], o["atol_g"], o["samples"],
+                o["save"], out_t, out_x, 10**9)
+        else:
+            kind = 0 if method == "euler-jit" else 1
+            status, n_saved, t_stop, x_stop, k = module.flow_fixed(
+                kind, x, t, t_end, o["dt"], p, u, ind, dep, o["rtol_g"], o["atol_g"], o["samples"], o["save"],
+                out_t, out_x, 10**9)
+        steps += k
+        for j in range(n_saved):
+            recorder.sample(out_t[j], out_x[j], mode, force=True)
+        if o["progress"] is not None:
+            o["progress"](t_stop)
+        if status == 1:
+            return (t_stop, x_stop.copy()), t, x, steps
+        if status == 0:
+            if not o["save"]:
+                recorder.sample(t_stop, x_stop, mode, force=True)
+            return None, t_stop, x_stop.copy(), steps
+        if status == 2:
+            t, x = t_stop, x_stop.copy()
+            continue
+        if status == 3:
+            raise _FlowFailure(StepSizeError, f"{method} failed at t = {t_stop:.12g} in mode {mode.describe()}: the "
+                               "step size collapsed (stiff here? try Radau or BDF)", t_stop, x_stop.copy(), steps)
+        raise _FlowFailure(NonFiniteStateError, _nonfinite_message(model, mode, t_stop, x_stop), t, x, steps)
 
 
 def _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, rtol, atol, samples):
