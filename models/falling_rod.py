@@ -37,13 +37,15 @@ Automata and guards:
     stuck → slide_pos / slide_neg   ``F < −μN`` / ``F > μN``   a posteriori —
                      Coulomb's law judged on the forces the stuck state would
                      need, impulses included (Lemma 5.3: pulses dominate);
-    slide_± → stuck  ``|tip_vx| <= v_th and |F_stick| <= μ N_stick``  a priori
-                     — the velocity threshold ``v_th`` of the paper, plus its
-                     section 5.6 fix: stick only if the forces of the stuck
-                     mode, computed from ``h(g_stuck(x))`` (``InMode`` signals
-                     ``F_stick``, ``N_stick``), allow it; otherwise a
-                     slide → stuck → slide loop would stop time;
-    slide_± → slide_∓  the tip velocity changes sign (a priori);
+    slide_± → stuck  ``|tip_vx| <= v_th and |F_stick| <= μ N_stick``  a posteriori
+                     — the paper's Eq. (25) ``|v⁺_Ax| ≤ v_th``, judged on the state
+                     the sliding mode jumps to (entering it at an impact, the
+                     tip's velocity after the frictionless impact, not the one
+                     before), plus its section 5.6 fix: stick only if the forces
+                     of the stuck mode, computed from ``h(g_stuck(x))``
+                     (``InMode`` signals ``F_stick``, ``N_stick``), allow it;
+                     otherwise a slide → stuck → slide loop would stop time;
+    slide_± → slide_∓  the tip velocity changes sign (a posteriori);
     slide_± → stuck  ``tip_y > y_lift`` a priori: in the air the friction
                      automaton returns to its initial state.
 
@@ -149,9 +151,9 @@ def build(**parameters) -> HybridModel:
     for state, sign in (("slide_pos", 1), ("slide_neg", -1)):
         friction.add_transition(state, "stuck", "tip_y > y_lift", "a priori")
         near = "tip_vx <= v_th" if sign > 0 else "tip_vx >= -v_th"
-        friction.add_transition(state, "stuck", f"{near} and abs(F_stick) <= mu*N_stick", "a priori")
+        friction.add_transition(state, "stuck", f"{near} and abs(F_stick) <= mu*N_stick", "a posteriori")
         other = "slide_neg" if sign > 0 else "slide_pos"
-        friction.add_transition(state, other, "tip_vx < 0" if sign > 0 else "tip_vx > 0", "a priori")
+        friction.add_transition(state, other, "tip_vx < 0" if sign > 0 else "tip_vx > 0", "a posteriori")
 
     signals = {
         "theta": "rod/theta",

@@ -28,5 +28,7 @@ from .parsing import parse_condition as parse_condition
 from .parsing import parse_expression as parse_expression
 from .resolution import Instant as Instant
 from .resolution import Step as Step
+from .batch import RunResult as RunResult
+from .batch import simulate_many as simulate_many
 from .simulator import METHODS as METHODS
 from .trajectory import Trajectory as Trajectory

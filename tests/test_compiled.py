@@ -56,3 +56,18 @@ def test_zeno_is_detected_on_the_compiled_path_too():
     with pytest.raises(ZenoError) as info:
         bouncing_ball.build().simulate(10.0, "RK45-jit", rtol=1e-8)
     assert info.value.accumulation_time == pytest.approx(0.451523640986 * 9, abs=1e-6)
+
+
+def test_simulate_many_runs_a_sweep_on_all_cores_and_keeps_failures_apart():
+    from switching import simulate_many
+
+    sets = [{"mu": 0.002}, {"mu": 0.005}, {"mu": 0.004}, {"mu": 0.003}]
+    results = simulate_many(falling_rod.build, sets, 0.3, "RK45-jit", workers=2, rtol=1e-9, atol=1e-12,
+                            output="events")
+    assert [r.parameters for r in results] == sets  # in order
+    last = [r.instants[0][-1] for r in results]
+    assert last == [("contact|slide_neg", "continuous"), ("contact|stuck", "continuous"),
+                    ("contact|slide_neg", "continuous"), ("contact|slide_neg", "continuous")]
+    broken = simulate_many(bouncing_ball.build, [{"e": 0.5}, {"e": 0.8}], 5.0, "RK45", workers=2)
+    assert [r.ok for r in broken] == [False, False] and "Zeno" in broken[0].error
+    assert len(broken[0].event_times) >= 8  # the partial run came back

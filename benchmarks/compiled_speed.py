@@ -1,0 +1,295 @@
+"""Speed of the compiled path against a hand-written numba loop and scipy.
+
+    python benchmarks/compiled_speed.py [--repeats N]
+
+Problems (as in issue 7):
+  * bouncing ball, first 2.5 s (4 bounces), RK45 at rtol 1e-6;
+  * rod pivoting on its tip for 1 s, RK45 at rtol 1e-3 … 1e-9.
+
+Rows (median wall time of N runs after a warm-up that compiles):
+  hand numba   a hand-written @njit RK45 (Dormand–Prince 5(4), scipy's step
+               control) with dense-output bisection for the event and the jump
+               v⁺ = −e·v, everything in one compiled call;
+  RK45-jit     HybridModel.simulate(method="RK45-jit", output="events");
+  RK45 (scipy) HybridModel.simulate(method="RK45", output="events");
+  solve_ivp    scipy.integrate.solve_ivp with an event function, restarted
+               after each bounce by a Python loop (the usual hand-made way);
+  rk4          HybridModel.simulate(method="rk4") at the dt giving the same
+               error as solve_ivp (pivoting rod).
+Also: numba compile time of a model's kernels and their reload time in a
+fresh process (numba's disk cache).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from numba import njit  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
+
+from codegen.jit import _RK45  # noqa: E402
+from models import bouncing_ball  # noqa: E402
+from models.graphs import pivoting_rod  # noqa: E402
+from switching import HybridModel  # noqa: E402
+
+G, E = 9.81, 0.8
+A = np.array(_RK45["A"])
+B = np.array(_RK45["B"])
+C = np.array(_RK45["C"])
+EE = np.array(_RK45["E"])
+from scipy.integrate._ivp.rk import RK45 as _SCIPY_RK45  # noqa: E402
+
+P = np.asarray(_SCIPY_RK45.P)
+
+
+@njit(cache=True)
+def _ball_f(t, y, out):
+    out[0] = y[1]
+    out[1] = -9.81
+
+
+@njit(cache=True)
+def _rod_f(t, y, out):
+    m, J, l, g = 1.0, 1.0 / 12.0, 0.5, 9.81
+    out[0] = y[1]
+    out[1] = -m * g * l * math.cos(y[0]) / (J + m * l * l)
+
+
+@njit(cache=True)
+def _rk45_run(problem, y0, t0, t_end, rtol, atol):
+    """Hand-written RK45 run: problem 0 = ball (events + jump), 1 = rod."""
+    n = y0.shape[0]
+    y = y0.copy()
+    K = np.zeros((7, n))
+    f = np.empty(n)
+    tmp = np.empty(n)
+    y_new = np.empty(n)
+    fn = np.empty(n)
+    Q = np.empty((n, 4))
+    t = t0
+    events = 0
+    restart = True
+    h_abs = 0.0
+    while t < t_end:
+        if restart:
+            if problem == 0:
+                _ball_f(t, y, f)
+            else:
+                _rod_f(t, y, f)
+            d0 = 0.0
+            d1 = 0.0
+            for i in range(n):
+                sc = atol + abs(y[i]) * rtol
+                d0 += (y[i] / sc) ** 2
+                d1 += (f[i] / sc) ** 2
+            d0 = math.sqrt(d0 / n)
+            d1 = math.sqrt(d1 / n)
+            h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+            h0 = min(h0, t_end - t)
+            for i in range(n):
+                tmp[i] = y[i] + h0 * f[i]
+            if problem == 0:
+                _ball_f(t + h0, tmp, fn)
+            else:
+                _rod_f(t + h0, tmp, fn)
+            d2 = 0.0
+            for i in range(n):
+                sc = atol + abs(y[i]) * rtol
+                d2 += ((fn[i] - f[i]) / sc) ** 2
+            d2 = math.sqrt(d2 / n) / h0
+            h1 = max(1e-6, h0 * 1e-3) if (d1 <= 1e-15 and d2 <= 1e-15) else (0.01 / max(d1, d2)) ** 0.2
+            h_abs = min(100 * h0, h1, t_end - t)
+            restart = False
+        rejected = False
+        while True:
+            h = min(h_abs, t_end - t)
+            for i in range(n):
+                K[0, i] = f[i]
+            for s in range(1, 6):
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(s):
+                        acc += K[j, i] * A[s, j]
+                    tmp[i] = y[i] + acc * h
+                if problem == 0:
+                    _ball_f(t + C[s] * h, tmp, fn)
+                else:
+                    _rod_f(t + C[s] * h, tmp, fn)
+                for i in range(n):
+                    K[s, i] = fn[i]
+            for i in range(n):
+                acc = 0.0
+                for j in range(6):
+                    acc += K[j, i] * B[j]
+                y_new[i] = y[i] + h * acc
+            if problem == 0:
+                _ball_f(t + h, y_new, fn)
+            else:
+                _rod_f(t + h, y_new, fn)
+            for i in range(n):
+                K[6, i] = fn[i]
+            err = 0.0
+            for i in range(n):
+                acc = 0.0
+                for j in range(7):
+                    acc += K[j, i] * EE[j]
+                sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+                err += (acc * h / sc) ** 2
+            err = math.sqrt(err / n)
+            if err < 1:
+                factor = 10.0 if err == 0 else min(10.0, 0.9 * err ** -0.2)
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs = h * factor
+                break
+            h_abs = h * max(0.2, 0.9 * err ** -0.2)
+            rejected = True
+        if problem == 0 and y_new[0] <= 0.0 and y_new[1] < 0.0:
+            for i in range(n):
+                for j in range(4):
+                    acc = 0.0
+                    for m in range(7):
+                        acc += K[m, i] * P[m, j]
+                    Q[i, j] = acc
+            a, b = t, t + h
+            for _ in range(200):
+                mid = 0.5 * (a + b)
+                if mid <= a or mid >= b:
+                    break
+                theta = (mid - t) / h
+                yy = y[0] + h * (Q[0, 0] * theta + Q[0, 1] * theta**2 + Q[0, 2] * theta**3 + Q[0, 3] * theta**4)
+                if yy <= 0.0:
+                    b = mid
+                else:
+                    a = mid
+            theta = (b - t) / h
+            for i in range(n):
+                y[i] = y[i] + h * (Q[i, 0] * theta + Q[i, 1] * theta**2 + Q[i, 2] * theta**3 + Q[i, 3] * theta**4)
+            y[1] = -0.8 * y[1]
+            t = b
+            events += 1
+            restart = True
+            continue
+        for i in range(n):
+            y[i] = y_new[i]
+            f[i] = fn[i]
+        t = t + h
+    return y, events
+
+
+def timed(fn, repeats):
+    fn()
+    samples = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        samples.append(time.perf_counter() - t0)
+    return statistics.median(samples)
+
+
+def ball_solve_ivp(rtol):
+    t, y, events = 0.0, np.array([1.0, 0.0]), 0
+
+    def hit(t, y):
+        return y[0]
+
+    hit.terminal, hit.direction = True, -1
+    while t < 2.5:
+        sol = solve_ivp(lambda t, y: [y[1], -G], (t, 2.5), y, method="RK45", rtol=rtol, atol=1e-9, events=hit)
+        if sol.status == 1:
+            t, y = sol.t_events[0][0], sol.y_events[0][0].copy()
+            y[1] = -E * y[1]
+            events += 1
+        else:
+            break
+    return events
+
+
+def rod_model():
+    return HybridModel(pivoting_rod(), [], {"m": 1.0, "J": 1 / 12, "l": 0.5, "g": 9.81},
+                       initial_state={"rod/theta": 0.9})
+
+
+def reload_time() -> str:
+    """Compile in one process, reload in a fresh one (numba disk cache)."""
+    script = (
+        "import time, sys; sys.path.insert(0, %r)\n"
+        "t0 = time.perf_counter(); import numba; t1 = time.perf_counter()\n"
+        "from models import bouncing_ball; m = bouncing_ball.build(); t2 = time.perf_counter()\n"
+        "m.simulate(2.5, 'RK45-jit', rtol=1e-6, output='events'); t3 = time.perf_counter()\n"
+        "print(f'{t1 - t0:.3f} {t3 - t2:.3f}')\n" % str(ROOT)
+    )
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "HBG_CACHE_DIR": cache}
+        first = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+        second = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    n1, c1 = map(float, first.stdout.split())
+    n2, c2 = map(float, second.stdout.split())
+    return (f"first process: numba import {n1:.2f} s, generate + compile + first run {c1:.2f} s; "
+            f"second process: numba import {n2:.2f} s, load + first run {c2:.3f} s")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args(argv)
+    r = args.repeats
+    rows = []
+
+    ball = bouncing_ball.build()
+    hand = timed(lambda: _rk45_run(0, np.array([1.0, 0.0]), 0.0, 2.5, 1e-6, 1e-9), r)
+    jit = timed(lambda: ball.simulate(2.5, "RK45-jit", rtol=1e-6, atol=1e-9, output="events"), r)
+    py = timed(lambda: ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events"), r)
+    ivp = timed(lambda: ball_solve_ivp(1e-6), r)
+    rows.append(("ball 2.5 s", "rtol=1e-06", hand, jit, py, ivp))
+
+    rod = rod_model()
+    for rtol in (1e-3, 1e-6, 1e-9):
+        y0 = np.array([0.9, 0.0])
+        hand = timed(lambda: _rk45_run(1, y0, 0.0, 1.0, rtol, rtol * 1e-3), r)
+        jit = timed(lambda: rod.simulate(1.0, "RK45-jit", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
+        py = timed(lambda: rod.simulate(1.0, "RK45", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
+
+        def rhs(t, y):
+            return [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)]
+
+        ivp = timed(lambda: solve_ivp(rhs, (0, 1), [0.9, 0.0], method="RK45", rtol=rtol, atol=rtol * 1e-3), r)
+        rows.append(("rod 1 s", f"rtol={rtol:g}", hand, jit, py, ivp))
+
+    print(f"{'problem':<11} {'setting':<11} {'hand numba':>11} {'RK45-jit':>10} {'RK45 scipy':>11} {'solve_ivp':>10}"
+          f" {'jit/hand':>9} {'scipy/jit':>10}")
+    for name, setting, hand, jit, py, ivp in rows:
+        print(f"{name:<11} {setting:<11} {1e6 * hand:>9.1f}µs {1e6 * jit:>8.1f}µs {1e6 * py:>9.1f}µs "
+              f"{1e6 * ivp:>8.1f}µs {jit / hand:>9.1f} {py / jit:>10.1f}")
+
+    # pure-Python fixed step at the accuracy of solve_ivp (rod, rtol 1e-6)
+    reference = rod.simulate(1.0, "DOP853", rtol=1e-13, atol=1e-14, output="events").state("rod/theta")[-1]
+    sol = solve_ivp(lambda t, y: [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)], (0, 1), [0.9, 0.0],
+                    method="RK45", rtol=1e-6, atol=1e-9)
+    target = abs(sol.y[0, -1] - reference)
+    dt = 0.1
+    while abs(rod.simulate(1.0, "rk4", dt=dt, output="events").state("rod/theta")[-1] - reference) > target:
+        dt /= 1.25
+    rk4 = timed(lambda: rod.simulate(1.0, "rk4", dt=dt, output="events"), r)
+    ivp = timed(lambda: solve_ivp(lambda t, y: [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)], (0, 1),
+                                  [0.9, 0.0], method="RK45", rtol=1e-6, atol=1e-9), r)
+    print(f"\npure-Python rk4 (dt={dt:.3g}) at solve_ivp's error {target:.1e}: {1e6 * rk4:.1f} µs vs solve_ivp "
+          f"{1e6 * ivp:.1f} µs (ratio {rk4 / ivp:.2f})")
+    print("\n" + reload_time())
+
+
+if __name__ == "__main__":
+    main()
