@@ -141,6 +141,14 @@ def _holds_at(y, t, template, ind, dep, p, u, z, dbuf, s, rtol, atol):
 
 
 @njit(cache=True)
+def _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out):
+    """The full state (dependent entries completed) into ``x_out``."""
+    _full(y, t, template, ind, dep, p, u, z, dbuf)
+    for i in range(z.shape[0]):
+        x_out[i] = z[i]
+
+
+@njit(cache=True)
 def _finite(v):
     for i in range(v.shape[0]):
         if not np.isfinite(v[i]):
@@ -287,9 +295,7 @@ def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples,
         steps += 1
         _fun(t_new, y_new, template, ind, dep, p, u, z, dbuf, r, f_new)
         if not _finite(y_new):
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 4, n_saved, t_new, x_out, steps
         if N_SIDES > 0:
             t_ev = _event_in_step(kind, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
@@ -305,18 +311,12 @@ def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples,
             _save(out_t, out_x, n_saved, t, y, template, ind, dep, p, u, z, dbuf)
             n_saved += 1
         if t >= t_end:
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 0, n_saved, t, x_out, steps
         if save and n_saved >= out_t.shape[0]:
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 2, n_saved, t, x_out, steps
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    for i in range(n):
-        x_out[i] = z[i]
+    _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
     return 2, n_saved, t, x_out, steps
 
 
@@ -387,9 +387,7 @@ def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_
         rejected = False
         while not accepted:
             if h_abs < min_step:
-                _full(y, t, template, ind, dep, p, u, z, dbuf)
-                for i in range(n):
-                    x_out[i] = z[i]
+                _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
                 return 3, n_saved, t, x_out, steps
             h = h_abs
             t_new = t + h
@@ -437,9 +435,7 @@ def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_
                 rejected = True
         steps += 1
         if not _finite(y_new):
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 4, n_saved, t_new, x_out, steps
         for i in range(k):
             for j in range(4):
@@ -461,18 +457,12 @@ def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_
             _save(out_t, out_x, n_saved, t, y, template, ind, dep, p, u, z, dbuf)
             n_saved += 1
         if t >= t_end:
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 0, n_saved, t, x_out, steps
         if save and n_saved >= out_t.shape[0]:
-            _full(y, t, template, ind, dep, p, u, z, dbuf)
-            for i in range(n):
-                x_out[i] = z[i]
+            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 2, n_saved, t, x_out, steps
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    for i in range(n):
-        x_out[i] = z[i]
+    _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
     return 2, n_saved, t, x_out, steps
 '''
 
