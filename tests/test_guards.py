@@ -152,3 +152,23 @@ def test_mode_lookup_by_label_tuple_and_mapping():
 def test_mode_equations_print_f_g_and_guards():
     text = diode_circuit().mode_equations("open|off").pretty()
     assert "p_L⁺ = 0" in text and "off → on when v_D >= V_th (a posteriori)" in text
+
+
+def test_guards_as_sympy_relations_over_signal_symbols():
+    """A guard given as a sympy condition, over a named signal's symbol, behaves
+    like the same guard written as text."""
+    import numpy as np
+
+    def model_with(guard):
+        automaton = switch_automaton()
+        automaton.add_transition("open", "closed", guard)
+        return HybridModel(rc_graph(), [automaton], {"V0": 1, "R": 1, "C": 1, "v_on": 0.5},
+                           initial_state={"q_C": 0.2}, signals={"v": "q_C/C"})
+
+    v, v_on = sp.symbols("v v_on")
+    as_sympy = model_with(sp.And(sp.Le(v, v_on), sp.Symbol("t") >= 1))
+    as_text = model_with("v <= v_on and t >= 1")
+    for model in (as_sympy, as_text):
+        assert [s.kind for s in model.resolve(np.array([0.2]), "open", 1.0).steps] == ["start", "continuous"]
+        assert model.resolve(np.array([0.2]), "open", 0.5).mode_after.label == "open"
+        assert model.resolve(np.array([0.9]), "open", 1.0).mode_after.label == "open"
