@@ -241,8 +241,14 @@ def _event_in_step(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, templat
 
 
 @njit(cache=True)
-def _finish_event(kind, t_old, h, y_old, f_old, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out):
-    _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, t_ev, tmp)
+def _finish_event(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp,
+                  x_out):
+    # the state the guard was seen to hold on: the step's end itself, or the interpolant
+    if t_ev == t_new:
+        for i in range(tmp.shape[0]):
+            tmp[i] = y_new[i]
+    else:
+        _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, t_ev, tmp)
     _full(tmp, t_ev, template, ind, dep, p, u, z, dbuf)
     for i in range(z.shape[0]):
         x_out[i] = z[i]
@@ -301,7 +307,7 @@ def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples,
             t_ev = _event_in_step(kind, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
                                   rtol_g, atol_g, samples, tmp)
             if t_ev >= 0.0:
-                _finish_event(kind, t, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
+                _finish_event(kind, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
                 return 1, n_saved, t_ev, x_out, steps
         for i in range(k):
             y[i] = y_new[i]
@@ -447,7 +453,7 @@ def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_
             t_ev = _event_in_step(2, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
                                   rtol_g, atol_g, samples, tmp)
             if t_ev >= 0.0:
-                _finish_event(2, t, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
+                _finish_event(2, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
                 return 1, n_saved, t_ev, x_out, steps
         for i in range(k):
             y[i] = y_new[i]

@@ -228,7 +228,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     instant = Instant(t, steps, model)
     chain = [mode]
     chain_start = 0  # index in `steps` where the current mythical chain began
-    pinnacles: list[tuple[Mode, np.ndarray]] = []
+    pinnacles: dict[Mode, list[np.ndarray]] = {}  # the states each pinnacle mode was passed with
     current = mode
     for n in range(max_steps):
         cm = model.compiled_mode(current)
@@ -259,8 +259,8 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             )
         fired = evaluate_guards(model, cm, x, x, t)
         if fired:
-            for other_mode, other_x in pinnacles:
-                if other_mode == current and np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
+            for other_x in pinnacles.get(current, ()):
+                if np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
                     steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
                     loop = [s for s in steps if s.kind == "pinnacle"]
                     raise DivergenceOfTimeError(
@@ -268,7 +268,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
                         loop=loop,
                         instant=instant,
                     )
-            pinnacles.append((current, x.copy()))
+            pinnacles.setdefault(current, []).append(x.copy())
             steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
             current = _next_mode(model, current, fired)
             chain = [current]

@@ -301,7 +301,8 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
         bracket = _first_hold(cm, stepper, state_at, t_prev, t_new, x_new, o["rtol_g"], o["atol_g"], o["samples"])
         if bracket is not None:
             t_ev = _locate(cm, stepper, state_at, *bracket, o["rtol_g"], o["atol_g"])
-            x_ev = state_at(t_ev, stepper.interpolate(t_ev))
+            # the state the guard was seen to hold on: the step's end itself, or the interpolant
+            x_ev = x_new if t_ev == t_new else state_at(t_ev, stepper.interpolate(t_ev))
             recorder.dense(t_prev, np.nextafter(t_ev, -np.inf), lambda tau: state_at(tau, stepper.interpolate(tau)),
                            mode)
             return (t_ev, x_ev), t, x, steps
