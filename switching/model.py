@@ -581,6 +581,9 @@ class HybridModel:
         every step (default), ``output="events"`` (instants only) or
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
+        ``keep_instants=False`` keeps neither the instants' records nor their
+        samples (only their count, in ``stats``): with ``t_eval`` or
+        ``output="events"`` the memory of a long run then stays bounded.
         ``event_samples`` (default 3): guards are also tested at this many
         interior points of every step, so an interval in which a guard holds is
         found when it is longer than about ``step/(event_samples + 1)``;

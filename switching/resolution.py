@@ -259,7 +259,9 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             )
         fired = evaluate_guards(model, cm, x, x, t)
         if fired:
-            for other_x in pinnacles.get(current, ()):
+            # a loop of pinnacles repeats a state: compare with this mode's recent passes
+            # (bounded work per pinnacle; longer cycles end at the step cap)
+            for other_x in pinnacles.get(current, ())[-64:]:
                 if np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
                     steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
                     loop = [s for s in steps if s.kind == "pinnacle"]

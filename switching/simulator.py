@@ -35,9 +35,12 @@ METHODS = FIXED_STEP + ADAPTIVE + COMPILED
 
 
 class _Recorder:
-    def __init__(self, model, output, t_eval):
+    def __init__(self, model, output, t_eval, keep_instants=True):
         self.model = model
         self.output = output
+        self.keep_instants = keep_instants
+        self.n_events = 0
+        self.last_instant = None
         self.t_eval = None if t_eval is None else np.asarray(sorted(t_eval), dtype=float)
         self.eval_pos = 0
         self.t: list = []
@@ -66,6 +69,10 @@ class _Recorder:
             self.eval_pos += 1
 
     def event(self, instant):
+        self.n_events += 1
+        self.last_instant = instant
+        if not self.keep_instants:
+            return
         self.t.append(instant.t)
         self.x.append(instant.x_before.copy())
         self.modes.append(instant.mode_before)
@@ -76,6 +83,8 @@ class _Recorder:
         self.event_index.append(len(self.t) - 1)
 
     def trajectory(self, stopped=None, stats=None):
+        stats = dict(stats or {})
+        stats["instants"] = self.n_events
         n = len(self.model.states)
         x = np.array(self.x).reshape(len(self.x), n) if self.x else np.zeros((0, n))
         return Trajectory(self.model, self.t, x, self.modes, self.events, self.event_index, stopped, stats)
@@ -99,14 +108,12 @@ class _ZenoWatch:
     def add(self, t: float):
         """Return the estimated accumulation time if Zeno behaviour is seen."""
         self.times.append(t)
-        times = self.times[-(self.window + 2) :]
-        if len(times) < self.window + 2:
-            return None
+        del self.times[: -(self.window + 2)]  # only the recent events matter: bounded memory
+        times = self.times
         gaps = np.diff(times)
-        if np.any(gaps <= 0):
-            tiny = gaps[-3:]
-            if len(tiny) == 3 and np.all(tiny <= 1e-12 * (1 + abs(t))):
-                return t
+        if len(gaps) >= 3 and np.all(gaps[-3:] <= 16 * np.spacing(abs(t) + 1.0)):
+            return t  # events one ulp apart: accumulated already
+        if len(times) < self.window + 2 or np.any(gaps <= 0):
             return None
         ratios = gaps[1:] / gaps[:-1]
         if gaps[-1] < self.min_gap and np.all(ratios < 0.995) and np.ptp(ratios) <= 0.05 * np.mean(ratios):
@@ -148,6 +155,7 @@ def simulate(
     on_zeno: str = "raise",
     zeno_window: int = 8,
     zeno_min_gap: float | None = None,
+    keep_instants: bool = True,
     max_events: int = 1_000_000,
     progress=None,
     event_samples: int = 3,
@@ -165,7 +173,7 @@ def simulate(
     started = _time.perf_counter()
     x = model.initial_state() if x0 is None else np.array(x0, dtype=float)
     current = model.initial_mode if mode is None else model.mode(mode)
-    recorder = _Recorder(model, output, t_eval)
+    recorder = _Recorder(model, output, t_eval, keep_instants)
     zeno = _ZenoWatch(zeno_window, t_end, 1e-4 * (t_end - t0) if zeno_min_gap is None else zeno_min_gap)
     rtol_g, atol_g = model.tolerance.rtol, model.tolerance.atol
     n_steps = 0
@@ -226,7 +234,7 @@ def simulate(
             raise
         recorder.event(instant)
         x, current = instant.x_after, instant.mode_after
-        if len(recorder.events) > max_events:
+        if recorder.n_events > max_events:
             raise fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
         accumulation = zeno.add(t)
         if accumulation is not None:
