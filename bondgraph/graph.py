@@ -19,13 +19,12 @@ Example — a series RLC circuit driven by a voltage source::
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import sympy as sp
 
-from .elements import GY, TF, Element, Junction, OnePort, Source, Storage, TwoPort
+from .elements import Element, Junction, OnePort, Storage, TwoPort
 from .errors import (
     DuplicateNameError,
     InvalidGraphError,

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import sympy as sp
 
-from .errors import DerivationError, HybridBondGraphError
+from .errors import HybridBondGraphError
 
 __all__ = ["JumpMap", "derive_jump_map", "JumpMapError"]
 

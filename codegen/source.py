@@ -16,8 +16,7 @@ from __future__ import annotations
 import keyword
 import math
 import re
-from dataclasses import dataclass, field
-from collections.abc import Sequence
+from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter

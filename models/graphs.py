@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero, t
+from bondgraph import GY, BondGraph, C, I, One, R, Se, Sf, Zero, t
 
 from .components import msd_cell, rigid_planar_body, rlc_cell
 

@@ -26,7 +26,6 @@ from sympy.core.relational import Relational
 from bondgraph.errors import HybridBondGraphError
 
 from .errors import DivergenceOfTimeError
-from .modes import Mode
 
 __all__ = ["VerificationReport", "verify"]
 

@@ -102,7 +102,6 @@ def independent_switches(n=20):
     """n separate RC cells, each with its own switched junction and automaton."""
     g = BondGraph("switches")
     automata = []
-    params = {}
     for i in range(n):
         sw = g.add(One(f"sw{i}", controlled=True))
         g.connect(Se(f"V{i}", "V"), sw)

@@ -3,7 +3,6 @@
 import itertools
 
 import pytest
-import sympy as sp
 
 from bondgraph import (
     TF,

@@ -5,7 +5,6 @@ import sympy as sp
 from conftest import same
 
 from bondgraph import (
-    GY,
     TF,
     BondGraph,
     C,

@@ -918,7 +918,7 @@ def boost_long_run(periods, window=5, samples_per_period=200, strobe_every=1, rt
 
 
 def check_boost_long_run(run, periods):
-    trajectory, x_star, T = run["trajectory"], run["x_star"], run["T"]
+    trajectory, x_star = run["trajectory"], run["x_star"]
     Vin, D = boost_converter.DEFAULTS["Vin"], boost_converter.DEFAULTS["D"]
     ideal = Vin / (1 - D)
     strobe_error = max(np.max(np.abs(run["strobe_v"] - x_star[1])) / x_star[1],

@@ -20,10 +20,9 @@ from bondgraph import (
     UnknownNameError,
     UnknownParameterError,
     Zero,
-    t,
 )
 from models.components import msd_cell, rigid_planar_body, rlc_cell
-from models.graphs import pivoting_rod, series_rlc
+from models.graphs import series_rlc
 
 
 def test_every_error_derives_from_the_one_base():
