@@ -99,10 +99,12 @@ class Trajectory:
         for instant in self.events:
             for step in instant.steps:
                 kinds.setdefault(step.mode, Counter())[step.kind] += 1
-        lines.append("  mode                              time [s]  passed as")
-        for mode in dict.fromkeys(self.modes + [s.mode for e in self.events for s in e.steps]):
+        modes = list(dict.fromkeys(self.modes + [s.mode for e in self.events for s in e.steps]))
+        width = max([len("mode")] + [len(m.describe()) for m in modes])
+        lines.append(f"  {'mode':<{width}}  {'time [s]':>9}  passed as")
+        for mode in modes:
             passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
-            lines.append(f"  {mode.describe():<32} {spent.get(mode, 0.0):>9.4g}  {passed}")
+            lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>9.4g}  {passed}")
         mythical = sum(len(e.mythical) for e in self.events)
         pinnacles = sum(len(e.pinnacles) for e in self.events)
         lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
