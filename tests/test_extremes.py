@@ -18,8 +18,9 @@ Cases that expose a toolkit bug assert the correct behaviour and are marked
 
 The exhaustive variants are marked ``slow`` and, in this module, only run
 when asked for (``pytest -m slow`` or ``HBG_SLOW=1``): the 10^5-period boost
-run alone takes about 20 minutes of pure-Python event handling.  The default
-run of the module stays well under a minute.
+run alone takes about 4 minutes (2·10^5 instants of pure-Python event
+handling) and ~620 MB; all slow variants together about 6 minutes.  The
+default run of the module takes about 20 s.
 """
 
 import gc
