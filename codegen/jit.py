@@ -255,6 +255,34 @@ def _finish_event(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t_ev, te
 
 
 @njit(cache=True)
+def _end_of_step(kind, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s, rtol_g,
+                 atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved):
+    """After an accepted step: stop at an event (code 1, ``x_out`` its state),
+    else take the step (``y``, ``f`` updated, saved if asked) and stop at
+    ``t_end`` (0) or a full buffer (2); code −1: go on.  Returns
+    ``(code, n_saved, t)``."""
+    if N_SIDES > 0:
+        t_ev = _event_in_step(kind, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
+                              rtol_g, atol_g, samples, tmp)
+        if t_ev >= 0.0:
+            _finish_event(kind, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
+            return 1, n_saved, t_ev
+    for i in range(y.shape[0]):
+        y[i] = y_new[i]
+        f[i] = f_new[i]
+    if save:
+        _save(out_t, out_x, n_saved, t_new, y, template, ind, dep, p, u, z, dbuf)
+        n_saved += 1
+    if t_new >= t_end:
+        _pack(y, t_new, template, ind, dep, p, u, z, dbuf, x_out)
+        return 0, n_saved, t_new
+    if save and n_saved >= out_t.shape[0]:
+        _pack(y, t_new, template, ind, dep, p, u, z, dbuf, x_out)
+        return 2, n_saved, t_new
+    return -1, n_saved, t_new
+
+
+@njit(cache=True)
 def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples, save, out_t, out_x, max_steps):
     """Euler (kind 0) or classical RK4 (kind 1) with step dt until t_end or an event."""
     n = x0.shape[0]
@@ -303,25 +331,10 @@ def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples,
         if not _finite(y_new):
             _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
             return 4, n_saved, t_new, x_out, steps
-        if N_SIDES > 0:
-            t_ev = _event_in_step(kind, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
-                                  rtol_g, atol_g, samples, tmp)
-            if t_ev >= 0.0:
-                _finish_event(kind, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
-                return 1, n_saved, t_ev, x_out, steps
-        for i in range(k):
-            y[i] = y_new[i]
-            f[i] = f_new[i]
-        t = t_new
-        if save:
-            _save(out_t, out_x, n_saved, t, y, template, ind, dep, p, u, z, dbuf)
-            n_saved += 1
-        if t >= t_end:
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 0, n_saved, t, x_out, steps
-        if save and n_saved >= out_t.shape[0]:
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 2, n_saved, t, x_out, steps
+        code, n_saved, t = _end_of_step(kind, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z,
+                                        dbuf, s, rtol_g, atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved)
+        if code >= 0:
+            return code, n_saved, t, x_out, steps
     _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
     return 2, n_saved, t, x_out, steps
 
@@ -449,25 +462,10 @@ def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_
                 for m in range(7):
                     acc += K[m, i] * RK_P[m, j]
                 Q[i, j] = acc
-        if N_SIDES > 0:
-            t_ev = _event_in_step(2, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
-                                  rtol_g, atol_g, samples, tmp)
-            if t_ev >= 0.0:
-                _finish_event(2, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
-                return 1, n_saved, t_ev, x_out, steps
-        for i in range(k):
-            y[i] = y_new[i]
-            f[i] = f_new[i]
-        t = t_new
-        if save:
-            _save(out_t, out_x, n_saved, t, y, template, ind, dep, p, u, z, dbuf)
-            n_saved += 1
-        if t >= t_end:
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 0, n_saved, t, x_out, steps
-        if save and n_saved >= out_t.shape[0]:
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 2, n_saved, t, x_out, steps
+        code, n_saved, t = _end_of_step(2, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z,
+                                        dbuf, s, rtol_g, atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved)
+        if code >= 0:
+            return code, n_saved, t, x_out, steps
     _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
     return 2, n_saved, t, x_out, steps
 '''
