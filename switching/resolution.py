@@ -207,16 +207,93 @@ def _next_mode(model, mode: Mode, fired: list) -> Mode:
     return Mode(tuple(states), mode.automata)
 
 
-def _loop_message(t, steps, kind_text) -> str:
-    lines = [f"divergence of time at t = {t:.12g}: {kind_text}; the loop:"]
-    for step in steps:
-        lines.append(f"  {step.mode.describe()} [{step.kind}]")
+#: steps shown at the start and at the end of a long loop in an error message
+SHOWN_FIRST, SHOWN_LAST = 3, 3
+#: states listed by name and value when a pinnacle repeats a state
+SHOWN_STATES = 16
+
+_ADVICE = (
+    "Make the guards leave only one mode consistent with each state (e.g. add a threshold such as "
+    "a separating-velocity condition or a holding current below the actual one), or model the "
+    "fast dynamics continuously."
+)
+
+
+def _step_lines(numbered) -> list:
+    """Lines for ``(number, step)`` pairs: all of them if few, else the first
+    :data:`SHOWN_FIRST` and last :data:`SHOWN_LAST` with the count left out
+    between (the exception's ``loop`` keeps every step)."""
+    numbered = list(numbered)
+    if len(numbered) > SHOWN_FIRST + SHOWN_LAST + 1:
+        left_out = len(numbered) - SHOWN_FIRST - SHOWN_LAST
+        shown = numbered[:SHOWN_FIRST] + [None] + numbered[-SHOWN_LAST:]
+    else:
+        left_out, shown = 0, numbered
+    lines = []
+    for item in shown:
+        if item is None:
+            lines.append(f"  … {left_out} more steps …")
+            continue
+        number, step = item
+        lines.append(f"  step {number}: {step.mode.describe()} [{step.kind}]")
         for f in step.fired:
             lines.append(f"      fired {f}")
+    return lines
+
+
+def _state_text(model, x: np.ndarray) -> str:
+    """``name = value`` for the states of ``x`` (the first :data:`SHOWN_STATES`)."""
+    pairs = [f"{s} = {v:.12g}" for s, v in zip(model.states, x)]
+    if len(pairs) > SHOWN_STATES:
+        pairs = pairs[:SHOWN_STATES] + [f"… {len(pairs) - SHOWN_STATES} more states"]
+    return ", ".join(pairs)
+
+
+def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
+    """The divergence-of-time message: what repeats, the steps (numbered as
+    in the instant, long loops shortened), ``detail`` lines, ``advice``."""
+    lines = [f"divergence of time at t = {t:.12g}: {kind_text}; the loop:"]
+    lines += _step_lines(numbered)
+    lines += list(detail)
+    lines.append(advice)
+    return "\n".join(lines)
+
+
+def _pinnacle_repeat_message(model, t, steps, first: int, x: np.ndarray) -> str:
+    """Pinnacle ``steps[-1]`` came back to the state it had at ``steps[first]``."""
+    last = len(steps) - 1
+    mode = steps[-1].mode
+    numbered = [(k + 1, s) for k, s in enumerate(steps) if s.kind == "pinnacle"]
+    cycle = sum(1 for s in steps[first + 1 :] if s.kind == "pinnacle")
+    detail = [
+        f"Repeating: mode {mode.describe()} at step {last + 1} has the state it had at step {first + 1} "
+        f"(equal within a relative 1e-12), so the {cycle} pinnacle(s) of steps {first + 2}–{last + 1} would repeat "
+        f"for ever; the state: {_state_text(model, x)}.",
+    ]
+    return _loop_message(
+        t, numbered, f"pinnacle {mode.describe()} repeats with the same state after {len(numbered)} pinnacles",
+        detail,
+    )
+
+
+def _too_many_message(model, t, steps, max_steps: int) -> str:
+    lines = [
+        f"at t = {t:.12g}: more than {max_steps} discrete steps at one instant in model {model.name!r} "
+        "(no mode or state repeated, but possibly a divergence of time); the steps:"
+    ]
+    lines += _step_lines((k + 1, s) for k, s in enumerate(steps))
+    x = steps[-1].x_after if steps else None
+    if x is not None:
+        lines.append(f"The state after step {len(steps)}: {_state_text(model, x)}.")
+    raise_it = (
+        f"HybridModel(..., max_steps_per_instant={10 * max_steps}) or model.max_steps_per_instant = {10 * max_steps} "
+        "before simulating"
+    )
+    if max_steps != getattr(model, "max_steps_per_instant", max_steps):
+        raise_it = f"the max_steps= argument of resolve (the model's own cap is {model.max_steps_per_instant})"
     lines.append(
-        "Make the guards leave only one mode consistent with each state (e.g. add a threshold such as "
-        "a separating-velocity condition or a holding current below the actual one), or model the "
-        "fast dynamics continuously."
+        f"If the instant is meant to be this long (e.g. a light ball rattling between heavy ones), raise the cap "
+        f"(now {max_steps}): {raise_it}. Otherwise " + _ADVICE[0].lower() + _ADVICE[1:]
     )
     return "\n".join(lines)
 
@@ -228,7 +305,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     instant = Instant(t, steps, model)
     chain = [mode]
     chain_start = 0  # index in `steps` where the current mythical chain began
-    pinnacles: dict[Mode, list[np.ndarray]] = {}  # the states each pinnacle mode was passed with
+    pinnacles: dict[Mode, list] = {}  # (step index, state) of each pass of each pinnacle mode
     current = mode
     for n in range(max_steps):
         cm = model.compiled_mode(current)
@@ -241,8 +318,9 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             if nxt in chain:
                 first = chain.index(nxt)
                 loop = steps[chain_start + first :]
+                numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
                 raise DivergenceOfTimeError(
-                    _loop_message(t, loop, f"mode {nxt.describe()} repeats in a chain of mythical modes"),
+                    _loop_message(t, numbered, f"mode {nxt.describe()} repeats in a chain of mythical modes"),
                     loop=loop,
                     instant=instant,
                 )
@@ -261,16 +339,16 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         if fired:
             # a loop of pinnacles repeats a state: compare with this mode's recent passes
             # (bounded work per pinnacle; longer cycles end at the step cap)
-            for other_x in pinnacles.get(current, ())[-64:]:
+            for other_index, other_x in pinnacles.get(current, ())[-64:]:
                 if np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
                     steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
                     loop = [s for s in steps if s.kind == "pinnacle"]
                     raise DivergenceOfTimeError(
-                        _loop_message(t, loop, f"pinnacle {current.describe()} repeats with the same state"),
+                        _pinnacle_repeat_message(model, t, steps, other_index, x),
                         loop=loop,
                         instant=instant,
                     )
-            pinnacles.setdefault(current, []).append(x.copy())
+            pinnacles.setdefault(current, []).append((len(steps), x.copy()))
             steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
             current = _next_mode(model, current, fired)
             chain = [current]
@@ -279,7 +357,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         steps.append(Step(current, "continuous", x_before, x, ()))
         return instant
     raise TooManyStepsError(
-        _loop_message(t, steps[-10:], f"more than {max_steps} discrete steps at one instant (last 10 shown)"),
+        _too_many_message(model, t, steps, max_steps),
         loop=steps[-10:],
         instant=instant,
     )

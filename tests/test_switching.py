@@ -118,6 +118,63 @@ def test_step_cap_stops_runaway_resolution():
     assert "more than 2 discrete steps" in str(info.value)
 
 
+def test_step_cap_message_shows_the_ends_of_the_instant_and_how_to_raise_the_cap():
+    """A light ball between two heavy ones (e = 1) rattles ~222 times in one
+    instant; with a cap of 50 the message shows steps 1–3 and 48–50, the
+    state reached, and the setting that raises the cap."""
+    from switching import TooManyStepsError
+
+    model = ball_row([1.0, 1e-4, 1.0], 1.0, v_th=1e-9)
+    model.max_steps_per_instant = 50
+    x = np.zeros(6)
+    x[0] = 1.0
+    with pytest.raises(TooManyStepsError) as info:
+        model.resolve(x, None, 0.0)
+    text = str(info.value)
+    assert "at t = 0: more than 50 discrete steps at one instant in model 'balls'" in text
+    assert "raise the cap (now 50): HybridModel(..., max_steps_per_instant=500)" in text
+    assert "model.max_steps_per_instant = 500" in text
+    assert all(f"step {k}:" in text for k in (1, 2, 3, 48, 49, 50))
+    assert "step 4:" not in text and "step 47:" not in text and "… 44 more steps …" in text
+    assert "The state after step 50: p1 = " in text and "x3 = 0." in text
+    assert len(text.splitlines()) < 25
+    assert len(info.value.instant.steps) == 50
+    with pytest.raises(TooManyStepsError, match=r"max_steps= argument of resolve \(the model's own cap is 50\)"):
+        model.resolve(x, None, 0.0, max_steps=20)
+
+
+def test_a_long_pinnacle_loop_is_shortened_and_names_the_repeating_mode_and_state():
+    """Four touching balls, e = 0, v_th = 0: the pinnacles converge to equal
+    velocities v0/N = 0.25 m/s and then repeat a state; the message lists 6
+    of the 81 pinnacles and says which mode and state repeat.  The
+    exception's ``loop`` keeps all of them."""
+    import re
+
+    from models import ball_chain
+
+    with pytest.raises(DivergenceOfTimeError) as info:
+        ball_chain.build(N=4, e=0.0, v_th=0.0).simulate(0.5, "RK45", output="events")
+    text, loop = str(info.value), info.value.loop
+    assert len(loop) == 81 and all(step.kind == "pinnacle" for step in loop)
+    assert "repeats with the same state after 81 pinnacles" in text
+    assert text.count("[pinnacle]") == 6 and "… 75 more steps …" in text
+    steps = info.value.instant.steps
+    found = re.search(r"mode (.+) at step (\d+) has the state it had at step (\d+)", text)
+    mode, last, first = found.group(1), int(found.group(2)), int(found.group(3))
+    assert last == len(steps) and mode == steps[-1].mode.describe() == steps[first - 1].mode.describe()
+    np.testing.assert_allclose(steps[first - 1].x_after, steps[-1].x_after, rtol=1e-12)
+    assert "the state: p1 = 0.25, p2 = 0.25, p3 = 0.25, p4 = 0.25, pos1 = 0.1, pos2 = 0.2" in text
+    assert len(text.splitlines()) < 30
+    # a short loop is shown whole
+    with pytest.raises(DivergenceOfTimeError) as short:
+        ball_row([1.0, 1.0], 0.8, separating=False).resolve(np.array([1.0, 0.0, 0.0, 0.0]), None, 0.0)
+    lines = str(short.value).splitlines()
+    assert [line for line in lines if line.startswith("  step ")] == [
+        f"  step {k}: {step.mode.describe()} [mythical]" for k, step in enumerate(short.value.loop, start=3)
+    ]
+    assert not any("more steps" in line for line in lines)
+
+
 # ---------------------------------------------------------------- capacitors
 
 
