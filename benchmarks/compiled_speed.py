@@ -10,7 +10,13 @@ Rows (median wall time of N runs after a warm-up that compiles):
   hand numba   a hand-written @njit RK45 (Dormand–Prince 5(4), scipy's step
                control) with dense-output bisection for the event and the jump
                v⁺ = −e·v, everything in one compiled call;
-  RK45-jit     HybridModel.simulate(method="RK45-jit", output="events");
+  kernel       the generated model kernel's entry point (arrays and floats
+               only; flows, guards, instant resolution and restarts compiled),
+               through CompiledModel.run; "s=3" tests the guards at 3 interior
+               points of every step too (the default), "s=0" only at step ends
+               like the hand loop;
+  RK45-jit     HybridModel.simulate(method="RK45-jit", output="events"): the
+               kernel plus the Python run set-up and the trajectory record;
   RK45 (scipy) HybridModel.simulate(method="RK45", output="events");
   solve_ivp    scipy.integrate.solve_ivp with an event function, restarted
                after each bounce by a Python loop (the usual hand-made way);
@@ -229,6 +235,7 @@ def reload_time() -> str:
         "import time, sys; sys.path.insert(0, %r)\n"
         "t0 = time.perf_counter(); import numba; t1 = time.perf_counter()\n"
         "from models import bouncing_ball; m = bouncing_ball.build(); t2 = time.perf_counter()\n"
+        "m.simulate(2.5, 'RK45', rtol=1e-6, output='events'); t2 = time.perf_counter()\n"
         "m.simulate(2.5, 'RK45-jit', rtol=1e-6, output='events'); t3 = time.perf_counter()\n"
         "print(f'{t1 - t0:.3f} {t3 - t2:.3f}')\n" % str(ROOT)
     )
@@ -238,8 +245,8 @@ def reload_time() -> str:
         second = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
     n1, c1 = map(float, first.stdout.split())
     n2, c2 = map(float, second.stdout.split())
-    return (f"first process: numba import {n1:.2f} s, generate + compile + first run {c1:.2f} s; "
-            f"second process: numba import {n2:.2f} s, load + first run {c2:.3f} s")
+    return (f"bouncing ball kernel (both modes): first process: numba import {n1:.2f} s, generate + compile + "
+            f"first run {c1:.2f} s; second process: numba import {n2:.2f} s, load + first run {c2:.3f} s")
 
 
 def main(argv=None):
@@ -249,17 +256,29 @@ def main(argv=None):
     r = args.repeats
     rows = []
 
+    def kernel(model, t_end, rtol, atol, samples):
+        """The compiled entry point alone, from the initial state and mode."""
+        x0, mode = model.initial_state(), model.initial_mode
+        compiled = model.compiled_model()
+        return lambda: compiled.run(2, mode, x0, 0.0, t_end, dt=None, rtol=rtol, atol=atol, max_step=np.inf,
+                                    first_step=None, samples=samples, save=False)
+
     ball = bouncing_ball.build()
+    ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events")  # visit both modes: the kernel covers them
     hand = timed(lambda: _rk45_run(0, np.array([1.0, 0.0]), 0.0, 2.5, 1e-6, 1e-9), r)
+    k3 = timed(kernel(ball, 2.5, 1e-6, 1e-9, 3), r)
+    k0 = timed(kernel(ball, 2.5, 1e-6, 1e-9, 0), r)
     jit = timed(lambda: ball.simulate(2.5, "RK45-jit", rtol=1e-6, atol=1e-9, output="events"), r)
     py = timed(lambda: ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events"), r)
     ivp = timed(lambda: ball_solve_ivp(1e-6), r)
-    rows.append(("ball 2.5 s", "rtol=1e-06", hand, jit, py, ivp))
+    rows.append(("ball 2.5 s", "rtol=1e-06", hand, k3, k0, jit, py, ivp))
 
     rod = rod_model()
     for rtol in (1e-3, 1e-6, 1e-9):
         y0 = np.array([0.9, 0.0])
         hand = timed(lambda: _rk45_run(1, y0, 0.0, 1.0, rtol, rtol * 1e-3), r)
+        k3 = timed(kernel(rod, 1.0, rtol, rtol * 1e-3, 3), r)
+        k0 = timed(kernel(rod, 1.0, rtol, rtol * 1e-3, 0), r)
         jit = timed(lambda: rod.simulate(1.0, "RK45-jit", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
         py = timed(lambda: rod.simulate(1.0, "RK45", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
 
@@ -267,13 +286,15 @@ def main(argv=None):
             return [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)]
 
         ivp = timed(lambda: solve_ivp(rhs, (0, 1), [0.9, 0.0], method="RK45", rtol=rtol, atol=rtol * 1e-3), r)
-        rows.append(("rod 1 s", f"rtol={rtol:g}", hand, jit, py, ivp))
+        rows.append(("rod 1 s", f"rtol={rtol:g}", hand, k3, k0, jit, py, ivp))
 
-    print(f"{'problem':<11} {'setting':<11} {'hand numba':>11} {'RK45-jit':>10} {'RK45 scipy':>11} {'solve_ivp':>10}"
-          f" {'jit/hand':>9} {'scipy/jit':>10}")
-    for name, setting, hand, jit, py, ivp in rows:
-        print(f"{name:<11} {setting:<11} {1e6 * hand:>9.1f}µs {1e6 * jit:>8.1f}µs {1e6 * py:>9.1f}µs "
-              f"{1e6 * ivp:>8.1f}µs {jit / hand:>9.1f} {py / jit:>10.1f}")
+    print(f"{'problem':<11} {'setting':<11} {'hand':>8} {'kernel s=3':>11} {'kernel s=0':>11} {'RK45-jit':>9} "
+          f"{'RK45 scipy':>11} {'solve_ivp':>10} | {'s=3/hand':>8} {'s=0/hand':>8} {'scipy/jit':>9} "
+          f"{'scipy/kern':>10}")
+    for name, setting, hand, k3, k0, jit, py, ivp in rows:
+        print(f"{name:<11} {setting:<11} {1e6 * hand:>6.1f}µs {1e6 * k3:>9.1f}µs {1e6 * k0:>9.1f}µs "
+              f"{1e6 * jit:>7.1f}µs {1e6 * py:>9.1f}µs {1e6 * ivp:>8.1f}µs | {k3 / hand:>8.1f} {k0 / hand:>8.1f} "
+              f"{py / jit:>9.1f} {py / k3:>10.1f}")
 
     # pure-Python fixed step at the accuracy of solve_ivp (rod, rtol 1e-6)
     reference = rod.simulate(1.0, "DOP853", rtol=1e-13, atol=1e-14, output="events").state("rod/theta")[-1]

@@ -1,27 +1,50 @@
-"""The compiled fast path: numba-compiled flow kernels (optional extra ``fast``).
+"""The compiled fast path: one numba module per model and set of modes
+(optional extra ``fast``).
 
-For one mode, :func:`jit_module` takes the generated Python source of its
-``phi`` (dependent states), ``rates`` and ``sides`` (guard comparison sides),
-plus the guards as trees of comparisons, and writes one module in which they
-are ``@njit(cache=True)`` functions next to three flow kernels:
+:mod:`switching.jit_model` generates, for every covered mode ``i``, the
+functions ``fy_i``, ``sy_i``, ``phi_i``, ``sides_i``, ``post_i``,
+``jump_i``, ``holds_i`` and ``fire_i`` and dispatchers ``_fy(m, …)``,
+``_phi(m, …)``, ``_holds(m, …)``, ``_jump(m, …)``, ``_fire(m, …)`` that
+select them by mode number.  This module supplies the rest of that module's source: the
+comparison rules (:data:`COMPARE_SOURCE`) and the kernel
+(:data:`KERNEL_SOURCE`) whose entry point ``run`` integrates a whole hybrid
+run in compiled code:
 
-``flow_euler``, ``flow_rk4``, ``flow_rk45``
-    integrate the independent states from ``t0`` until ``t_end`` or until a
-    guard holds, entirely in compiled code: stepping, testing the guards at
-    interior points of every step and at its end, and locating the first
-    time a guard holds by bisection on the step's interpolant down to
-    adjacent floating-point numbers.  Arguments are arrays and floats only.
-    ``flow_rk45`` is scipy's RK45 (Dormand–Prince 5(4), same initial step
-    selection, error norm, step-size factors and dense output), so both give
-    the same steps up to round-off.
+* the flow in the current mode — Euler (kind 0), classical RK4 (kind 1) with
+  fixed ``dt``, or scipy's RK45 (kind 2: Dormand–Prince 5(4) with scipy's
+  initial step, error norm, step factors and dense output, so both take the
+  same steps up to round-off);
+* at every accepted step, the guards at ``samples`` interior points and at
+  the step's end, and the first time a guard holds located by bisection on
+  the step's interpolant down to adjacent floating-point numbers;
+* the instant's resolution (the paper's selMode, DESIGN §6) through mythical
+  modes and pinnacles: ``x⁺ = g_β(x)``, a posteriori guards on ``x⁺`` with
+  the impulses ``Σ_k ∂side/∂ẋ_k · Δx_k`` of the jump, the next mode from the
+  fired automata;
+* the restart in the mode reached.
 
-Each returns ``(status, n_saved, t, x, steps)``; status 0: reached ``t_end``,
-1: a guard holds at ``t`` (``x`` is the state there), 2: the output buffer
-is full (call again from ``t``), 3: the step size collapsed, 4: non-finite
-state.  Accepted steps are written to ``out_t``/``out_x`` when ``save`` is true.
+Whatever needs more than that — a mode outside the covered set, a numerical
+(nonlinear) jump map, a pulse in a side that is not affine in ``ẋ``, a mode
+repeating in a mythical chain or a pinnacle repeating its state (a divergence
+of time, which Python reports in full), the cap on steps per instant — stops
+the kernel with status ``RESOLVE`` and the a priori state, and Python resolves
+that instant (deterministically, so the results are the same).
+
+``run`` returns ``(status, n_saved, n_events, t, mode, x, steps)``; status
+``DONE`` 0: reached ``t_end``; ``FULL`` 2: an output buffer is full (call
+again from ``t, mode, x``); ``COLLAPSED`` 3: the step size collapsed;
+``NONFINITE`` 4; ``RESOLVE`` 5: an event at ``t`` needs Python (``x`` a
+priori); ``STIFF`` 6: the stiffness tests of :mod:`switching.integrators`
+fired — RK45: Hairer's, ``h·ρ > 3.25`` on 15 accepted steps without 6 calm
+ones between, ``ρ ≈ ‖k₇ − k₆‖ / ‖y₇ − y₆‖``, when the rest of the flow would
+take more than 1e4 steps at that step size; rk4 and Euler: ``|h·λ|`` from
+differences of ``f`` beyond 2.78 or 2 on 3 steps in a row or once by 25 % —
+``info`` gets ``|h·λ|``, ``h``, —, the limit and the dominant component.  With ``resolve_first`` the
+instant at ``t0`` is resolved before the first flow (recorded as an event if
+it passed more than one mode; ``info[2] = 1`` then).
 
 The module is written to the cache directory and imported from there, so
-numba's own on-disk cache applies: a second process loads the machine code
+numba's own on-disk cache applies: a second process loads machine code
 instead of compiling it.
 """
 
@@ -33,7 +56,20 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["available", "jit_module", "tree_expression"]
+__all__ = [
+    "COMPARE_SOURCE",
+    "DISPATCH",
+    "INLINE",
+    "JIT",
+    "KERNEL_SOURCE",
+    "STATUS",
+    "available",
+    "load_module",
+    "module_header",
+    "tree_expression",
+]
+
+STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff"}
 
 _RK45 = {
     "C": [0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0],
@@ -49,106 +85,123 @@ _RK45 = {
     "E": [-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40],
 }
 
+_OP_CODES = {"<": 0, "<=": 1, ">": 2, ">=": 3, "==": 4, "!=": 5}
+
+JIT = "@njit(cache=True, error_model='numpy')"
+# A call between compiled functions costs ~20-80 ns (reference counting of its array
+# arguments, status checks), more than the arithmetic of a small mode: small helpers and the
+# per-mode functions are inlined (once each: into the mode dispatchers, which are called and
+# run without reference counting); inlining the dispatchers themselves at every call site
+# would multiply the compile time by ten.
+INLINE = "@njit(cache=True, error_model='numpy', inline='always')"
+DISPATCH = "@njit(cache=True, error_model='numpy', _nrt=False)"
+
 
 def available() -> bool:
     """Is numba installed (``pip install .[fast]``)?"""
     return importlib.util.find_spec("numba") is not None
 
 
-def tree_expression(tree) -> str:
-    """Python/numba source deciding a guard tree on the sides array ``s``."""
+def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0) -> str:
+    """Source deciding a guard tree (see :func:`switching.compiled.decide_tree`).
+
+    Comparison ``k`` reads its left/right finite parts from
+    ``finite[2k], finite[2k+1]`` and, when ``impulse`` names an array, their
+    impulse areas from ``impulse[offset + 2k], impulse[offset + 2k + 1]``."""
     kind = tree[0]
     if kind == "const":
         return "True" if tree[1] else "False"
     if kind in ("and", "or"):
-        return "(" + f" {kind} ".join(tree_expression(t) for t in tree[1]) + ")"
+        return "(" + f" {kind} ".join(tree_expression(t, finite, impulse, offset) for t in tree[1]) + ")"
     if kind == "not":
-        return f"(not {tree_expression(tree[1])})"
+        return f"(not {tree_expression(tree[1], finite, impulse, offset)})"
     _, k, op, _text = tree
-    name = {"<": "_lt", "<=": "_le", ">": "_gt", ">=": "_ge", "==": "_eq", "!=": "_ne"}[op]
-    return f"{name}(s[{2 * k}], s[{2 * k + 1}], rtol, atol)"
+    a, b = 2 * k, 2 * k + 1
+    if impulse is None:
+        ia = ib = "0.0"
+    else:
+        ia, ib = f"{impulse}[{offset + a}]", f"{impulse}[{offset + b}]"
+    return f"_dec({_OP_CODES[op]}, {ia}, {finite}[{a}], {ib}, {finite}[{b}], rtol, atol)"
 
 
-_HEADER = '''"""Compiled flow kernels of one mode (generated; do not edit)."""
-import math
-from math import *
-import numpy as np
-from numba import njit
+def module_header(title: str) -> str:
+    """Imports and constants every generated compiled module starts with."""
+    import numpy as np
+    from scipy.integrate._ivp.rk import RK45
 
+    return "\n".join([
+        f'"""{title} (generated; do not edit)."""',
+        "import math",
+        "from math import *",
+        "import numpy as np",
+        "from numba import njit",
+        "",
+        f"RK_C = np.array({_RK45['C']!r})",
+        f"RK_A = np.array({_RK45['A']!r})",
+        f"RK_B = np.array({_RK45['B']!r})",
+        f"RK_E = np.array({_RK45['E']!r})",
+        f"RK_P = np.array({np.asarray(RK45.P).tolist()!r})",
+        "",
+    ]) + "\n"
+
+
+# codegen.runtime.decide in compiled form; op: 0 <, 1 <=, 2 >, 3 >=, 4 ==, 5 !=
+COMPARE_SOURCE = f'''
+{INLINE}
+def _dec(op, li, lf, ri, rf, rtol, atol):
+    impulse = li - ri
+    if impulse != 0.0 and abs(impulse) > 1e-6 * max(abs(li), abs(ri)):
+        if op <= 1:
+            return impulse < 0.0
+        if op <= 3:
+            return impulse > 0.0
+        return op == 5
+    diff = lf - rf
+    scale = max(abs(lf), abs(rf))
+    band = rtol * scale + atol if np.isfinite(scale) else 0.0
+    if op == 0:
+        return diff < -band
+    if op == 1:
+        return diff <= band
+    if op == 2:
+        return diff > band
+    if op == 3:
+        return diff >= -band
+    if op == 4:
+        return abs(diff) <= band
+    return abs(diff) > band
 '''
 
-_COMPARE = '''
-@njit(cache=True)
-def _band(a, b, rtol, atol):
-    return rtol * max(abs(a), abs(b)) + atol
-
-
-@njit(cache=True)
-def _le(a, b, rtol, atol):
-    return a - b <= _band(a, b, rtol, atol)
-
-
-@njit(cache=True)
-def _lt(a, b, rtol, atol):
-    return a - b < -_band(a, b, rtol, atol)
-
-
-@njit(cache=True)
-def _ge(a, b, rtol, atol):
-    return a - b >= -_band(a, b, rtol, atol)
-
-
-@njit(cache=True)
-def _gt(a, b, rtol, atol):
-    return a - b > _band(a, b, rtol, atol)
-
-
-@njit(cache=True)
-def _eq(a, b, rtol, atol):
-    return abs(a - b) <= _band(a, b, rtol, atol)
-
-
-@njit(cache=True)
-def _ne(a, b, rtol, atol):
-    return abs(a - b) > _band(a, b, rtol, atol)
-'''
-
-_KERNELS = '''
-@njit(cache=True)
-def _full(y, t, template, ind, dep, p, u, z, dbuf):
+KERNEL_SOURCE = '''
+@DISPATCH
+def _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf):
+    """The full state of mode m into z: template, independent y, dependent phi."""
     for i in range(z.shape[0]):
         z[i] = template[i]
-    for i in range(ind.shape[0]):
-        z[ind[i]] = y[i]
-    if dep.shape[0] > 0:
-        phi(z, t, p, u, dbuf)
-        for i in range(dep.shape[0]):
-            z[dep[i]] = dbuf[i]
+    for i in range(k):
+        z[ind[m, i]] = y[i]
+    nd = n_dep[m]
+    if nd > 0:
+        _phi(m, z, t, p, u, dbuf)
+        for i in range(nd):
+            z[dep[m, i]] = dbuf[i]
 
 
-@njit(cache=True)
-def _fun(t, y, template, ind, dep, p, u, z, dbuf, r, out):
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    rates(z, t, p, u, r)
-    for i in range(ind.shape[0]):
-        out[i] = r[ind[i]]
+@DISPATCH
+def _fun(m, t, y, k, template, ind, dep, n_dep, p, u, z, dbuf, r, out):
+    """dy/dt of the independent states (a zero dummy when the mode has none)."""
+    if k == 0:
+        out[0] = 0.0
+        return
+    _fy(m, y, t, p, u, out)
 
 
-@njit(cache=True)
-def _holds_at(y, t, template, ind, dep, p, u, z, dbuf, s, rtol, atol):
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    return holds(z, t, p, u, s, rtol, atol)
+@DISPATCH
+def _holds_at(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
+    return _holds(m, y, t, p, u, s, rtol, atol)
 
 
-@njit(cache=True)
-def _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out):
-    """The full state (dependent entries completed) into ``x_out``."""
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    for i in range(z.shape[0]):
-        x_out[i] = z[i]
-
-
-@njit(cache=True)
+@INLINE
 def _finite(v):
     for i in range(v.shape[0]):
         if not np.isfinite(v[i]):
@@ -156,7 +209,7 @@ def _finite(v):
     return True
 
 
-@njit(cache=True)
+@INLINE
 def _rms(v):
     acc = 0.0
     for i in range(v.shape[0]):
@@ -164,67 +217,73 @@ def _rms(v):
     return math.sqrt(acc / v.shape[0]) if v.shape[0] > 0 else 0.0
 
 
-@njit(cache=True)
-def _save(out_t, out_x, n_saved, t, y, template, ind, dep, p, u, z, dbuf):
-    _full(y, t, template, ind, dep, p, u, z, dbuf)
-    out_t[n_saved] = t
-    for i in range(z.shape[0]):
-        out_x[n_saved, i] = z[i]
+@INLINE
+def _argmax_abs(v):
+    best = 0
+    for i in range(v.shape[0]):
+        if abs(v[i]) > abs(v[best]):
+            best = i
+    return best
 
 
-@njit(cache=True)
-def _hermite(y0, f0, y1, f1, h, theta, out):
-    h00 = 2 * theta**3 - 3 * theta**2 + 1
-    h10 = theta**3 - 2 * theta**2 + theta
-    h01 = -2 * theta**3 + 3 * theta**2
-    h11 = theta**3 - theta**2
-    for i in range(out.shape[0]):
-        out[i] = h00 * y0[i] + h10 * h * f0[i] + h01 * y1[i] + h11 * h * f1[i]
+@INLINE
+def _fixed_stiffness(power4, limit, streak, h, component, info):
+    """The fixed-step rule of switching.integrators: |h·λ| = power4^¼ beyond ``limit`` on 3 steps in a row,
+    or once 25 % beyond it.  Returns the new streak, or -1 (``info`` filled: stiff)."""
+    if power4 <= limit**4:
+        return 0
+    streak += 1
+    h_lambda = power4**0.25
+    if streak >= 3 or h_lambda > 1.25 * limit:
+        info[0] = h_lambda
+        info[1] = h
+        info[3] = limit
+        info[4] = _argmax_abs(component)
+        return -1
+    return streak
 
 
-@njit(cache=True)
-def _linear(y0, f0, dt, out):
-    for i in range(out.shape[0]):
-        out[i] = y0[i] + dt * f0[i]
-
-
-@njit(cache=True)
-def _rk45_dense(y_old, Q, h, theta, out):
-    # scipy's RkDenseOutput: y_old + h * Q @ [theta, theta^2, theta^3, theta^4]
-    for i in range(out.shape[0]):
-        acc = 0.0
-        pw = 1.0
-        for j in range(Q.shape[1]):
-            pw *= theta
-            acc += Q[i, j] * pw
-        out[i] = y_old[i] + h * acc
-
-
-@njit(cache=True)
+@INLINE
 def _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, out):
+    """The step's interpolant: linear (Euler), cubic Hermite (RK4), scipy's RK45 dense output."""
     if kind == 0:
-        _linear(y_old, f_old, tau - t_old, out)
+        dt = tau - t_old
+        for i in range(out.shape[0]):
+            out[i] = y_old[i] + dt * f_old[i]
     elif kind == 1:
-        _hermite(y_old, f_old, y_new, f_new, h, (tau - t_old) / h, out)
+        theta = (tau - t_old) / h
+        h00 = 2 * theta**3 - 3 * theta**2 + 1
+        h10 = theta**3 - 2 * theta**2 + theta
+        h01 = -2 * theta**3 + 3 * theta**2
+        h11 = theta**3 - theta**2
+        for i in range(out.shape[0]):
+            out[i] = h00 * y_old[i] + h10 * h * f_old[i] + h01 * y_new[i] + h11 * h * f_new[i]
     else:
-        _rk45_dense(y_old, Q, h, (tau - t_old) / h, out)
+        theta = (tau - t_old) / h
+        for i in range(out.shape[0]):
+            acc = 0.0
+            pw = 1.0
+            for j in range(Q.shape[1]):
+                pw *= theta
+                acc += Q[i, j] * pw
+            out[i] = y_old[i] + h * acc
 
 
-@njit(cache=True)
-def _event_in_step(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
-                   rtol, atol, samples, tmp):
-    """First time in (t_old, t_new] a guard holds, or -1.0 (same rule as the Python driver)."""
+@JIT
+def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z,
+                   dbuf, s, rtol, atol, samples, tmp):
+    """First time in (t_old, t_new] a guard holds, or -1.0 (the Python driver's rule)."""
     a = t_old
     b = -1.0
     for j in range(1, samples + 1):
         tau = t_old + (t_new - t_old) * j / (samples + 1)
         _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, tmp)
-        if _holds_at(tmp, tau, template, ind, dep, p, u, z, dbuf, s, rtol, atol):
+        if _holds_at(m, tmp, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
             b = tau
             break
         a = tau
     if b < 0.0:
-        if _holds_at(y_new, t_new, template, ind, dep, p, u, z, dbuf, s, rtol, atol):
+        if _holds_at(m, y_new, k, t_new, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
             b = t_new
         else:
             return -1.0
@@ -233,294 +292,462 @@ def _event_in_step(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, templat
         if mid <= a or mid >= b:
             break
         _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, mid, tmp)
-        if _holds_at(tmp, mid, template, ind, dep, p, u, z, dbuf, s, rtol, atol):
+        if _holds_at(m, tmp, k, mid, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
             b = mid
         else:
             a = mid
     return b
 
 
-@njit(cache=True)
-def _finish_event(kind, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp,
-                  x_out):
-    # the state the guard was seen to hold on: the step's end itself, or the interpolant
-    if t_ev == t_new:
-        for i in range(tmp.shape[0]):
-            tmp[i] = y_new[i]
-    else:
-        _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, t_ev, tmp)
-    _full(tmp, t_ev, template, ind, dep, p, u, z, dbuf)
-    for i in range(z.shape[0]):
-        x_out[i] = z[i]
+@INLINE
+def _pulse(m, x, xp, moved, n_moved, jrtol, jatol, d):
+    """x⁺ − x with round-off removed (switching.compiled.CompiledMode.pulse)."""
+    for i in range(x.shape[0]):
+        d[i] = xp[i] - x[i]
+    nm = n_moved[m]
+    if nm == 0:
+        for i in range(x.shape[0]):
+            d[i] = 0.0
+        return
+    scale = 0.0
+    for j in range(nm):
+        i = moved[m, j]
+        scale = max(scale, abs(x[i]), abs(xp[i]))
+    band = jrtol * scale + jatol
+    for i in range(x.shape[0]):
+        if abs(d[i]) <= band:
+            d[i] = 0.0
 
 
-@njit(cache=True)
-def _end_of_step(kind, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s, rtol_g,
-                 atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved):
-    """After an accepted step: stop at an event (code 1, ``x_out`` its state),
-    else take the step (``y``, ``f`` updated, saved if asked) and stop at
-    ``t_end`` (0) or a full buffer (2); code −1: go on.  Returns
-    ``(code, n_saved, t)``."""
-    if N_SIDES > 0:
-        t_ev = _event_in_step(kind, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z, dbuf, s,
-                              rtol_g, atol_g, samples, tmp)
-        if t_ev >= 0.0:
-            _finish_event(kind, t, t_new, h, y, f, y_new, f_new, Q, t_ev, template, ind, dep, p, u, z, dbuf, tmp, x_out)
-            return 1, n_saved, t_ev
-    for i in range(y.shape[0]):
-        y[i] = y_new[i]
-        f[i] = f_new[i]
-    if save:
-        _save(out_t, out_x, n_saved, t_new, y, template, ind, dep, p, u, z, dbuf)
-        n_saved += 1
-    if t_new >= t_end:
-        _pack(y, t_new, template, ind, dep, p, u, z, dbuf, x_out)
-        return 0, n_saved, t_new
-    if save and n_saved >= out_t.shape[0]:
-        _pack(y, t_new, template, ind, dep, p, u, z, dbuf, x_out)
-        return 2, n_saved, t_new
-    return -1, n_saved, t_new
+@INLINE
+def _next_code(m, target, mstates, radix):
+    code = 0
+    for a in range(radix.shape[0]):
+        state = target[a] if target[a] >= 0 else mstates[m, a]
+        code += state * radix[a]
+    return code
 
 
-@njit(cache=True)
-def flow_fixed(kind, x0, t0, t_end, dt, p, u, ind, dep, rtol_g, atol_g, samples, save, out_t, out_x, max_steps):
-    """Euler (kind 0) or classical RK4 (kind 1) with step dt until t_end or an event."""
-    n = x0.shape[0]
-    k = ind.shape[0]
-    template = x0.copy()
-    z = np.empty(n)
-    dbuf = np.empty(max(dep.shape[0], 1))
-    r = np.empty(n)
-    s = np.empty(N_SIDES)
-    y = np.empty(k)
-    for i in range(k):
-        y[i] = x0[ind[i]]
-    f = np.empty(k)
-    _fun(t0, y, template, ind, dep, p, u, z, dbuf, r, f)
-    k2 = np.empty(k)
-    k3 = np.empty(k)
-    k4 = np.empty(k)
-    tmp = np.empty(k)
-    y_new = np.empty(k)
-    f_new = np.empty(k)
-    Q = np.empty((k, 4))
-    x_out = np.empty(n)
-    t = t0
-    n_saved = 0
-    steps = 0
-    while steps < max_steps:
-        h = min(dt, t_end - t)
-        t_new = t + h if t + h < t_end else t_end
-        if kind == 0:
-            for i in range(k):
-                y_new[i] = y[i] + h * f[i]
-        else:
-            for i in range(k):
-                tmp[i] = y[i] + h / 2 * f[i]
-            _fun(t + h / 2, tmp, template, ind, dep, p, u, z, dbuf, r, k2)
-            for i in range(k):
-                tmp[i] = y[i] + h / 2 * k2[i]
-            _fun(t + h / 2, tmp, template, ind, dep, p, u, z, dbuf, r, k3)
-            for i in range(k):
-                tmp[i] = y[i] + h * k3[i]
-            _fun(t + h, tmp, template, ind, dep, p, u, z, dbuf, r, k4)
-            for i in range(k):
-                y_new[i] = y[i] + h / 6 * (f[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
-        steps += 1
-        _fun(t_new, y_new, template, ind, dep, p, u, z, dbuf, r, f_new)
-        if not _finite(y_new):
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 4, n_saved, t_new, x_out, steps
-        code, n_saved, t = _end_of_step(kind, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z,
-                                        dbuf, s, rtol_g, atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved)
-        if code >= 0:
-            return code, n_saved, t, x_out, steps
-    _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-    return 2, n_saved, t, x_out, steps
+@INLINE
+def _mode_of(code, codes, code_ids):
+    if codes.shape[0] == 0:
+        return -1
+    j = np.searchsorted(codes, code)
+    if j < codes.shape[0] and codes[j] == code:
+        return code_ids[j]
+    return -1
 
 
-@njit(cache=True)
-def flow_rk45(x0, t0, t_end, rtol, atol, max_step, p, u, ind, dep, rtol_g, atol_g, samples, save, out_t, out_x,
-              max_steps):
-    """scipy's RK45 (Dormand–Prince 5(4)) until t_end or an event."""
-    n = x0.shape[0]
-    k = ind.shape[0]
-    template = x0.copy()
-    z = np.empty(n)
-    dbuf = np.empty(max(dep.shape[0], 1))
-    r = np.empty(n)
-    s = np.empty(N_SIDES)
-    y = np.empty(k)
-    for i in range(k):
-        y[i] = x0[ind[i]]
-    K = np.zeros((7, k))
-    f = np.empty(k)
-    _fun(t0, y, template, ind, dep, p, u, z, dbuf, r, f)
-    tmp = np.empty(k)
-    y_new = np.empty(k)
-    f_new = np.empty(k)
-    Q = np.empty((k, 4))
-    x_out = np.empty(n)
-    # scipy.integrate._ivp.common.select_initial_step (order 4)
+@JIT
+def _resolve(m0, x_in, t, p, u, moved, n_moved, mstates, radix, codes, code_ids, mode_codes, rtol, atol, jrtol,
+             jatol, max_instant, s, post, xa, x, xp, d, target, chain, pin_m, pin_x):
+    """Resolve the instant from the a priori x_in in mode m0 (switching.resolution).
+    Returns the mode reached (its state in xa) and the number of modes passed, or -1: Python must resolve it.
+    x, xp, d [n], target [automata], chain [max_instant + 1], pin_m [P], pin_x [P, n]: scratch."""
+    n = x_in.shape[0]
+    for i in range(n):
+        x[i] = x_in[i]
+    n_chain = 1
+    chain[0] = mode_codes[m0]
+    n_pin = 0
+    cur = m0
+    for passes in range(1, max_instant + 1):
+        if cur < 0:
+            return -1, 0
+        if not _jump(cur, x, t, p, u, xp):
+            return -1, 0
+        _pulse(cur, x, xp, moved, n_moved, jrtol, jatol, d)
+        for a in range(target.shape[0]):
+            target[a] = -1
+        if not _fire(cur, x, xp, t, p, u, d, s, post, rtol, atol, target):
+            return -1, 0
+        fired = False
+        for a in range(target.shape[0]):
+            if target[a] >= 0:
+                fired = True
+        if fired:  # cur was mythical
+            code = _next_code(cur, target, mstates, radix)
+            for j in range(n_chain):
+                if chain[j] == code:
+                    return -1, 0  # divergence of time: Python reports the loop
+            chain[n_chain] = code
+            n_chain += 1
+            cur = _mode_of(code, codes, code_ids)
+            continue
+        for i in range(n):
+            x[i] = xp[i]
+        if not _finite(x):
+            return -1, 0
+        for i in range(n):
+            d[i] = 0.0
+        if not _fire(cur, x, x, t, p, u, d, s, post, rtol, atol, target):
+            return -1, 0
+        fired = False
+        for a in range(target.shape[0]):
+            if target[a] >= 0:
+                fired = True
+        if not fired:  # continuous
+            for i in range(n):
+                xa[i] = x[i]
+            return cur, passes
+        # a pinnacle; one repeating its state is a divergence of time, reported by Python
+        if n_pin == pin_m.shape[0]:
+            return -1, 0
+        for j in range(n_pin):
+            if pin_m[j] == cur:
+                same = True
+                for i in range(n):
+                    if abs(pin_x[j, i] - x[i]) > 1e-300 + 1e-12 * abs(x[i]):
+                        same = False
+                        break
+                if same:
+                    return -1, 0
+        pin_m[n_pin] = cur
+        for i in range(n):
+            pin_x[n_pin, i] = x[i]
+        n_pin += 1
+        code = _next_code(cur, target, mstates, radix)
+        n_chain = 1
+        chain[0] = code
+        cur = _mode_of(code, codes, code_ids)
+    return -1, 0
+
+
+@JIT
+def _initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, template, ind, dep, n_dep, p, u, z, dbuf, r, tmp,
+                  f1):
+    """scipy.integrate._ivp.common.select_initial_step (order 4)."""
     interval = abs(t_end - t0)
-    if k == 0:
-        h_abs = interval
+    ke = y.shape[0]
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(ke):
+        sc = atol + abs(y[i]) * rtol
+        d0 += (y[i] / sc) ** 2
+        d1 += (f[i] / sc) ** 2
+    d0 = math.sqrt(d0 / ke)
+    d1 = math.sqrt(d1 / ke)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
     else:
-        d0 = 0.0
-        d1 = 0.0
-        for i in range(k):
-            sc = atol + abs(y[i]) * rtol
-            d0 += (y[i] / sc) ** 2
-            d1 += (f[i] / sc) ** 2
-        d0 = math.sqrt(d0 / k)
-        d1 = math.sqrt(d1 / k)
-        if d0 < 1e-5 or d1 < 1e-5:
-            h0 = 1e-6
-        else:
-            h0 = 0.01 * d0 / d1
-        h0 = min(h0, interval)
-        for i in range(k):
-            tmp[i] = y[i] + h0 * f[i]
-        _fun(t0 + h0, tmp, template, ind, dep, p, u, z, dbuf, r, f_new)
-        d2 = 0.0
-        for i in range(k):
-            sc = atol + abs(y[i]) * rtol
-            d2 += ((f_new[i] - f[i]) / sc) ** 2
-        d2 = math.sqrt(d2 / k) / h0
-        if d1 <= 1e-15 and d2 <= 1e-15:
-            h1 = max(1e-6, h0 * 1e-3)
-        else:
-            h1 = (0.01 / max(d1, d2)) ** (1 / 5)
-        h_abs = min(100 * h0, h1, interval, max_step)
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    for i in range(ke):
+        tmp[i] = y[i] + h0 * f[i]
+    _fun(m, t0 + h0, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, f1)
+    d2 = 0.0
+    for i in range(ke):
+        sc = atol + abs(y[i]) * rtol
+        d2 += ((f1[i] - f[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / ke) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1 / 5)
+    return min(100 * h0, h1, interval, max_step)
+
+
+@JIT
+def run(iopt, fopt, x0, p, u, tables, lengths, mstates, radix, codes, out_t, out_x, out_m, ev_f, ev_i, info):
+    """A hybrid run from ``(t0, mode, x0)`` until ``t_end`` (see the module docstring); arrays and floats only.
+
+    iopt: kind (0 euler, 1 rk4, 2 RK45), mode, guard samples per step, step cap per instant, save steps (0/1),
+          step cap of this call, resolve the instant at t0 first (0/1);
+    fopt: t0, t_end, dt, rtol, atol, max_step, first_step (0: select), guard rtol, atol, jump rtol, atol [s, -];
+    tables[3, modes, n]: independent, dependent and jump-moved state indices; lengths[3, modes] their counts;
+    mstates[modes, automata]: automaton state numbers; radix[automata]; codes[3, modes]: sorted mode codes,
+          their mode numbers, each mode's code;
+    out_t[N], out_x[N, n], out_m[N]: saved steps; ev_f[E, 1 + 2n]: event time, state before, after;
+    ev_i[E, 3]: mode before, mode after, samples saved before it; info[5]: stiffness |h·λ| and h, 1 if the
+          first event is the initial instant, stiffness limit, dominant component of y."""
+    n = x0.shape[0]
+    return _run(iopt[0], iopt[1], x0, fopt[0], fopt[1], fopt[2], fopt[3], fopt[4], fopt[5], fopt[6], p, u,
+                tables[0], lengths[0], tables[1], lengths[1], tables[2], lengths[2], mstates, radix, codes[0],
+                codes[1], codes[2], fopt[7], fopt[8], fopt[9], fopt[10], iopt[2], iopt[3], iopt[4] != 0, out_t,
+                out_x, out_m, ev_f[:, 0], ev_i[:, 0], ev_i[:, 1], ev_f[:, 1:1 + n], ev_f[:, 1 + n:], ev_i[:, 2],
+                info, iopt[5], iopt[6] != 0)
+
+
+@JIT
+def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind, n_ind, dep, n_dep, moved, n_moved,
+         mstates, radix, codes, code_ids, mode_codes, rtol_g, atol_g, jrtol, jatol, samples, max_instant, save,
+         out_t, out_x, out_m, ev_t, ev_mb, ev_ma, ev_xb, ev_xa, ev_at, info, max_steps, resolve_first):
+    n = x0.shape[0]
+    ne = max(n, 1)
+    template = x0.copy()
+    z = np.empty(n)
+    dbuf = np.empty(ne)
+    r = np.empty(n)
+    s = np.empty(max(N_SIDES, 1))
+    post = np.empty(max(2 * N_SIDES, 1))
+    x_out = np.empty(n)
+    xa = np.empty(n)
+    ybuf = np.empty(ne)
+    fbuf = np.empty(ne)
+    tmpbuf = np.empty(ne)
+    ynbuf = np.empty(ne)
+    fnbuf = np.empty(ne)
+    errbuf = np.empty(ne)
+    Kbuf = np.zeros((7, ne))
+    Qbuf = np.zeros((ne, 4))
+    rx = np.empty(n)
+    rxp = np.empty(n)
+    rd = np.empty(n)
+    target = np.empty(radix.shape[0], np.int64)
+    chain = np.empty(max_instant + 1, np.int64)
+    pin_m = np.empty(64, np.int64)
+    pin_x = np.empty((64, n))
     t = t0
     n_saved = 0
+    n_ev = 0
     steps = 0
-    err = np.empty(k)
-    while steps < max_steps:
-        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
-        if h_abs > max_step:
-            h_abs = max_step
-        elif h_abs < min_step:
-            h_abs = min_step
-        accepted = False
-        rejected = False
-        while not accepted:
-            if h_abs < min_step:
-                _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-                return 3, n_saved, t, x_out, steps
-            h = h_abs
-            t_new = t + h
-            if t_new - t_end > 0:
-                t_new = t_end
-            h = t_new - t
-            h_abs = abs(h)
-            for i in range(k):
-                K[0, i] = f[i]
-            for st in range(1, 6):
-                for i in range(k):
-                    acc = 0.0
-                    for j in range(st):
-                        acc += K[j, i] * RK_A[st, j]
-                    tmp[i] = y[i] + acc * h
-                _fun(t + RK_C[st] * h, tmp, template, ind, dep, p, u, z, dbuf, r, f_new)
-                for i in range(k):
-                    K[st, i] = f_new[i]
-            for i in range(k):
-                acc = 0.0
-                for j in range(6):
-                    acc += K[j, i] * RK_B[j]
-                y_new[i] = y[i] + h * acc
-            _fun(t + h, y_new, template, ind, dep, p, u, z, dbuf, r, f_new)
-            for i in range(k):
-                K[6, i] = f_new[i]
-            for i in range(k):
-                acc = 0.0
-                for j in range(7):
-                    acc += K[j, i] * RK_E[j]
-                sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-                err[i] = acc * h / sc
-            error_norm = _rms(err)
-            if error_norm < 1:
-                if error_norm == 0:
-                    factor = 10.0
-                else:
-                    factor = min(10.0, 0.9 * error_norm ** (-1 / 5))
-                if rejected:
-                    factor = min(1.0, factor)
-                h_abs *= factor
-                accepted = True
-            else:
-                h_abs *= max(0.2, 0.9 * error_norm ** (-1 / 5))
-                rejected = True
-        steps += 1
-        if not _finite(y_new):
-            _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-            return 4, n_saved, t_new, x_out, steps
+    if resolve_first:  # the initial instant: the initial mode may be mythical, or a pinnacle
+        m_new, passes = _resolve(m, x0, t, p, u, moved, n_moved, mstates, radix, codes, code_ids, mode_codes, rtol_g,
+                                 atol_g, jrtol, jatol, max_instant, s, post, xa, rx, rxp, rd, target, chain, pin_m,
+                                 pin_x)
+        if m_new < 0:
+            return 5, n_saved, n_ev, t, m, x0.copy(), steps
+        if passes > 1:
+            ev_t[0] = t
+            ev_mb[0] = m
+            ev_ma[0] = m_new
+            ev_at[0] = 0
+            for i in range(n):
+                ev_xb[0, i] = x0[i]
+                ev_xa[0, i] = xa[i]
+            n_ev = 1
+            info[2] = 1.0
+        for i in range(n):
+            template[i] = xa[i]
+        m = m_new
+    while True:
+        k = n_ind[m]
+        ke = max(k, 1)
+        y = ybuf[:ke]
+        f = fbuf[:ke]
+        tmp = tmpbuf[:ke]
+        y_new = ynbuf[:ke]
+        f_new = fnbuf[:ke]
+        err = errbuf[:ke]
+        K = Kbuf[:, :ke]
+        Q = Qbuf[:ke, :]
         for i in range(k):
-            for j in range(4):
-                acc = 0.0
-                for m in range(7):
-                    acc += K[m, i] * RK_P[m, j]
-                Q[i, j] = acc
-        code, n_saved, t = _end_of_step(2, t, t_new, t_end, h, y, f, y_new, f_new, Q, template, ind, dep, p, u, z,
-                                        dbuf, s, rtol_g, atol_g, samples, tmp, x_out, save, out_t, out_x, n_saved)
-        if code >= 0:
-            return code, n_saved, t, x_out, steps
-    _pack(y, t, template, ind, dep, p, u, z, dbuf, x_out)
-    return 2, n_saved, t, x_out, steps
-'''
+            y[i] = template[ind[m, i]]
+        if k == 0:
+            y[0] = 0.0
+        _fun(m, t, y, k, template, ind, dep, n_dep, p, u, z, dbuf, r, f)
+        h_abs = 0.0
+        if kind == 2:
+            if first_step > 0.0:
+                h_abs = min(first_step, abs(t_end - t))
+            else:
+                h_abs = _initial_step(m, k, t, y, f, t_end, rtol, atol, max_step, template, ind, dep, n_dep, p, u,
+                                      z, dbuf, r, tmp, f_new)
+        stiff_run = 0
+        calm_run = 0
+        streak = 0
+        history = 0
+        code = -1
+        while code < 0:
+            if steps >= max_steps:
+                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                return 2, n_saved, n_ev, t, m, z.copy(), steps
+            if kind < 2:
+                h = min(dt, t_end - t)
+                t_new = t + h if t + h < t_end else t_end
+                if kind == 0:
+                    # stiffness (switching.integrators): f₂ − 2f₁ + f₀ ≈ (h·J)² f₀ over three steps
+                    if history == 2:
+                        num = 0.0
+                        den = 0.0
+                        for i in range(ke):
+                            err[i] = f[i] - K[4, i] - K[4, i] + K[5, i]
+                            num += err[i] * err[i]
+                            den += K[5, i] * K[5, i]
+                        if den > 0.0:
+                            streak = _fixed_stiffness(num / den, 2.0, streak, dt, err, info)
+                            if streak < 0:
+                                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                                return 6, n_saved, n_ev, t, m, z.copy(), steps
+                    for i in range(ke):
+                        K[5, i] = K[4, i]
+                        K[4, i] = f[i]
+                    history = min(history + 1, 2)
+                    for i in range(ke):
+                        y_new[i] = y[i] + h * f[i]
+                else:
+                    for i in range(ke):
+                        tmp[i] = y[i] + h / 2 * f[i]
+                    _fun(m, t + h / 2, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[1])
+                    for i in range(ke):
+                        tmp[i] = y[i] + h / 2 * K[1, i]
+                    _fun(m, t + h / 2, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[2])
+                    # stiffness (switching.integrators): k3 − k2 ≈ (h/2)² J² k1
+                    num = 0.0
+                    den = 0.0
+                    for i in range(ke):
+                        err[i] = K[2, i] - K[1, i]
+                        num += err[i] * err[i]
+                        den += f[i] * f[i]
+                    if den > 0.0:
+                        streak = _fixed_stiffness(16.0 * num / den, 2.78, streak, h, err, info)
+                        if streak < 0:
+                            _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                            return 6, n_saved, n_ev, t, m, z.copy(), steps
+                    for i in range(ke):
+                        tmp[i] = y[i] + h * K[2, i]
+                    _fun(m, t + h, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[3])
+                    for i in range(ke):
+                        y_new[i] = y[i] + h / 6 * (f[i] + 2 * K[1, i] + 2 * K[2, i] + K[3, i])
+                _fun(m, t_new, y_new, k, template, ind, dep, n_dep, p, u, z, dbuf, r, f_new)
+            else:
+                min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+                if h_abs > max_step:
+                    h_abs = max_step
+                elif h_abs < min_step:
+                    h_abs = min_step
+                accepted = False
+                rejected = False
+                while not accepted:
+                    if h_abs < min_step:
+                        _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                        return 3, n_saved, n_ev, t, m, z.copy(), steps
+                    h = h_abs
+                    t_new = t + h
+                    if t_new - t_end > 0:
+                        t_new = t_end
+                    h = t_new - t
+                    h_abs = abs(h)
+                    for i in range(ke):
+                        K[0, i] = f[i]
+                    for st in range(1, 6):
+                        for i in range(ke):
+                            acc = 0.0
+                            for j in range(st):
+                                acc += K[j, i] * RK_A[st, j]
+                            tmp[i] = y[i] + acc * h
+                        _fun(m, t + RK_C[st] * h, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[st])
+                    for i in range(ke):
+                        acc = 0.0
+                        for j in range(6):
+                            acc += K[j, i] * RK_B[j]
+                        y_new[i] = y[i] + h * acc
+                    _fun(m, t + h, y_new, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[6])
+                    for i in range(ke):
+                        f_new[i] = K[6, i]
+                    for i in range(ke):
+                        acc = 0.0
+                        for j in range(7):
+                            acc += K[j, i] * RK_E[j]
+                        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+                        err[i] = acc * h / sc
+                    error_norm = _rms(err)
+                    if error_norm < 1:
+                        if error_norm == 0:
+                            factor = 10.0
+                        else:
+                            factor = min(10.0, 0.9 * error_norm ** (-1 / 5))
+                        if rejected:
+                            factor = min(1.0, factor)
+                        h_abs *= factor
+                        accepted = True
+                    else:
+                        h_abs *= max(0.2, 0.9 * error_norm ** (-1 / 5))
+                        rejected = True
+                # Hairer's stiffness test (DOPRI5) on every accepted step: tmp holds the last stage's
+                # argument y6, at t + h like y_new
+                num = 0.0
+                den = 0.0
+                for i in range(ke):
+                    err[i] = K[6, i] - K[5, i]
+                    num += err[i] ** 2
+                    den += (y_new[i] - tmp[i]) ** 2
+                if den > 0.0 and abs(h) * math.sqrt(num / den) > 3.25:
+                    calm_run = 0
+                    stiff_run += 1
+                    # reported when the rest of the flow would take more than 1e4 steps at this step size
+                    if stiff_run >= 15 and (t_end - t_new) / abs(h) > 10000.0:
+                        info[0] = abs(h) * math.sqrt(num / den)
+                        info[1] = abs(h)
+                        info[3] = 3.25
+                        info[4] = _argmax_abs(err)
+                        _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                        return 6, n_saved, n_ev, t, m, z.copy(), steps
+                else:
+                    calm_run += 1
+                    if calm_run >= 6:
+                        stiff_run = 0
+                for i in range(ke):
+                    for j in range(4):
+                        acc = 0.0
+                        for mm in range(7):
+                            acc += K[mm, i] * RK_P[mm, j]
+                        Q[i, j] = acc
+            steps += 1
+            if not _finite(y_new):
+                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                return 4, n_saved, n_ev, t_new, m, z.copy(), steps
+            # the guards on this step
+            t_ev = _event_in_step(kind, m, k, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z,
+                                  dbuf, s, rtol_g, atol_g, samples, tmp)
+            if t_ev >= 0.0:
+                # the state the guard was seen to hold on: the step's end itself, or the interpolant
+                if t_ev == t_new:
+                    for i in range(ke):
+                        tmp[i] = y_new[i]
+                else:
+                    _interp(kind, t, h, y, f, y_new, f_new, Q, t_ev, tmp)
+                _full(m, tmp, k, t_ev, template, ind, dep, n_dep, p, u, z, dbuf)
+                for i in range(n):
+                    x_out[i] = z[i]
+                t = t_ev
+                code = 1
+                break
+            for i in range(ke):
+                y[i] = y_new[i]
+                f[i] = f_new[i]
+            t = t_new
+            if save:
+                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                out_t[n_saved] = t
+                out_m[n_saved] = m
+                for i in range(n):
+                    out_x[n_saved, i] = z[i]
+                n_saved += 1
+            if t >= t_end:
+                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                return 0, n_saved, n_ev, t, m, z.copy(), steps
+            if save and n_saved >= out_t.shape[0]:
+                _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
+                return 2, n_saved, n_ev, t, m, z.copy(), steps
+        # an event at t with a priori state x_out: resolve it here if no symbolic work is needed
+        if n_ev >= ev_t.shape[0]:
+            return 5, n_saved, n_ev, t, m, x_out.copy(), steps
+        m_new, passes = _resolve(m, x_out, t, p, u, moved, n_moved, mstates, radix, codes, code_ids, mode_codes, rtol_g,
+                         atol_g, jrtol, jatol, max_instant, s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x)
+        if m_new < 0:
+            return 5, n_saved, n_ev, t, m, x_out.copy(), steps
+        ev_t[n_ev] = t
+        ev_mb[n_ev] = m
+        ev_ma[n_ev] = m_new
+        ev_at[n_ev] = n_saved
+        for i in range(n):
+            ev_xb[n_ev, i] = x_out[i]
+            ev_xa[n_ev, i] = xa[i]
+            template[i] = xa[i]
+        n_ev += 1
+        m = m_new
+'''.replace("@JIT", JIT).replace("@INLINE", INLINE).replace("@DISPATCH", DISPATCH)
 
 
-def _decorated(source: str) -> str:
-    """Put ``@njit(cache=True)`` on every top-level function of generated source."""
-    lines = []
-    for line in source.splitlines():
-        if line.startswith("def "):
-            lines.append("@njit(cache=True)")
-        lines.append(line)
-    return "\n".join(lines) + "\n"
-
-
-def jit_source(functions_source: str, guard_trees, n_sides: int) -> str:
-    """The whole compiled module's source for one mode."""
-    import numpy as np
-    from scipy.integrate._ivp.rk import RK45
-
-    holds = ["@njit(cache=True)", "def holds(x, t, p, u, s, rtol, atol):"]
-    if n_sides:
-        holds.append("    sides(x, t, p, u, s)")
-    holds.append("    return " + (" or ".join(tree_expression(t) for t in guard_trees) or "False"))
-    constants = [
-        f"N_SIDES = {n_sides}",
-        f"RK_C = np.array({_RK45['C']!r})",
-        f"RK_A = np.array({_RK45['A']!r})",
-        f"RK_B = np.array({_RK45['B']!r})",
-        f"RK_E = np.array({_RK45['E']!r})",
-        f"RK_P = np.array({np.asarray(RK45.P).tolist()!r})",
-    ]
-    return (
-        _HEADER
-        + "\n".join(constants)
-        + "\n\n"
-        + _COMPARE
-        + "\n\n"
-        + _decorated(functions_source)
-        + "\n\n"
-        + "\n".join(holds)
-        + "\n\n"
-        + _KERNELS
-    )
-
-
-def jit_module(key: str, functions_source: str, guard_trees, n_sides: int, directory: str | os.PathLike | None):
-    """Write the compiled module for one mode under ``directory`` (a private
-    temporary directory if ``None``) and import it."""
+def load_module(name: str, source: str, directory: str | os.PathLike | None):
+    """Write ``source`` as module ``name`` under ``directory`` (a private
+    temporary directory if ``None``) and import it; numba's ``cache=True``
+    then keeps the machine code next to it."""
     if not available():
         raise ImportError("the compiled methods need numba: pip install '.[fast]' (or pip install numba)")
-    source = jit_source(functions_source, guard_trees, n_sides)
     directory = Path(directory) if directory else Path(tempfile.gettempdir()) / "hbg-jit"
     directory.mkdir(parents=True, exist_ok=True)
-    name = f"hbg_jit_{key}"
     path = directory / f"{name}.py"
     if not path.exists() or path.read_text() != source:
         fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.", suffix=".tmp")

@@ -15,6 +15,7 @@ __all__ = [
     "ZenoError",
     "NonFiniteStateError",
     "StepSizeError",
+    "StiffnessError",
 ]
 
 
@@ -84,3 +85,17 @@ class NonFiniteStateError(SimulationError):
 class StepSizeError(SimulationError):
     """An adaptive method could not keep its step above the round-off limit
     (often a stiff problem on an explicit method, or a singularity)."""
+
+
+class StiffnessError(StepSizeError):
+    """An explicit method ran beyond its stability limit: the estimated
+    ``|h·λ|`` of the fastest mode stayed above the method's limit (the
+    problem is stiff there for this method).  ``h`` is the step and
+    ``h_lambda`` the estimate; use an implicit method (Radau, BDF, LSODA) or,
+    for ``euler``/``rk4``, a step below ``limit/|λ|``."""
+
+    def __init__(self, message: str, trajectory=None, t=None, mode=None, h=None, h_lambda=None, limit=None):
+        super().__init__(message, trajectory, t, mode)
+        self.h = h
+        self.h_lambda = h_lambda
+        self.limit = limit

@@ -518,17 +518,32 @@ class HybridModel:
 
         return export_module(self, path, modes)
 
-    def jit_mode(self, mode):
-        """The numba-compiled flow kernels of a mode (module; see :mod:`codegen.jit`)."""
-        from codegen.jit import jit_module
+    @property
+    def visited_modes(self) -> tuple:
+        """The modes whose numerical functions exist in this process (visited
+        by a simulation, resolution or verification so far)."""
+        return tuple(self._compiled)
 
-        mode = self.mode(mode)
-        if mode not in self._jit:
-            cm = self.compiled_mode(mode)
-            key = fingerprint(self.fingerprint, "jit", mode.label)
-            directory = self.cache.directory / "jit" if self.cache.directory else None
-            self._jit[mode] = jit_module(key, cm.source, [g["tree"] for g in cm.guards], cm.n_sides, directory)
-        return self._jit[mode]
+    def compiled_model(self, modes="visited"):
+        """The numba module of this model for a set of modes, built once per
+        set (see :mod:`switching.jit_model`): ``"visited"`` (those with
+        generated functions so far, and the initial mode), ``"reachable"``
+        (explored from the initial mode by :meth:`verify`), or a list.  The
+        ``*-jit`` methods use the visited set: they run modes outside it with
+        the Python integrators, and cover them from the next run on."""
+        from .jit_model import CompiledModel
+
+        if modes == "visited":
+            selected = {self.initial_mode, *self.visited_modes}
+        elif modes == "reachable":
+            report = self.verify(samples=5)
+            selected = {self.initial_mode, *report.explored, *report.kinds}
+        else:
+            selected = {self.mode(m) for m in modes}
+        key = frozenset(selected)
+        if key not in self._jit:
+            self._jit[key] = CompiledModel(self, key)
+        return self._jit[key]
 
     def mode_source(self, mode) -> str:
         """The generated Python source of one mode's functions."""
@@ -577,7 +592,11 @@ class HybridModel:
 
         ``method``: ``"euler"`` or ``"rk4"`` with step ``dt=``; ``"RK45"``,
         ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
-        ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``).  Output:
+        ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``);
+        ``"euler-jit"``, ``"rk4-jit"``, ``"RK45-jit"``: the same in one
+        compiled kernel (numba) for the modes visited before the run, see
+        :meth:`compiled_model` (``progress`` is then called at each return of
+        the kernel, not at every step).  Output:
         every step (default), ``output="events"`` (instants only) or
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
@@ -585,9 +604,13 @@ class HybridModel:
         samples (only their count, in ``stats``): with ``t_eval`` or
         ``output="events"`` the memory of a long run then stays bounded.
         ``event_samples`` (default 3): guards are also tested at this many
-        interior points of every step, so an interval in which a guard holds is
-        found when it is longer than about ``step/(event_samples + 1)``;
-        bound ``max_step`` for shorter ones.
+        interior points of every step.  The Python methods also search between
+        them: an extremum of a comparison that comes within reach of its
+        threshold, and two comparisons of one guard changing truth, so a guard
+        holding only briefly inside a step is still found.  The ``*-jit``
+        kernels test the sample points and the step's end only: there, an
+        interval in which a guard holds is found when it is longer than about
+        ``step/(event_samples + 1)``; bound ``max_step`` for shorter ones.
         See :func:`switching.simulator.simulate`.
         """
         from .simulator import simulate

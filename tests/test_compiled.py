@@ -71,3 +71,149 @@ def test_simulate_many_runs_a_sweep_on_all_cores_and_keeps_failures_apart():
     broken = simulate_many(bouncing_ball.build, [{"e": 0.5}, {"e": 0.8}], 5.0, "RK45", workers=2)
     assert [r.ok for r in broken] == [False, False] and "Zeno" in broken[0].error
     assert len(broken[0].event_times) >= 8  # the partial run came back
+
+
+# ------------------------------------------------ instants resolved in compiled code
+
+def _same_run(model, t_end, method, python_method, **options):
+    """Run Python first (visiting the modes), then the compiled method twice:
+    the second compiled run covers every mode and resolves every instant in
+    compiled code."""
+    python = model.simulate(t_end, python_method, **options)
+    model.simulate(t_end, method, **options)
+    compiled = model.simulate(t_end, method, **options)
+    assert compiled.stats["instants resolved in Python"] == 0
+    return python, compiled
+
+
+def test_mythical_modes_and_a_posteriori_impulses_are_resolved_in_compiled_code():
+    """Diode circuit: opening the switch passes (open, off) as a mythical
+    mode because the a posteriori guard sees the pulse of v_D.  The compiled
+    resolution sees the same pulse (impulse area Σ ∂v_D/∂ẋ·Δx), passes the
+    same modes, and the decay after the switch matches the closed form."""
+    from models import diode_circuit
+
+    model = diode_circuit.build()
+    python, compiled = _same_run(model, 1.0, "RK45-jit", "RK45", rtol=1e-9, atol=1e-12)
+    assert [e.mode_after.label for e in compiled.events] == [e.mode_after.label for e in python.events]
+    assert compiled.events[0].kinds == python.events[0].kinds
+    assert "mythical" in compiled.events[0].kinds
+    np.testing.assert_allclose(compiled.event_times, python.event_times, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(compiled.x[-1], python.x[-1], rtol=1e-8, atol=1e-12)
+
+
+def test_pinnacle_chains_are_resolved_in_compiled_code():
+    """Four touching balls, e = 1: one instant passes three pinnacles (Newton
+    impacts), the velocities end as (0, 0, 0, v0) in both paths."""
+    from models import ball_chain
+
+    model = ball_chain.build(N=4, e=1.0)
+    python, compiled = _same_run(model, 0.5, "RK45-jit", "RK45", output="events")
+    (instant,) = compiled.events
+    assert instant.kinds.count("pinnacle") == 3 and instant.kinds == python.events[0].kinds
+    p = instant.x_after[:4]
+    np.testing.assert_allclose(p, python.events[0].x_after[:4], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(p, [0.0, 0.0, 0.0, 1.0], atol=1e-15)
+
+
+def test_an_initial_mythical_instant_is_resolved_in_compiled_code():
+    """A ball released on the floor moving down: the instant at t = 0 is an
+    impact (v⁺ = −e·v), then the flight; the same as the Python path."""
+    model = bouncing_ball.build(y0=0.0, v0=-2.0)
+    python, compiled = _same_run(model, 0.3, "RK45-jit", "RK45", rtol=1e-9, atol=1e-12)
+    assert compiled.events[0].t == 0.0 and python.events[0].t == 0.0
+    assert compiled.events[0].x_after[0] == pytest.approx(1.6, abs=1e-15)  # p = m·v, v⁺ = −0.8·(−2)
+    assert compiled.events[0].kinds == python.events[0].kinds
+    np.testing.assert_array_equal(compiled.x[:3], python.x[:3])  # x0, then the instant's before and after
+    np.testing.assert_allclose(compiled.x[-1], python.x[-1], rtol=1e-9, atol=1e-12)
+
+
+def test_modes_outside_the_compiled_set_flow_in_python_until_the_next_run(ball):
+    """A fresh model: the first compiled run covers only the initial mode;
+    leaving it hands the instant to Python, and the flows there use scipy's
+    RK45 (the same steps).  The next run covers both modes."""
+    fresh = bouncing_ball.build(e=0.7)
+    first = fresh.simulate(2.0, "RK45-jit", rtol=1e-8, output="events")
+    second = fresh.simulate(2.0, "RK45-jit", rtol=1e-8, output="events")
+    assert first.stats["instants resolved in Python"] == len(first.events) > 0
+    assert second.stats["instants resolved in Python"] == 0
+    np.testing.assert_allclose(second.event_times, first.event_times, rtol=0, atol=1e-12)
+    v1 = np.sqrt(2 * 9.81)
+    t_first = np.sqrt(2 / 9.81)
+    assert second.event_times[1] == pytest.approx(t_first + 2 * 0.7 * v1 / 9.81, abs=1e-9)
+
+
+def test_a_divergence_of_time_in_the_kernel_is_reported_by_python():
+    """Plastic chain at v_th = 0: the kernel sees a pinnacle repeat its state
+    and hands the instant back; Python reports the loop, as in the Python path."""
+    from models import ball_chain
+    from switching import DivergenceOfTimeError
+
+    model = ball_chain.build(N=4, e=0.0, v_th=0.0)
+    with pytest.raises(DivergenceOfTimeError):
+        model.simulate(0.5, "RK45", output="events")
+    with pytest.raises(DivergenceOfTimeError, match="repeats with the same state") as info:
+        model.simulate(0.5, "RK45-jit", output="events")
+    assert info.value.instant.t == pytest.approx(0.1, abs=1e-13)
+
+
+def test_the_compiled_rk45_reports_stiffness():
+    """A damped contact relaxing at k/b = 1e8 /s after separation: RK45 is held
+    at its stability limit; Hairer's test stops the kernel with StiffnessError
+    naming the mode, the step and |hλ| (≈ 3.3 for Dormand–Prince)."""
+    from models import ball_chain
+    from switching import StiffnessError
+
+    model = ball_chain.build(N=2, compliant=True, k=1e8, b=1.0)
+    with pytest.raises(StiffnessError) as python:  # the Python path visits both modes and stops too
+        model.simulate(0.5, "RK45", rtol=1e-8, atol=1e-12)
+    with pytest.raises(StiffnessError) as info:
+        model.simulate(0.5, "RK45-jit", rtol=1e-8, atol=1e-12)
+    error = info.value
+    assert 0.1 < error.t < 0.1005 and abs(error.t - python.value.t) < 1e-4
+    assert "contact1=free" in str(error) and "Radau" in str(error)
+    assert 3.25 < error.h_lambda < 4.0 and error.h < 1e-7
+    momenta = error.trajectory.x[:, :2]
+    np.testing.assert_allclose(momenta.sum(axis=1), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("method, factor", [("euler", 3.0), ("rk4", 4.0)])
+def test_fixed_step_kernels_report_stiffness_where_python_does(method, factor):
+    """Touching balls on an undamped contact, ω·dt = 3 and 4 (beyond Euler's
+    2 and rk4's 2.78): the kernels apply the same rule as the Python steppers and
+    stop at the same time with the same |h·λ|."""
+    import math
+
+    from models import ball_chain
+    from switching import StiffnessError
+
+    k = 1e10
+    omega = math.sqrt(2 * k)
+    model = ball_chain.build(N=2, compliant=True, k=k, distance=0.0)
+    errors = []
+    for name in (method, method, f"{method}-jit"):  # Python visits the modes, the kernel covers them
+        with pytest.raises(StiffnessError) as info:
+            model.simulate(10 * math.pi / omega, name, dt=factor / omega)
+        errors.append(info.value)
+    python, compiled = errors[1], errors[2]
+    assert compiled.t == python.t and compiled.limit == python.limit
+    assert compiled.h_lambda == pytest.approx(python.h_lambda, rel=1e-12)
+    assert f"{method}-jit is beyond its stability limit" in str(compiled) and "dt <" in str(compiled)
+
+
+def test_a_kernel_for_the_reachable_modes_resolves_the_first_run_in_compiled_code():
+    """compiled_model("reachable") explores the modes from the initial one
+    (verify's exploration): the first compiled run then needs no Python at
+    any instant, and gives the bounce times of the closed form."""
+    model = bouncing_ball.build(e=0.5, v_rest=0.3)
+    compiled = model.compiled_model("reachable")
+    assert {m.label for m in compiled.modes} == {"flight", "impact", "rest"}
+    run = model.simulate(2.0, "RK45-jit", rtol=1e-10, atol=1e-12, output="events")
+    assert run.stats["instants resolved in Python"] == 0
+    v, t_bounce, times = np.sqrt(2 * 9.81), np.sqrt(2 / 9.81), []
+    while v > 0.3:
+        times.append(t_bounce)
+        v *= 0.5
+        t_bounce += 2 * v / 9.81
+    np.testing.assert_allclose(run.event_times[: len(times)], times, atol=1e-9)
+    assert run.modes[-1].label == "rest"

@@ -250,3 +250,48 @@ def test_a_round_off_jump_still_lands_exactly_on_the_constraint():
     x = np.array([0.25 + 4.5e-13, 0.25, 0.0, 0.2])  # p1, p2, pos1, pos2: touching
     trajectory = model.simulate(1.0, x0=x, mode="free")
     assert abs(trajectory.x[-1][:2].sum() - x[:2].sum()) < 1e-15
+
+
+@pytest.mark.parametrize("case", ["ball rk4", "ball euler", "ball RK45", "rod rk4", "rod euler", "rod DOP853",
+                                  "diode rk4", "diode euler", "diode Radau"])
+def test_fast_paths_give_the_results_of_numpy_arrays_bit_for_bit(case, monkeypatch):
+    """For speed the generated rates, constraints and guard sides run on
+    Python floats, and euler and rk4 step small systems on lists of floats;
+    the results are those of the same operations on numpy arrays and
+    scalars, bit for bit — events, dependent states (the pivoting rod's rates
+    do not read them, so its stages skip them) and mode sequence included."""
+    from models.graphs import pivoting_rod
+
+    from switching import simulator
+
+    name, method = case.split()
+    if name == "ball":
+        model, t_end, dt = bouncing_ball.build(), 2.5, 0.01
+    elif name == "rod":
+        model = HybridModel(pivoting_rod(), [], {"m": 1.0, "J": 1 / 12, "l": 0.5, "g": 9.81},
+                            initial_state={"rod/theta": 0.9})
+        t_end, dt = 1.0, 0.0134
+    else:
+        model, t_end, dt = diode_circuit(I_th=0.0, p0=0.0, t_open=0.5), 1.0, 1e-3
+    options = {"dt": dt} if method in ("euler", "rk4") else {"rtol": 1e-8, "atol": 1e-10}
+    fast = model.simulate(t_end, method, **options)
+
+    def on_arrays_only(generated):
+        def call(x, *args):
+            if isinstance(x, list):
+                raise TypeError("floats refused: numpy scalars only")
+            return generated(x, *args)
+
+        return call
+
+    for mode in set(fast.modes):  # every generated function of every mode visited, on arrays only
+        cm = model.compiled_mode(mode)
+        for attribute in ("_rates", "_phi", "_sides"):
+            monkeypatch.setattr(cm, attribute, on_arrays_only(getattr(cm, attribute)))
+    monkeypatch.setattr(simulator, "_LIST_STATES", 0)  # and steps on arrays
+    arrays = model.simulate(t_end, method, **options)
+    assert len(fast.t) == len(arrays.t) > 10 and fast.mode_labels == arrays.mode_labels
+    np.testing.assert_array_equal(fast.t, arrays.t)
+    np.testing.assert_array_equal(fast.x, arrays.x)
+    if name != "rod":
+        assert len(fast.events) >= 2

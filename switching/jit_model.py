@@ -1,0 +1,331 @@
+"""One numba module for a model and a set of its modes (the ``*-jit`` methods).
+
+:class:`CompiledModel` generates one numba module for a set of modes.  Each
+mode (numbered ``i`` in label order) is a branch, selected by ``m == i``, of
+the dispatchers the kernel of :mod:`codegen.jit` calls; the branches hold the
+code generated from the mode's symbolic f, g, h and guards (common
+subexpressions eliminated):
+
+``_fy(m, y, t, p, u, out)``    ``dy/dt`` of the independent states ``y = x_i`` (dependent
+                               states ``x_d = φ(x_i, t)`` substituted)
+``_phi(m, x, t, p, u, out)``   the dependent states ``x_d = φ(x_i, t)``
+``_holds(m, y, t, p, u, s, …)``  does a guard hold during flow (finite sides on ``y``)?
+``_jump(m, x, t, p, u, out)``  ``x⁺ = g(x)`` with restitution (False: numerical jump map)
+``_fire(m, x, xp, t, p, u, d, s, post, …, target)``  the first holding transition of each
+                               automaton at an instant: a priori sides on ``x``, a
+                               posteriori ones on ``x⁺ = xp`` with the impulse areas
+                               ``Σ_k ∂side/∂ẋ_k · d_k`` of the pulse ``d = x⁺ − x``
+                               (sides affine in ``ẋ``; otherwise False when pulsed)
+
+One module with branches rather than a function per mode: numba's cost is per
+compiled function, so the compile time stays a few seconds.  Modes are
+identified in compiled code by a mixed-radix code of their automaton states,
+``code = Σ_a state_a · radix_a``, so the kernel finds the mode a transition
+leads to without Python; a mode outside the set sends the instant back to
+Python (:func:`switching.resolution.resolve_instant`).
+
+The source is cached like the per-mode sources (key: the model's fingerprint
+and the mode labels), so a second process neither derives nor regenerates
+anything, and numba's disk cache spares it the compilation.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import sympy as sp
+
+from codegen.cache import fingerprint
+from codegen.jit import (
+    COMPARE_SOURCE,
+    DISPATCH,
+    KERNEL_SOURCE,
+    load_module,
+    module_header,
+    tree_expression,
+)
+from codegen.source import Argument, FunctionSpec, function_source
+
+from .automaton import A_POSTERIORI
+from .compiled import _tree
+from .resolution import Instant, resolve_instant
+
+__all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
+
+KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
+_MAX_CODE = 2**62
+GENERATOR_VERSION = "5"  # part of the cache key: change it when the generated functions change
+
+
+def _mode_functions(model, me, i: int) -> tuple[dict, int]:
+    """Mode ``i``'s branch (source lines) in each dispatcher, and its number
+    of comparison sides."""
+    states = list(model.states)
+    rate_symbols = [me.equations.rate_symbols[s] for s in states]
+    pulses = tuple(sp.Symbol(f"pulse_{k}") for k in range(len(states)))
+    base = (
+        Argument("x", tuple(states), doc="state vector"),
+        Argument("t", (model.time,), scalar=True, doc="time [s]"),
+        Argument("p", tuple(model.parameter_symbols), doc="parameters"),
+        Argument("u", tuple(model.input_symbols), doc="inputs"),
+    )
+    label = me.mode.describe()
+    dependent = [s for s in states if s in me.equations.dependent]
+
+    relations: list = []
+    trees = [(guard, _tree(guard.condition, relations)) for guard in me.guards]
+    finite, impulses = [], []
+    affine = True
+    for rel in relations:
+        for raw in (rel.lhs, rel.rhs):
+            finite.append(me.finite(raw))
+            area = sp.Integer(0)
+            for rate, pulse in zip(rate_symbols, pulses):
+                if raw.has(rate):
+                    coefficient = sp.diff(raw, rate)
+                    if any(coefficient.has(r) for r in rate_symbols):
+                        affine = False
+                    area += coefficient * pulse
+            impulses.append(me.finite(area) if affine else sp.Integer(0))
+    n_sides = len(finite)
+
+    # the flow and its guard test on the independent states alone (x_d = φ(x_i, t) substituted)
+    independent = [s for s in states if s not in me.equations.dependent]
+    phi = me.equations.constraints
+
+    def flow_form(expr):
+        return sp.sympify(expr).xreplace(phi) if phi else expr
+
+    def body(name, arguments, outputs, out="out"):
+        """The statements of a generated function (no def, docstring or return), writing ``out``."""
+        lines = function_source(FunctionSpec(name, arguments, tuple(outputs))).splitlines()
+        end = next(k for k in range(1, len(lines)) if lines[k].rstrip().endswith('"""') and
+                   (k > 1 or lines[k].count('"""') == 2))
+        statements = [line[4:] for line in lines[end + 1:] if line.strip() != "return out"]
+        return [re.sub(r"\bout\[", f"{out}[", line) for line in statements]
+
+    y_args = (Argument("y", tuple(independent)),) + base[1:]
+    xp_args = (Argument("xp", tuple(states)),) + base[1:] + (Argument("d", pulses),)
+    branches = {
+        "_fy": [f"# mode {label}: dy/dt of the independent states"]
+        + body("fy", y_args, [flow_form(me.f[s]) for s in independent]) + ["return"],
+        "_phi": [f"# mode {label}: dependent states"]
+        + body("phi", base, [phi[s] for s in dependent]) + ["return"],
+    }
+    holds = [f"# mode {label}: does a guard hold during flow (sides on y)"]
+    holds += body("sy", y_args, [flow_form(side) for side in finite], "s")
+    holds.append("return " + (" or ".join(tree_expression(tree, "s") for _, tree in trees) or "False"))
+    branches["_holds"] = holds
+
+    fire = [f"# mode {label}: the first holding transition of each automaton at an instant"]
+    prior = any(guard.transition.when != A_POSTERIORI for guard, _ in trees)
+    posterior = any(guard.transition.when == A_POSTERIORI for guard, _ in trees)
+    if prior and n_sides:
+        fire += body("sides", base, finite, "s")
+    if posterior:
+        if not affine:  # a pulse in a side that is not affine in ẋ: Python decides (or reports it)
+            fire += ["for k in range(d.shape[0]):", "    if d[k] != 0.0:", "        return False"]
+        fire += body("post", xp_args, finite + impulses, "post")
+    automaton_index = {a.name: k for k, a in enumerate(model.automata)}
+    state_index = {a.name: {s: j for j, s in enumerate(a.states)} for a in model.automata}
+    for guard, tree in trees:
+        a = automaton_index[guard.automaton]
+        target = state_index[guard.automaton][guard.transition.target]
+        test = (tree_expression(tree, "post", "post", n_sides) if guard.transition.when == A_POSTERIORI
+                else tree_expression(tree, "s"))
+        fire += [f"if target[{a}] < 0 and {test}:", f"    target[{a}] = {target}"]
+    branches["_fire"] = fire + ["return True"]
+
+    g = me.g
+    jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
+    jump = [f"# mode {label}: x⁺ = g(x) ({jump_kind})"]
+    if jump_kind == "identity":
+        jump += ["for k in range(x.shape[0]):", "    out[k] = x[k]", "return True"]
+    elif jump_kind == "symbolic":
+        jump += body("jump", base, [g[s] for s in states]) + ["return True"]
+    else:
+        jump += ["return False"]
+    branches["_jump"] = jump
+    return branches, n_sides
+
+
+_SIGNATURES = {
+    "_fy": "y, t, p, u, out",
+    "_phi": "x, t, p, u, out",
+    "_holds": "y, t, p, u, s, rtol, atol",
+    "_jump": "x, t, p, u, out",
+    "_fire": "x, xp, t, p, u, d, s, post, rtol, atol, target",
+}
+_DEFAULTS = {"_fy": "return", "_phi": "return", "_holds": "return False", "_jump": "return False",
+             "_fire": "return False"}
+
+
+def _dispatcher(name: str, bodies: list[list[str]]) -> str:
+    """One compiled function over all modes: a branch per mode number ``m``."""
+    lines = [DISPATCH, f"def {name}(m, {_SIGNATURES[name]}):"]
+    for i, body in enumerate(bodies):
+        lines.append(f"    {'if' if i == 0 else 'elif'} m == {i}:")
+        lines += ["        " + line for line in body]
+    lines.append(f"    {_DEFAULTS[name]}")
+    return "\n".join(lines) + "\n"
+
+
+def generate_model_source(model, modes: list) -> str:
+    """The whole compiled module for ``modes`` (numbered in list order)."""
+    per_mode, n_sides = [], 0
+    for i, mode in enumerate(modes):
+        branches, count = _mode_functions(model, model.mode_equations(mode), i)
+        per_mode.append(branches)
+        n_sides = max(n_sides, count)
+    dispatch = [_dispatcher(name, [branches[name] for branches in per_mode]) for name in _SIGNATURES]
+    title = f"Compiled hybrid run of model {model.name!r}, modes {', '.join(repr(m.label) for m in modes)}"
+    return (module_header(title) + f"N_SIDES = {n_sides}\n\n" + COMPARE_SOURCE + "\n\n" + "\n\n".join(dispatch)
+            + "\n\n" + KERNEL_SOURCE)
+
+
+class CompiledModel:
+    """The compiled module of ``model`` for a set of modes, its tables, and a
+    call of its kernel (:meth:`run`)."""
+
+    def __init__(self, model, modes):
+        self.model = model
+        self.modes = sorted(set(modes), key=lambda m: m.label)
+        self.ids = {mode: i for i, mode in enumerate(self.modes)}
+        labels = [m.label for m in self.modes]
+        key = fingerprint(model.fingerprint, "compiled model", GENERATOR_VERSION, COMPARE_SOURCE, KERNEL_SOURCE,
+                          *labels)
+        source = model.cache.load(key)
+        if source is None:
+            source = generate_model_source(model, self.modes)
+            model.cache.store(key, source)
+        directory = model.cache.directory / "jit" if model.cache.directory else None
+        self.module = load_module(f"hbg_model_{key}", source, directory)
+        self._tables()
+
+    def _tables(self):
+        model, modes = self.model, self.modes
+        n, count = len(model.states), len(modes)
+        compiled = [model.compiled_mode(m) for m in modes]
+        self.tables = np.zeros((3, count, max(n, 1)), dtype=np.int64)
+        self.lengths = np.zeros((3, count), dtype=np.int64)
+        for i, cm in enumerate(compiled):
+            for row, indices in enumerate((cm.independent, cm.dependent, cm.moved)):
+                self.tables[row, i, : len(indices)] = indices
+                self.lengths[row, i] = len(indices)
+        sizes = [len(a.states) for a in model.automata]
+        self.radix = np.ones(len(sizes), dtype=np.int64)
+        total = 1
+        for a, size in enumerate(sizes):
+            self.radix[a] = total
+            total *= size
+        index = [{s: j for j, s in enumerate(a.states)} for a in model.automata]
+        self.mstates = np.array([[index[a][s] for a, s in enumerate(m.states)] for m in modes],
+                                dtype=np.int64).reshape(count, len(sizes))
+        self.codes = np.full((3, count), -1, dtype=np.int64)
+        if total < _MAX_CODE:  # else no code is found and every instant goes to Python
+            mode_codes = self.mstates @ self.radix
+            order = np.argsort(mode_codes)
+            self.codes[0] = mode_codes[order]
+            self.codes[1] = order
+            self.codes[2] = mode_codes
+        self._buffers = {}
+        self._options = (np.zeros(7, dtype=np.int64), np.zeros(11))
+        self._inputs = np.zeros(0)
+
+    def covers(self, mode) -> bool:
+        return mode in self.ids
+
+    def buffers(self, save: bool, capacity: int = 4096, event_capacity: int = 256) -> tuple:
+        """Output arrays (reused by every call with the same ``save``)."""
+        if save not in self._buffers:
+            n = len(self.model.states)
+            size = capacity if save else 1
+            self._buffers[save] = (np.empty(size), np.empty((size, n)), np.empty(size, dtype=np.int64),
+                                   np.empty((event_capacity, 1 + 2 * n)), np.empty((event_capacity, 3), np.int64),
+                                   np.zeros(5))
+        return self._buffers[save]
+
+    def run(self, kind, mode, x, t, t_end, *, dt, rtol, atol, max_step, first_step, samples, save,
+            max_steps=10**9, resolve_first=False) -> KernelResult:
+        """One kernel call from ``(t, mode, x)`` (``resolve_first``: ``x`` is
+        the a priori state of an instant at ``t``, resolved before the flow).
+        The result's arrays are views of reused buffers: valid until the next call."""
+        model = self.model
+        tol = model.tolerance
+        out_t, out_x, out_m, ev_f, ev_i, info = self.buffers(bool(save))
+        info[:] = 0.0
+        iopt, fopt = self._options
+        iopt[:] = (kind, self.ids[mode], samples, model.max_steps_per_instant, bool(save), max_steps, resolve_first)
+        fopt[:] = (t, t_end, dt or 0.0, rtol, atol, max_step, first_step or 0.0, tol.rtol, tol.atol, tol.jump_rtol,
+                   tol.jump_atol)
+        status, n_saved, n_ev, t_stop, m_stop, x_stop, steps = self.module.run(
+            iopt, fopt, np.asarray(x, dtype=float), model.parameter_array, self._inputs, self.tables, self.lengths,
+            self.mstates, self.radix, self.codes, out_t, out_x, out_m, ev_f, ev_i, info)
+        return KernelResult(self, status, t_stop, self.modes[m_stop], x_stop, steps, n_saved, n_ev,
+                            (out_t, out_x, out_m, ev_f, ev_i, info))
+
+
+class KernelResult:
+    """What one kernel call produced: ``n_saved`` samples, ``n_events``
+    events (in order, each with the number of samples saved before it), and
+    where it stopped (``status``: see :data:`codegen.jit.STATUS`)."""
+
+    def __init__(self, compiled, status, t, mode, x, steps, n_saved, n_events, buffers):
+        self.compiled = compiled
+        self.status, self.t, self.mode, self.x, self.steps = int(status), float(t), mode, x, int(steps)
+        self.n_saved, self.n_events = int(n_saved), int(n_events)
+        self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.info = buffers
+
+    def samples(self, start: int, stop: int):
+        """(t, x, mode) of saved samples ``start:stop`` (copies)."""
+        modes = self.compiled.modes
+        for j in range(start, stop):
+            yield float(self._out_t[j]), self._out_x[j].copy(), modes[self._out_m[j]]
+
+    def events(self):
+        """(samples saved before it, t, mode before, x before, mode after, x after) of each event (copies)."""
+        modes = self.compiled.modes
+        n = self._out_x.shape[1]
+        for j in range(self.n_events):
+            row = self._ev_f[j]
+            mode_before, mode_after, at = self._ev_i[j]
+            yield (int(at), float(row[0]), modes[mode_before], row[1:1 + n].copy(), modes[mode_after],
+                   row[1 + n:].copy())
+
+
+class CompiledInstant(Instant):
+    """An instant resolved in compiled code.  Its time, modes and states are
+    at hand; the steps through mythical modes and pinnacles (with the fired
+    guards) are replayed in Python on first access — the resolution is
+    deterministic, so the replay passes the same modes."""
+
+    def __init__(self, model, t, mode_before, x_before, mode_after, x_after):
+        self.model = model
+        self.t = t
+        self._before = (mode_before, x_before)
+        self._after = (mode_after, x_after)
+        self._steps = None
+
+    @property
+    def steps(self) -> list:
+        if self._steps is None:
+            mode, x = self._before
+            self._steps = resolve_instant(self.model, x, mode, self.t, self.model.max_steps_per_instant).steps
+        return self._steps
+
+    @property
+    def x_before(self) -> np.ndarray:
+        return self._before[1]
+
+    @property
+    def x_after(self) -> np.ndarray:
+        return self._after[1]
+
+    @property
+    def mode_before(self):
+        return self._before[0]
+
+    @property
+    def mode_after(self):
+        return self._after[0]
