@@ -534,6 +534,9 @@ class HybridModel:
         from .jit_model import CompiledModel
 
         if modes == "visited":
+            last = self._jit.get("visited")
+            if last is not None and last[0] == len(self._compiled):
+                return last[1]  # no mode visited since: the same set
             selected = {self.initial_mode, *self.visited_modes}
         elif modes == "reachable":
             report = self.verify(samples=5)
@@ -543,6 +546,8 @@ class HybridModel:
         key = frozenset(selected)
         if key not in self._jit:
             self._jit[key] = CompiledModel(self, key)
+        if modes == "visited":
+            self._jit["visited"] = (len(self._compiled), self._jit[key])
         return self._jit[key]
 
     def mode_source(self, mode) -> str:
