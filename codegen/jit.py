@@ -14,9 +14,16 @@ run in compiled code:
   fixed ``dt``, or scipy's RK45 (kind 2: Dormand–Prince 5(4) with scipy's
   initial step, error norm, step factors and dense output, so both take the
   same steps up to round-off);
-* at every accepted step, the guards at ``samples`` interior points and at
-  the step's end, and the first time a guard holds located by bisection on
-  the step's interpolant down to adjacent floating-point numbers;
+* at every accepted step, event detection as the Python path's
+  ``switching.simulator._GuardScan``: the guards at ``samples`` interior
+  points and at the step's end; besides, a guard holding only between two
+  points — a comparison part whose margin has an extremum between points
+  within reach of its threshold (parabola through three points, the
+  previous step's last point included, refined by Brent's method on the
+  interpolant), or two or more parts of one guard changing truth between
+  two points (each change bisected, the guards tested just after each);
+  the first time a guard holds located by bisection on the step's
+  interpolant down to adjacent floating-point numbers;
 * the instant's resolution (the paper's selMode, DESIGN §6) through mythical
   modes and pinnacles: ``x⁺ = g_β(x)``, a posteriori guards on ``x⁺`` with
   the impulses ``Σ_k ∂side/∂ẋ_k · Δx_k`` of the jump, the next mode from the
@@ -50,6 +57,7 @@ instead of compiling it.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import sys
@@ -87,16 +95,18 @@ _RK45 = {
 
 _OP_CODES = {"<": 0, "<=": 1, ">": 2, ">=": 3, "==": 4, "!=": 5}
 
-JIT = "@njit(cache=True, error_model='numpy')"
+JIT = "@njit(cache=True, error_model='numpy', no_cpython_wrapper=True, no_cfunc_wrapper=True)"
+ENTRY = "@njit(cache=True, error_model='numpy')"  # the one function Python calls
 # A call between compiled functions costs ~20-80 ns (reference counting of its array
 # arguments, status checks), more than the arithmetic of a small mode: small helpers and the
 # per-mode functions are inlined (once each: into the mode dispatchers, which are called and
 # run without reference counting); inlining the dispatchers themselves at every call site
 # would multiply the compile time by ten.
 INLINE = "@njit(cache=True, error_model='numpy', inline='always')"
-DISPATCH = "@njit(cache=True, error_model='numpy', _nrt=False)"
+DISPATCH = "@njit(cache=True, error_model='numpy', _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)"
 
 
+@functools.cache
 def available() -> bool:
     """Is numba installed (``pip install .[fast]``)?"""
     return importlib.util.find_spec("numba") is not None
@@ -269,24 +279,262 @@ def _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, out):
             out[i] = y_old[i] + h * acc
 
 
-@JIT
+# event detection (switching.simulator._GuardScan): the points of a step are slots of the arrays
+# ptau [slots], pmg [slots, parts] (margins), ptr [slots, parts] (truths), phd [slots] (a guard holds);
+# slot 0: the flow's last point (the step's start), 1: the previous step's point before its end,
+# 2: the bisection's last point not holding, 3: unused, 4: a hold found between the changes of parts, 5: scratch, 6…: the step's points
+_S_START = 0
+_S_BEFORE = 1
+_S_INSIDE = 4
+_S_SCRATCH = 5
+_S_STEP = 6
+_OVERSHOOT = 3.0  # as switching.simulator._OVERSHOOT
+
+
+@INLINE
+def _parts(slot, tau, hd, m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
+    """A point into ``slot``: the margins and truths of the parts from the sides ``s`` (the band rule of
+    ``_dec``; as switching.simulator._GuardForm), the time and whether a guard holds (``hd``)."""
+    for i in range(npart[m]):
+        r = prel[m, i]
+        left = s[2 * r]
+        right = s[2 * r + 1]
+        d = left - right
+        scale = max(abs(left), abs(right))
+        band = rtol * scale + atol if scale < np.inf else 0.0
+        sign = psign[m, i]
+        if sign == 0:
+            pmg[slot, i] = 0.0
+            ptr[slot, i] = abs(d) > band
+        else:
+            mg = (d if sign > 0 else -d) + (band if pinc[m, i] != 0 else -band)
+            pmg[slot, i] = mg
+            ptr[slot, i] = mg >= 0.0 if pinc[m, i] != 0 else mg > 0.0
+    ptau[slot] = tau
+    phd[slot] = hd
+    return hd
+
+
+@DISPATCH
+def _point(slot, tau, at, yv, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u,
+           z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
+    """The guards at ``tau`` into ``slot``: on ``yv`` if ``at`` (a step's end, a flow's start), else on the
+    interpolant.  Returns whether a guard holds."""
+    if at:
+        hd = _holds_at(m, yv, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol)
+    else:
+        _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, tmp)
+        hd = _holds_at(m, tmp, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol)
+    return _parts(slot, tau, hd, m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+
+
+@INLINE
+def _differ(a, b, count, ptr):
+    """Do the points in slots a and b differ in a part's truth?"""
+    for i in range(count):
+        if ptr[a, i] != ptr[b, i]:
+            return True
+    return False
+
+
+@INLINE
+def _copy_point(src, dst, ptau, pmg, ptr, phd):
+    ptau[dst] = ptau[src]
+    phd[dst] = phd[src]
+    for i in range(pmg.shape[1]):
+        pmg[dst, i] = pmg[src, i]
+        ptr[dst, i] = ptr[src, i]
+
+
+@INLINE
+def _parabola_peak(t0, t1, t2, m0, m1, m2):
+    """``(ok, time, value)`` of the maximum of the parabola through three points (not ok if not concave)."""
+    if not (t0 < t1 and t1 < t2):
+        return False, 0.0, 0.0
+    d1 = (m1 - m0) / (t1 - t0)
+    d2 = (m2 - m1) / (t2 - t1)
+    curvature = (d2 - d1) / (t2 - t0)
+    if not curvature < 0.0:
+        return False, 0.0, 0.0
+    at = 0.5 * (t0 + t1) - d1 / (2 * curvature)
+    return True, at, m0 + d1 * (at - t0) + curvature * (at - t0) * (at - t1)
+
+
+@DISPATCH
 def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z,
-                   dbuf, s, rtol, atol, samples, tmp):
-    """First time in (t_old, t_new] a guard holds, or -1.0 (the Python driver's rule)."""
-    a = t_old
-    b = -1.0
+                   dbuf, s, rtol, atol, samples, tmp, prel, psign, pinc, pguard, npart, nguard, ptau, pmg, ptr, phd,
+                   order, ext, iscr, fscr, q, scan):
+    """First time in (t_old, t_new] a guard holds, or -1.0: switching.simulator._GuardScan.first_hold (the
+    sample points, refined extrema of the parts' margins, holds between parts changing truth) and _locate.
+    ``scan[0]``: the previous step's point before its end is in slot 1 (reset at every flow start)."""
+    if nguard[m] == 0:
+        return -1.0
+    P = npart[m]
+    nxt = _S_STEP
+    order[0] = _S_START
+    cnt = 1
+    last = -1
+    span = t_new - t_old
     for j in range(1, samples + 1):
-        tau = t_old + (t_new - t_old) * j / (samples + 1)
+        tau = t_old + span * j / (samples + 1)
+        if ptau[order[cnt - 1]] < tau and tau < t_new:  # a step of a few ulps has fewer distinct points
+            _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, tmp)
+            hd = _parts(nxt, tau, _holds_at(m, tmp, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol),
+                        m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+            order[cnt] = nxt
+            cnt += 1
+            nxt += 1
+            if hd:
+                last = cnt - 1
+                break
+    if last < 0:
+        hd = _parts(nxt, t_new, _holds_at(m, y_new, k, t_new, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol,
+                                          atol), m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+        order[cnt] = nxt
+        cnt += 1
+        nxt += 1
+        if hd:
+            last = cnt - 1
+
+    # extrema of the parts' margins between points (_GuardScan.extrema)
+    first = 0
+    count = 0
+    if scan[0] != 0:
+        ext[0] = _S_BEFORE
+        first = 1
+        count = 1
+    for j in range(cnt):
+        ext[count] = order[j]
+        count += 1
+    total = cnt
+    if count >= 3:
+        for i in range(P):
+            if psign[m, i] == 0:
+                continue
+            top = pmg[ext[0], i]
+            bottom = top
+            for j in range(1, count):
+                v = pmg[ext[j], i]
+                top = max(top, v)
+                bottom = min(bottom, v)
+            if bottom > 0.0 or top + (1.0 + _OVERSHOOT) * (top - bottom) < 0.0:
+                continue  # holds all along, or far from its threshold all along
+            for j in range(first, count):
+                if ptr[ext[j], i]:
+                    continue
+                mj = pmg[ext[j], i]
+                if 0 < j < count - 1:
+                    if not (mj >= pmg[ext[j - 1], i] and mj >= pmg[ext[j + 1], i]):
+                        continue
+                    c0 = j - 1
+                    low = ptau[ext[j - 1]]
+                    high = ptau[ext[j + 1]]
+                    w0 = -np.inf
+                    w1 = np.inf
+                    windowed = False
+                elif j == count - 1 and last < 0 and mj > pmg[ext[j - 1], i]:  # rising at the step's end
+                    c0 = j - 2
+                    low = ptau[ext[j - 1]]
+                    high = ptau[ext[j]]
+                    w0 = ptau[ext[j - 1]]
+                    w1 = 2 * ptau[ext[j]] - ptau[ext[j - 1]]
+                    windowed = True
+                elif j == 0 and mj > pmg[ext[1], i]:  # falling from the flow's start
+                    c0 = 0
+                    low = ptau[ext[0]]
+                    high = ptau[ext[1]]
+                    w0 = 2 * ptau[ext[0]] - ptau[ext[1]]
+                    w1 = ptau[ext[1]]
+                    windowed = True
+                else:
+                    continue
+                a0, a1, a2 = ext[c0], ext[c0 + 1], ext[c0 + 2]
+                ok, at, value = _parabola_peak(ptau[a0], ptau[a1], ptau[a2], pmg[a0, i], pmg[a1, i], pmg[a2, i])
+                if not ok:
+                    continue
+                reference = max(pmg[a0, i], max(pmg[a1, i], pmg[a2, i]))
+                if windowed and not (w0 < at and at < w1):
+                    continue
+                if value + _OVERSHOOT * (value - reference) < 0.0:
+                    continue
+                low = max(low, t_old)
+                high = min(high, t_new)
+                if not high > low:
+                    continue
+                tau = _maximize(i, low, high, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind,
+                                dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg,
+                                ptr, phd)
+                new = True
+                for jj in range(count):
+                    if ptau[ext[jj]] == tau:
+                        new = False
+                for jj in range(cnt, total):
+                    if ptau[order[jj]] == tau:
+                        new = False
+                if new:
+                    _point(nxt, tau, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
+                           ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg,
+                           ptr, phd)
+                    order[total] = nxt
+                    total += 1
+                    nxt += 1
+        if total > cnt:  # the points in time order (stable)
+            for j in range(1, total):
+                slot = order[j]
+                jj = j
+                while jj > 0 and ptau[order[jj - 1]] > ptau[slot]:
+                    order[jj] = order[jj - 1]
+                    jj -= 1
+                order[jj] = slot
+
+    # the first hold, or one between the changes of parts (_GuardScan.first_hold)
+    lo_a = -1.0
+    hi_b = -1.0
+    for j in range(1, total):
+        a = order[j - 1]
+        b = order[j]
+        if phd[b]:
+            lo, tau = _bisect(a, ptau[b], kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
+                              n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+            if lo != a and _differ(a, lo, P, ptr):
+                inside = _pieces(a, lo, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
+                                 n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, pguard, npart, nguard,
+                                 ptau, pmg, ptr, phd, iscr, fscr, q)
+                if inside >= 0:
+                    lo, tau = _bisect(a, ptau[inside], kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
+                                      ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart,
+                                      ptau, pmg, ptr, phd)
+            end = b
+        else:
+            if not _differ(a, b, P, ptr):
+                continue
+            inside = _pieces(a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p,
+                             u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, pguard, npart, nguard, ptau, pmg, ptr,
+                             phd, iscr, fscr, q)
+            if inside < 0:
+                continue
+            lo, tau = _bisect(a, ptau[inside], kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind,
+                              dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr,
+                              phd)
+            end = inside
+        # verified: tau checked with the guards themselves (else the plain bracket)
         _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, tmp)
         if _holds_at(m, tmp, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
-            b = tau
-            break
-        a = tau
-    if b < 0.0:
-        if _holds_at(m, y_new, k, t_new, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
-            b = t_new
+            lo_a = ptau[lo]
+            hi_b = tau
         else:
-            return -1.0
+            lo_a = ptau[a]
+            hi_b = ptau[end]
+        break
+    if hi_b < 0.0:
+        if total >= 2:
+            _copy_point(order[total - 2], _S_BEFORE, ptau, pmg, ptr, phd)
+            _copy_point(order[total - 1], _S_START, ptau, pmg, ptr, phd)
+            scan[0] = 1
+        return -1.0
+    # switching.simulator._locate
+    a = lo_a
+    b = hi_b
     for _ in range(200):
         mid = 0.5 * (a + b)
         if mid <= a or mid >= b:
@@ -297,6 +545,183 @@ def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t
         else:
             a = mid
     return b
+
+
+@DISPATCH
+def _bisect(a, hi, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf, s,
+            rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
+    """_GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
+    adjacent floating-point numbers; ``(lo, hi)``, ``lo`` the slot of the last point seen not holding."""
+    t_lo = ptau[a]
+    for _ in range(200):
+        mid = 0.5 * (t_lo + hi)
+        if mid <= t_lo or mid >= hi:
+            break
+        _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, mid, tmp)
+        if _holds_at(m, tmp, k, mid, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol):
+            hi = mid
+        else:
+            t_lo = mid
+    if t_lo == ptau[a]:
+        return a, hi
+    # the last point not holding, evaluated again (deterministic) for its parts' truths
+    lo = 2
+    _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, t_lo, tmp)
+    _parts(lo, t_lo, _holds_at(m, tmp, k, t_lo, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol), m, s, rtol,
+           atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+    return lo, hi
+
+
+@DISPATCH
+def _pieces(a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf, s,
+            rtol, atol, tmp, prel, psign, pinc, pguard, npart, nguard, ptau, pmg, ptr, phd, iscr, fscr, q):
+    """_GuardScan.pieces: the slot of a point inside (a, b) where a guard holds although it holds at neither
+    end, found from parts changing truth in between; -1 if none.  iscr [2·parts], fscr [parts], q [parts]."""
+    P = npart[m]
+    if not _differ(a, b, P, ptr):
+        return -1
+    changed = False
+    for i in range(P):
+        iscr[P + i] = 0
+    for g in range(nguard[m]):
+        ns = 0
+        for i in range(P):
+            if pguard[m, i] == g and ptr[a, i] != ptr[b, i]:
+                iscr[ns] = i
+                ns += 1
+        if ns < 2:
+            continue
+        # possible: can guard g hold for some truth values of the switching parts, the others as at a?
+        for i in range(P):
+            q[i] = ptr[a, i]
+        can = False
+        for combination in range(1 << ns):
+            for bit in range(ns):
+                q[iscr[bit]] = (combination >> bit) & 1 == 1
+            if _gparts(m, g, q):
+                can = True
+                break
+        if can:
+            changed = True
+            for bit in range(ns):
+                iscr[P + iscr[bit]] = 1
+    if not changed:
+        return -1
+    nt = 0
+    for i in range(P):
+        if iscr[P + i] == 0:
+            continue
+        # switch: the first time after which part i has its truth value at b
+        lo = ptau[a]
+        hi = ptau[b]
+        truth_lo = ptr[a, i]
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            _point(_S_SCRATCH, mid, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind,
+                   dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+            if ptr[_S_SCRATCH, i] == truth_lo:
+                lo = mid
+            else:
+                hi = mid
+        fscr[nt] = hi
+        nt += 1
+    for j in range(1, nt):  # the times in order
+        tau = fscr[j]
+        jj = j
+        while jj > 0 and fscr[jj - 1] > tau:
+            fscr[jj] = fscr[jj - 1]
+            jj -= 1
+        fscr[jj] = tau
+    for j in range(nt):
+        tau = fscr[j]
+        if j > 0 and tau == fscr[j - 1]:
+            continue
+        if tau < ptau[b]:
+            if _point(_S_INSIDE, tau, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
+                      ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr,
+                      phd):
+                return _S_INSIDE
+    return -1
+
+
+@DISPATCH
+def _maximize(i, a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf,
+              s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
+    """switching.simulator._maximize on the margin of part i: a maximum on [a, b] (Brent's method: golden
+    section with parabolic steps), stopping early where the margin is ≥ 0 (the part holds)."""
+    golden = 0.3819660112501051
+    x = a + golden * (b - a)
+    w = x
+    v = x
+    _point(_S_SCRATCH, x, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
+           n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+    fx = -pmg[_S_SCRATCH, i]
+    fw = fx
+    fv = fx
+    if fx <= 0.0:
+        return x
+    d = 0.0
+    e = 0.0
+    xtol = 1e-10 * (b - a)
+    for _ in range(60):
+        middle = 0.5 * (a + b)
+        tol1 = 4e-16 * abs(x) + xtol
+        tol2 = 2.0 * tol1
+        if abs(x - middle) <= tol2 - 0.5 * (b - a):
+            break
+        use_golden = True
+        if abs(e) > tol1:
+            r = (x - w) * (fx - fv)
+            qq = (x - v) * (fx - fw)
+            pp = (x - v) * qq - (x - w) * r
+            qq = 2.0 * (qq - r)
+            if qq > 0.0:
+                pp = -pp
+            qq = abs(qq)
+            previous = e
+            e = d
+            if abs(pp) < abs(0.5 * qq * previous) and qq * (a - x) < pp and pp < qq * (b - x):
+                d = pp / qq
+                uu = x + d
+                if uu - a < tol2 or b - uu < tol2:
+                    d = tol1 if x < middle else -tol1
+                use_golden = False
+        if use_golden:
+            e = (b - x) if x < middle else (a - x)
+            d = golden * e
+        uu = x + (d if abs(d) >= tol1 else (tol1 if d > 0 else -tol1))
+        _point(_S_SCRATCH, uu, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
+               n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+        fu = -pmg[_S_SCRATCH, i]
+        if fu <= 0.0:
+            return uu
+        if fu <= fx:
+            if uu < x:
+                b = x
+            else:
+                a = x
+            v = w
+            fv = fw
+            w = x
+            fw = fx
+            x = uu
+            fx = fu
+        else:
+            if uu < x:
+                a = uu
+            else:
+                b = uu
+            if fu <= fw or w == x:
+                v = w
+                fv = fw
+                w = uu
+                fw = fu
+            elif fu <= fv or v == x or v == w:
+                v = uu
+                fv = fu
+    return x
 
 
 @INLINE
@@ -447,14 +872,15 @@ def _initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, template, ind, de
     return min(100 * h0, h1, interval, max_step)
 
 
-@JIT
+@ENTRY
 def run(iopt, fopt, x0, p, u, tables, lengths, mstates, radix, codes, out_t, out_x, out_m, ev_f, ev_i, info):
     """A hybrid run from ``(t0, mode, x0)`` until ``t_end`` (see the module docstring); arrays and floats only.
 
     iopt: kind (0 euler, 1 rk4, 2 RK45), mode, guard samples per step, step cap per instant, save steps (0/1),
           step cap of this call, resolve the instant at t0 first (0/1);
     fopt: t0, t_end, dt, rtol, atol, max_step, first_step (0: select), guard rtol, atol, jump rtol, atol [s, -];
-    tables[3, modes, n]: independent, dependent and jump-moved state indices; lengths[3, modes] their counts;
+    tables[7, modes, w]: independent, dependent and jump-moved state indices, the guards' parts (relation, sign,
+          inclusive, guard); lengths[5, modes]: the counts of the three index rows, of parts and of guards;
     mstates[modes, automata]: automaton state numbers; radix[automata]; codes[3, modes]: sorted mode codes,
           their mode numbers, each mode's code;
     out_t[N], out_x[N, n], out_m[N]: saved steps; ev_f[E, 1 + 2n]: event time, state before, after;
@@ -465,13 +891,14 @@ def run(iopt, fopt, x0, p, u, tables, lengths, mstates, radix, codes, out_t, out
                 tables[0], lengths[0], tables[1], lengths[1], tables[2], lengths[2], mstates, radix, codes[0],
                 codes[1], codes[2], fopt[7], fopt[8], fopt[9], fopt[10], iopt[2], iopt[3], iopt[4] != 0, out_t,
                 out_x, out_m, ev_f[:, 0], ev_i[:, 0], ev_i[:, 1], ev_f[:, 1:1 + n], ev_f[:, 1 + n:], ev_i[:, 2],
-                info, iopt[5], iopt[6] != 0)
+                info, iopt[5], iopt[6] != 0, tables[3], tables[4], tables[5], tables[6], lengths[3], lengths[4])
 
 
 @JIT
 def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind, n_ind, dep, n_dep, moved, n_moved,
          mstates, radix, codes, code_ids, mode_codes, rtol_g, atol_g, jrtol, jatol, samples, max_instant, save,
-         out_t, out_x, out_m, ev_t, ev_mb, ev_ma, ev_xb, ev_xa, ev_at, info, max_steps, resolve_first):
+         out_t, out_x, out_m, ev_t, ev_mb, ev_ma, ev_xb, ev_xa, ev_at, info, max_steps, resolve_first, prel, psign,
+         pinc, pguard, npart, nguard):
     n = x0.shape[0]
     ne = max(n, 1)
     template = x0.copy()
@@ -497,6 +924,19 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
     chain = np.empty(max_instant + 1, np.int64)
     pin_m = np.empty(64, np.int64)
     pin_x = np.empty((64, n))
+    # event detection (_event_in_step): the points' slots and scratch
+    width = max(prel.shape[1], 1)
+    slots = _S_STEP + samples + 2 + width * (samples + 3)
+    ptau = np.zeros(slots)
+    pmg = np.zeros((slots, width))
+    ptr = np.zeros((slots, width), np.bool_)
+    phd = np.zeros(slots, np.bool_)
+    order = np.empty(slots, np.int64)
+    ext = np.empty(samples + 4, np.int64)
+    iscr = np.empty(2 * width, np.int64)
+    fscr = np.empty(width)
+    q = np.zeros(width, np.bool_)
+    scan = np.zeros(1, np.int64)
     t = t0
     n_saved = 0
     n_ev = 0
@@ -536,6 +976,11 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
         if k == 0:
             y[0] = 0.0
         _fun(m, t, y, k, template, ind, dep, n_dep, p, u, z, dbuf, r, f)
+        # the guards at the flow's start; no previous step yet
+        scan[0] = 0
+        if nguard[m] > 0:
+            _point(_S_START, t, True, y, kind, m, k, t, 0.0, y, f, y, f, Q, template, ind, dep, n_dep, p, u, z, dbuf,
+                   s, rtol_g, atol_g, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
         h_abs = 0.0
         if kind == 2:
             if first_step > 0.0:
@@ -688,8 +1133,11 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
                 return 4, n_saved, n_ev, t_new, m, z.copy(), steps
             # the guards on this step
-            t_ev = _event_in_step(kind, m, k, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z,
-                                  dbuf, s, rtol_g, atol_g, samples, tmp)
+            t_ev = -1.0
+            if nguard[m] > 0:
+                t_ev = _event_in_step(kind, m, k, t, t_new, h, y, f, y_new, f_new, Q, template, ind, dep, n_dep, p, u,
+                                      z, dbuf, s, rtol_g, atol_g, samples, tmp, prel, psign, pinc, pguard, npart,
+                                      nguard, ptau, pmg, ptr, phd, order, ext, iscr, fscr, q, scan)
             if t_ev >= 0.0:
                 # the state the guard was seen to hold on: the step's end itself, or the interpolant
                 if t_ev == t_new:
@@ -737,7 +1185,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
             template[i] = xa[i]
         n_ev += 1
         m = m_new
-'''.replace("@JIT", JIT).replace("@INLINE", INLINE).replace("@DISPATCH", DISPATCH)
+'''.replace("@ENTRY", ENTRY).replace("@JIT", JIT).replace("@INLINE", INLINE).replace("@DISPATCH", DISPATCH)
 
 
 def load_module(name: str, source: str, directory: str | os.PathLike | None):

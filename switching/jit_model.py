@@ -16,9 +16,19 @@ subexpressions eliminated):
                                posteriori ones on ``x⁺ = xp`` with the impulse areas
                                ``Σ_k ∂side/∂ẋ_k · d_k`` of the pulse ``d = x⁺ − x``
                                (sides affine in ``ẋ``; otherwise False when pulsed)
+``_gparts(m, g, q)``           guard ``g`` as a boolean function of its parts' truths ``q``
+                               (event detection inside a step, as
+                               :class:`switching.simulator._GuardForm`)
 
-One module with branches rather than a function per mode: numba's cost is per
-compiled function, so the compile time stays a few seconds.  Modes are
+The tables of the guards' one-sided *parts* (as ``_GuardForm.parts``: the
+comparison, the sign, inclusive, and the guard of each part, with the numbers
+of parts and guards per mode) go with the state-index tables
+(:meth:`CompiledModel._tables`: rows 3–6 of ``tables``, 3–4 of ``lengths``).
+
+One module with branches rather than a function per mode, so its compile
+time hardly grows with the number of modes: about 30–45 s on first use for a
+set of modes (the kernel dominates), then about 0.4 s to load in any later
+process (numba's disk cache).  Modes are
 identified in compiled code by a mixed-radix code of their automaton states,
 ``code = Σ_a state_a · radix_a``, so the kernel finds the mode a transition
 leads to without Python; a mode outside the set sends the instant back to
@@ -50,12 +60,44 @@ from codegen.source import Argument, FunctionSpec, function_source
 from .automaton import A_POSTERIORI
 from .compiled import _tree
 from .resolution import Instant, resolve_instant
+from .simulator import (  # the one-sided parts of a comparison, as the Python scan
+    _FLIPPED,
+    _PARTS,
+)
 
 __all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 _MAX_CODE = 2**62
-GENERATOR_VERSION = "5"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "6"  # part of the cache key: change it when the generated functions change
+
+
+
+
+def guard_parts(trees) -> tuple[list, list]:
+    """The parts ``(relation, sign, inclusive, guard)`` of the guard trees (in
+    the order of :class:`switching.simulator._GuardForm`) and each guard as a
+    Python/numba expression of its parts' truths ``q[i]``."""
+    parts, expressions = [], []
+
+    def walk(tree, positive, g):
+        kind = tree[0]
+        if kind in ("and", "or"):
+            return "(" + f" {kind} ".join(walk(sub, positive, g) for sub in tree[1]) + ")"
+        if kind == "not":
+            return "(not " + walk(tree[1], not positive, g) + ")"
+        if kind == "const":
+            return repr(bool(tree[1]))
+        _, k, op, _text = tree
+        first = len(parts)
+        for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
+            parts.append((k, sign, int(inclusive), g))
+        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
+        return f"({mine})" if positive else f"(not ({mine}))"
+
+    for g, tree in enumerate(trees):
+        expressions.append(walk(tree, True, g))
+    return parts, expressions
 
 
 def _mode_functions(model, me, i: int) -> tuple[dict, int]:
@@ -147,6 +189,12 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     else:
         jump += ["return False"]
     branches["_jump"] = jump
+
+    _, expressions = guard_parts([tree for _, tree in trees])
+    gparts = [f"# mode {label}: each guard from its parts' truths"]
+    for g, expression in enumerate(expressions):
+        gparts += [f"if g == {g}:", f"    return {expression}"]
+    branches["_gparts"] = gparts + ["return False"]
     return branches, n_sides
 
 
@@ -156,9 +204,10 @@ _SIGNATURES = {
     "_holds": "y, t, p, u, s, rtol, atol",
     "_jump": "x, t, p, u, out",
     "_fire": "x, xp, t, p, u, d, s, post, rtol, atol, target",
+    "_gparts": "g, q",
 }
 _DEFAULTS = {"_fy": "return", "_phi": "return", "_holds": "return False", "_jump": "return False",
-             "_fire": "return False"}
+             "_fire": "return False", "_gparts": "return False"}
 
 
 def _dispatcher(name: str, bodies: list[list[str]]) -> str:
@@ -207,12 +256,20 @@ class CompiledModel:
         model, modes = self.model, self.modes
         n, count = len(model.states), len(modes)
         compiled = [model.compiled_mode(m) for m in modes]
-        self.tables = np.zeros((3, count, max(n, 1)), dtype=np.int64)
-        self.lengths = np.zeros((3, count), dtype=np.int64)
+        # rows 0-2: independent, dependent, jump-moved state indices; rows 3-6: the guards' parts
+        # (relation, sign, inclusive, guard), with lengths[3] parts and lengths[4] guards per mode
+        parts = [guard_parts([g["tree"] for g in cm.guards])[0] for cm in compiled]
+        width = max([n, 1] + [len(p) for p in parts])
+        self.tables = np.zeros((7, count, width), dtype=np.int64)
+        self.lengths = np.zeros((5, count), dtype=np.int64)
         for i, cm in enumerate(compiled):
             for row, indices in enumerate((cm.independent, cm.dependent, cm.moved)):
                 self.tables[row, i, : len(indices)] = indices
                 self.lengths[row, i] = len(indices)
+            for j, part in enumerate(parts[i]):
+                self.tables[3:7, i, j] = part
+            self.lengths[3, i] = len(parts[i])
+            self.lengths[4, i] = len(cm.guards)
         sizes = [len(a.states) for a in model.automata]
         self.radix = np.ones(len(sizes), dtype=np.int64)
         total = 1

@@ -609,13 +609,11 @@ class HybridModel:
         samples (only their count, in ``stats``): with ``t_eval`` or
         ``output="events"`` the memory of a long run then stays bounded.
         ``event_samples`` (default 3): guards are also tested at this many
-        interior points of every step.  The Python methods also search between
-        them: an extremum of a comparison that comes within reach of its
-        threshold, and two comparisons of one guard changing truth, so a guard
-        holding only briefly inside a step is still found.  The ``*-jit``
-        kernels test the sample points and the step's end only: there, an
-        interval in which a guard holds is found when it is longer than about
-        ``step/(event_samples + 1)``; bound ``max_step`` for shorter ones.
+        interior points of every step, and searched between them (an
+        extremum of a comparison that comes within reach of its threshold,
+        two comparisons of one guard changing truth), so a guard holding only
+        briefly inside a step is still found — by the Python methods and the
+        ``*-jit`` kernels alike.
         See :func:`switching.simulator.simulate`.
         """
         from .simulator import simulate

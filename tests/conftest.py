@@ -1,6 +1,7 @@
 import os
 import tempfile
 
+import pytest
 import sympy as sp
 
 # generated code goes to a private cache for the test session, never to ~/.cache
@@ -10,3 +11,18 @@ os.environ.setdefault("HBG_CACHE_DIR", tempfile.mkdtemp(prefix="hbg-test-cache-"
 def same(derived, expected) -> bool:
     """Symbolic equality: ``simplify(derived - expected) == 0``."""
     return sp.simplify(sp.sympify(derived) - sp.sympify(expected)) == 0
+
+
+def _slow_requested(config) -> bool:
+    if os.environ.get("HBG_SLOW", "") not in ("", "0"):
+        return True
+    expression = config.getoption("-m", default="") or ""
+    return "slow" in expression and "not slow" not in expression
+
+
+@pytest.fixture(autouse=True)
+def _slow_variants_are_opt_in(request):
+    """Tests marked ``slow`` (exhaustive variants, runs that compile another
+    numba kernel) run only when asked for: ``pytest -m slow`` or ``HBG_SLOW=1``."""
+    if request.node.get_closest_marker("slow") and not _slow_requested(request.config):
+        pytest.skip("slow variant: run with -m slow or HBG_SLOW=1")

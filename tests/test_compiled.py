@@ -1,4 +1,8 @@
-"""The compiled (numba) flow kernels give the Python methods' results."""
+"""The compiled (numba) kernels give the Python methods' results.
+
+Every model structure and set of modes compiles a kernel of its own (about
+35 s on first use): tests that need one no other test shares are marked
+``slow`` and run with ``pytest -m slow`` or ``HBG_SLOW=1``."""
 
 import numpy as np
 import pytest
@@ -50,11 +54,11 @@ def test_compiled_methods_refuse_what_they_cannot_do(ball):
         ball.simulate(1.0, "rk4-jit")
 
 
-def test_zeno_is_detected_on_the_compiled_path_too():
+def test_zeno_is_detected_on_the_compiled_path_too(ball):
     from switching import ZenoError
 
     with pytest.raises(ZenoError) as info:
-        bouncing_ball.build().simulate(10.0, "RK45-jit", rtol=1e-8)
+        ball.simulate(10.0, "RK45-jit", rtol=1e-8)
     assert info.value.accumulation_time == pytest.approx(0.451523640986 * 9, abs=1e-6)
 
 
@@ -143,6 +147,7 @@ def test_modes_outside_the_compiled_set_flow_in_python_until_the_next_run(ball):
     assert second.event_times[1] == pytest.approx(t_first + 2 * 0.7 * v1 / 9.81, abs=1e-9)
 
 
+@pytest.mark.slow  # compiles a kernel of its own (~35 s)
 def test_a_divergence_of_time_in_the_kernel_is_reported_by_python():
     """Plastic chain at v_th = 0: the kernel sees a pinnacle repeat its state
     and hands the instant back; Python reports the loop, as in the Python path."""
@@ -157,6 +162,7 @@ def test_a_divergence_of_time_in_the_kernel_is_reported_by_python():
     assert info.value.instant.t == pytest.approx(0.1, abs=1e-13)
 
 
+@pytest.mark.slow  # compiles a kernel of its own (~35 s)
 def test_the_compiled_rk45_reports_stiffness():
     """A damped contact relaxing at k/b = 1e8 /s after separation: RK45 is held
     at its stability limit; Hairer's test stops the kernel with StiffnessError
@@ -177,6 +183,7 @@ def test_the_compiled_rk45_reports_stiffness():
     np.testing.assert_allclose(momenta.sum(axis=1), 1.0, atol=1e-12)
 
 
+@pytest.mark.slow  # compiles a kernel of its own (~35 s)
 @pytest.mark.parametrize("method, factor", [("euler", 3.0), ("rk4", 4.0)])
 def test_fixed_step_kernels_report_stiffness_where_python_does(method, factor):
     """Touching balls on an undamped contact, ω·dt = 3 and 4 (beyond Euler's
@@ -201,6 +208,7 @@ def test_fixed_step_kernels_report_stiffness_where_python_does(method, factor):
     assert f"{method}-jit is beyond its stability limit" in str(compiled) and "dt <" in str(compiled)
 
 
+@pytest.mark.slow  # compiles a kernel of its own (~35 s)
 def test_a_kernel_for_the_reachable_modes_resolves_the_first_run_in_compiled_code():
     """compiled_model("reachable") explores the modes from the initial one
     (verify's exploration): the first compiled run then needs no Python at
@@ -217,3 +225,35 @@ def test_a_kernel_for_the_reachable_modes_resolves_the_first_run_in_compiled_cod
         t_bounce += 2 * v / 9.81
     np.testing.assert_allclose(run.event_times[: len(times)], times, atol=1e-9)
     assert run.modes[-1].label == "rest"
+
+
+@pytest.mark.parametrize("case", ["time pulse",
+                                  pytest.param("state re-crossing", marks=pytest.mark.slow),
+                                  pytest.param("grazing touch", marks=pytest.mark.slow)])
+def test_a_guard_holding_only_inside_a_step_is_caught_by_the_compiled_methods(case):
+    """The in-step cases of test_extremes (a guard holding only between two of
+    a step's sample points): the kernel's event detection is the Python
+    path's (_GuardScan: refined extrema of the comparisons' margins, holds
+    between comparisons changing truth), so the compiled methods find the
+    same events at the same times.  At the grazing touch, y − h is within
+    its band for 0.29 µs only and the ball is nearly at rest: a round-off
+    difference of the states (1e-16 m) moves the located time by ~1e-10 s."""
+    import math
+
+    from test_extremes import G, pulse_gate, sensor_ball
+
+    if case == "time pulse":
+        model, t_end, runs, atol = pulse_gate(0.26, 0.27), 1.0, [("rk4", {"dt": 0.1}), ("RK45", {})], 1e-13
+    else:
+        d = 1e-3 if case == "state re-crossing" else 0.0
+        model, t_end = sensor_ball(1.0, math.sqrt(2 * G * (1.0 + d))), 0.6
+        runs = [("RK45", {}), ("rk4", {"dt": 0.2 if d else 0.45})]
+        atol = 1e-13 if d else 1e-9
+    for method, options in runs:
+        python, compiled = _same_run(model, t_end, f"{method}-jit", method, **options)
+        assert len(python.events) == 2
+        assert [e.mode_after.label for e in compiled.events] == [e.mode_after.label for e in python.events]
+        np.testing.assert_allclose(compiled.event_times, python.event_times, rtol=0, atol=atol)
+        if case == "time pulse":
+            np.testing.assert_allclose(compiled.event_times, [0.26, 0.27], rtol=0, atol=1e-12)
+            assert compiled.state("Q")[-1] == pytest.approx(0.02, abs=1e-12)

@@ -25,7 +25,6 @@ default run of the module takes about 20 s.
 
 import gc
 import math
-import os
 import re
 import time
 import tracemalloc
@@ -50,17 +49,6 @@ from switching import (
 G = 9.81
 
 
-def _slow_requested(config) -> bool:
-    if os.environ.get("HBG_SLOW", "") not in ("", "0"):
-        return True
-    expression = config.getoption("-m", default="") or ""
-    return "slow" in expression and "not slow" not in expression
-
-
-@pytest.fixture(autouse=True)
-def _slow_variants_are_opt_in(request):
-    if request.node.get_closest_marker("slow") and not _slow_requested(request.config):
-        pytest.skip("exhaustive variant: run with -m slow or HBG_SLOW=1")
 
 
 # =====================================================================  helpers
