@@ -60,10 +60,7 @@ from codegen.source import Argument, FunctionSpec, function_source
 from .automaton import A_POSTERIORI
 from .compiled import _tree
 from .resolution import Instant, resolve_instant
-from .simulator import (  # the one-sided parts of a comparison, as the Python scan
-    _FLIPPED,
-    _PARTS,
-)
+from .simulator import guard_parts  # the guards' one-sided parts, as the Python scan
 
 __all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
 
@@ -72,32 +69,6 @@ _MAX_CODE = 2**62
 GENERATOR_VERSION = "6"  # part of the cache key: change it when the generated functions change
 
 
-
-
-def guard_parts(trees) -> tuple[list, list]:
-    """The parts ``(relation, sign, inclusive, guard)`` of the guard trees (in
-    the order of :class:`switching.simulator._GuardForm`) and each guard as a
-    Python/numba expression of its parts' truths ``q[i]``."""
-    parts, expressions = [], []
-
-    def walk(tree, positive, g):
-        kind = tree[0]
-        if kind in ("and", "or"):
-            return "(" + f" {kind} ".join(walk(sub, positive, g) for sub in tree[1]) + ")"
-        if kind == "not":
-            return "(not " + walk(tree[1], not positive, g) + ")"
-        if kind == "const":
-            return repr(bool(tree[1]))
-        _, k, op, _text = tree
-        first = len(parts)
-        for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
-            parts.append((k, sign, int(inclusive), g))
-        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
-        return f"({mine})" if positive else f"(not ({mine}))"
-
-    for g, tree in enumerate(trees):
-        expressions.append(walk(tree, True, g))
-    return parts, expressions
 
 
 def _mode_functions(model, me, i: int) -> tuple[dict, int]:
@@ -190,7 +161,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
         jump += ["return False"]
     branches["_jump"] = jump
 
-    _, expressions = guard_parts([tree for _, tree in trees])
+    _, expressions, _, _ = guard_parts([tree for _, tree in trees])
     gparts = [f"# mode {label}: each guard from its parts' truths"]
     for g, expression in enumerate(expressions):
         gparts += [f"if g == {g}:", f"    return {expression}"]

@@ -602,6 +602,40 @@ _OVERSHOOT = 3.0  # a sampled extremum is refined when 3× its predicted rise wo
 _GUARD_FORMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+def guard_parts(trees) -> tuple[list, list, list, dict]:
+    """The guards' one-sided *parts* for event detection (see :class:`_GuardForm`).
+
+    Returns ``parts`` — ``(relation, sign, inclusive, guard)`` for every part,
+    a comparison under ``not`` counting reversed — each guard as an expression
+    of its parts' truths ``q[i]`` and as one of its comparisons' truths
+    ``r<k>``, and the operator of each comparison ``k``."""
+    parts, of_parts, of_relations, ops = [], [], [], {}
+
+    def walk(tree, positive, g):
+        kind = tree[0]
+        if kind in ("and", "or"):
+            pairs = [walk(sub, positive, g) for sub in tree[1]]
+            return tuple("(" + f" {kind} ".join(p[j] for p in pairs) + ")" for j in (0, 1))
+        if kind == "not":
+            q, r = walk(tree[1], not positive, g)
+            return f"(not {q})", f"(not {r})"
+        if kind == "const":
+            return repr(bool(tree[1])), repr(bool(tree[1]))
+        _, k, op, _text = tree
+        ops[k] = op
+        first = len(parts)
+        for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
+            parts.append((k, sign, inclusive, g))
+        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
+        return (f"({mine})" if positive else f"(not ({mine}))"), f"r{k}"
+
+    for g, tree in enumerate(trees):
+        q, r = walk(tree, True, g)
+        of_parts.append(q)
+        of_relations.append(r)
+    return parts, of_parts, of_relations, ops
+
+
 class _GuardForm:
     """The guards of one compiled mode for event detection, as one generated
     function ``evaluate(sides, rtol, atol) -> (margins, truths, holds)``:
@@ -616,40 +650,12 @@ class _GuardForm:
       ``truths``."""
 
     def __init__(self, cm):
-        n_relations = cm.n_sides // 2
-        ops = [None] * n_relations
-        self.parts = []  # (relation, sign, inclusive)
-        self.by_guard = []  # the part indices of each guard
-
-        def walk(tree, positive, mine):
-            kind = tree[0]
-            if kind in ("and", "or"):
-                return "(" + f" {kind} ".join(walk(sub, positive, mine) for sub in tree[1]) + ")"
-            if kind == "not":
-                return "(not " + walk(tree[1], not positive, mine) + ")"
-            if kind == "const":
-                return repr(bool(tree[1]))
-            _, k, op, _text = tree
-            ops[k] = op
-            first = len(self.parts)
-            for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
-                mine.append(len(self.parts))
-                self.parts.append((k, sign, inclusive))
-            # the comparison from its parts' truths (for possible(): which guards could hold)
-            parts = [f"q[{i}]" for i in range(first, len(self.parts))]
-            by_parts[k] = ("(" + " and ".join(parts) + ")") if positive else ("(not (" + " and ".join(parts) + "))")
-            return f"r{k}"
-
-        terms = []
-        by_parts = {}
-        self.guard_of_parts = []
-        for guard in cm.guards:
-            mine = []
-            term = walk(guard["tree"], True, mine)
-            terms.append(term)
-            self.by_guard.append(mine)
-            expression = re.sub(r"r(\d+)", lambda match: by_parts[int(match.group(1))], term)
-            self.guard_of_parts.append(eval("lambda q: " + expression))  # our own expression of the tree
+        parts, of_parts, terms, ops = guard_parts([guard["tree"] for guard in cm.guards])
+        self.parts = [(k, sign, inclusive) for k, sign, inclusive, _ in parts]  # (relation, sign, inclusive)
+        self.by_guard = [[i for i, part in enumerate(parts) if part[3] == g] for g in range(len(cm.guards))]
+        # each guard from its parts' truths (for possible(): which guards could hold)
+        self.guard_of_parts = [eval("lambda q: " + expression) for expression in of_parts]  # our own expressions
+        ops = [ops.get(k) for k in range(cm.n_sides // 2)]
         truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
                  "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
         lines = ["def evaluate(s, rtol, atol):"]
