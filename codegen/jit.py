@@ -15,7 +15,7 @@ run in compiled code:
   initial step, error norm, step factors and dense output, so both take the
   same steps up to round-off);
 * at every accepted step, event detection as the Python path's
-  ``switching.simulator._GuardScan``: the guards at ``samples`` interior
+  ``switching.events._GuardScan``: the guards at ``samples`` interior
   points and at the step's end; besides, a guard holding only between two
   points — a comparison part whose margin has an extremum between points
   within reach of its threshold (parabola through three points, the
@@ -37,7 +37,8 @@ of time, which Python reports in full), the cap on steps per instant — stops
 the kernel with status ``RESOLVE`` and the a priori state, and Python resolves
 that instant (deterministically, so the results are the same).
 
-``run`` returns ``(status, n_saved, n_events, t, mode, x, steps)``; status
+``run`` returns ``(status, n_saved, n_events, t, mode, steps)`` and writes the state
+``x`` where it stopped into ``info[5:]``; status
 ``DONE`` 0: reached ``t_end``; ``FULL`` 2: an output buffer is full (call
 again from ``t, mode, x``); ``COLLAPSED`` 3: the step size collapsed;
 ``NONFINITE`` 4; ``RESOLVE`` 5: an event at ``t`` needs Python (``x`` a
@@ -46,7 +47,8 @@ fired — RK45: Hairer's, ``h·ρ > 3.25`` on 15 accepted steps without 6 calm
 ones between, ``ρ ≈ ‖k₇ − k₆‖ / ‖y₇ − y₆‖``, when the rest of the flow would
 take more than 1e4 steps at that step size; rk4 and Euler: ``|h·λ|`` from
 differences of ``f`` beyond 2.78 or 2 on 3 steps in a row or once by 25 % —
-``info`` gets ``|h·λ|``, ``h``, —, the limit and the dominant component.  With ``resolve_first`` the
+``info`` gets ``|h·λ|``, ``h``, —, the limit and the dominant component; ``WORKSPACE`` 7: the
+workspaces ``wf, wi, wb`` are smaller than ``workspace_sizes`` says (nothing ran).  With ``resolve_first`` the
 instant at ``t0`` is resolved before the first flow (recorded as an event if
 it passed more than one mode; ``info[2] = 1`` then).
 
@@ -77,7 +79,7 @@ __all__ = [
     "tree_expression",
 ]
 
-STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff"}
+STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff", 7: "workspace"}
 
 _RK45 = {
     "C": [0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0],
@@ -279,7 +281,7 @@ def _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, out):
             out[i] = y_old[i] + h * acc
 
 
-# event detection (switching.simulator._GuardScan): the points of a step are slots of the arrays
+# event detection (switching.events._GuardScan): the points of a step are slots of the arrays
 # ptau [slots], pmg [slots, parts] (margins), ptr [slots, parts] (truths), phd [slots] (a guard holds);
 # slot 0: the flow's last point (the step's start), 1: the previous step's point before its end,
 # 2: the bisection's last point not holding, 3: unused, 4: a hold found between the changes of parts, 5: scratch, 6…: the step's points
@@ -288,13 +290,13 @@ _S_BEFORE = 1
 _S_INSIDE = 4
 _S_SCRATCH = 5
 _S_STEP = 6
-_OVERSHOOT = 3.0  # as switching.simulator._OVERSHOOT
+_OVERSHOOT = 3.0  # as switching.events._OVERSHOOT
 
 
 @INLINE
 def _parts(slot, tau, hd, m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
     """A point into ``slot``: the margins and truths of the parts from the sides ``s`` (the band rule of
-    ``_dec``; as switching.simulator._GuardForm), the time and whether a guard holds (``hd``)."""
+    ``_dec``; as switching.events._GuardForm), the time and whether a guard holds (``hd``)."""
     for i in range(npart[m]):
         r = prel[m, i]
         left = s[2 * r]
@@ -364,7 +366,7 @@ def _parabola_peak(t0, t1, t2, m0, m1, m2):
 def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z,
                    dbuf, s, rtol, atol, samples, tmp, prel, psign, pinc, pguard, npart, nguard, ptau, pmg, ptr, phd,
                    order, ext, iscr, fscr, q, scan):
-    """First time in (t_old, t_new] a guard holds, or -1.0: switching.simulator._GuardScan.first_hold (the
+    """First time in (t_old, t_new] a guard holds, or -1.0: switching.events._GuardScan.first_hold (the
     sample points, refined extrema of the parts' margins, holds between parts changing truth) and _locate.
     ``scan[0]``: the previous step's point before its end is in slot 1 (reset at every flow start)."""
     if nguard[m] == 0:
@@ -532,7 +534,7 @@ def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t
             _copy_point(order[total - 1], _S_START, ptau, pmg, ptr, phd)
             scan[0] = 1
         return -1.0
-    # switching.simulator._locate
+    # switching.events._locate
     a = lo_a
     b = hi_b
     for _ in range(200):
@@ -649,7 +651,7 @@ def _pieces(a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
 @DISPATCH
 def _maximize(i, a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf,
               s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
-    """switching.simulator._maximize on the margin of part i: a maximum on [a, b] (Brent's method: golden
+    """switching.events._maximize on the margin of part i: a maximum on [a, b] (Brent's method: golden
     section with parabolic steps), stopping early where the margin is ≥ 0 (the part holds)."""
     golden = 0.3819660112501051
     x = a + golden * (b - a)
@@ -872,71 +874,144 @@ def _initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, template, ind, de
     return min(100 * h0, h1, interval, max_step)
 
 
-@ENTRY
-def run(iopt, fopt, x0, p, u, tables, lengths, mstates, radix, codes, out_t, out_x, out_m, ev_f, ev_i, info):
-    """A hybrid run from ``(t0, mode, x0)`` until ``t_end`` (see the module docstring); arrays and floats only.
+@INLINE
+def _layout(n, n_automata, width, samples, max_instant):
+    """Sizes of the float, integer and boolean workspaces of a run (see _run)."""
+    ne = max(n, 1)
+    w = max(width, 1)
+    slots = _S_STEP + samples + 2 + w * (samples + 3)
+    floats = 72 * n + 18 * ne + 3 * max(N_SIDES, 1) + slots * (1 + w) + w
+    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1
+    bools = slots * (1 + w) + w
+    return floats, ints, bools
 
-    iopt: kind (0 euler, 1 rk4, 2 RK45), mode, guard samples per step, step cap per instant, save steps (0/1),
-          step cap of this call, resolve the instant at t0 first (0/1);
-    fopt: t0, t_end, dt, rtol, atol, max_step, first_step (0: select), guard rtol, atol, jump rtol, atol [s, -];
-    tables[7, modes, w]: independent, dependent and jump-moved state indices, the guards' parts (relation, sign,
-          inclusive, guard); lengths[5, modes]: the counts of the three index rows, of parts and of guards;
-    mstates[modes, automata]: automaton state numbers; radix[automata]; codes[3, modes]: sorted mode codes,
-          their mode numbers, each mode's code;
+
+@ENTRY
+def workspace_sizes(n, samples, max_instant):
+    """(floats, integers, booleans) that ``run`` needs in ``wf, wi, wb``."""
+    return _layout(n, RADIX.shape[0], TABLES.shape[2], samples, max_instant)
+
+
+@ENTRY
+def run(kind, mode, samples, max_instant, save, max_steps, resolve_first, t0, t_end, dt, rtol, atol, max_step,
+        first_step, rtol_g, atol_g, jrtol, jatol, x0, p, u, out_t, out_x, out_m, ev_f, ev_i, info, wf, wi, wb):
+    """A hybrid run from ``(t0, mode, x0)`` until ``t_end`` (see the module docstring); arrays and scalars only.
+
+    kind: 0 euler, 1 rk4, 2 RK45; mode: its number; samples: guard samples per step; max_instant: step cap per
+          instant; save: save every step (0/1); max_steps: step cap of this call; resolve_first: resolve the
+          instant at t0 first (0/1);
+    t0, t_end, dt, rtol, atol, max_step, first_step (0: select) [s, -]; rtol_g, atol_g, jrtol, jatol: the
+          guards' and the jump's tolerances;
     out_t[N], out_x[N, n], out_m[N]: saved steps; ev_f[E, 1 + 2n]: event time, state before, after;
-    ev_i[E, 3]: mode before, mode after, samples saved before it; info[5]: stiffness |h·λ| and h, 1 if the
-          first event is the initial instant, stiffness limit, dominant component of y."""
+    ev_i[E, 3]: mode before, mode after, samples saved before it; info[5 + n]: stiffness |h·λ| and h, 1 if the
+          first event is the initial instant, stiffness limit, dominant component of y; then the state where
+          the call stopped;
+    wf, wi, wb: float, integer and boolean workspaces of at least workspace_sizes(n, samples, max_instant).
+    The model's tables are this module's constants: TABLES[7, modes, w] independent, dependent and jump-moved
+    state indices, the guards' parts (relation, sign, inclusive, guard); LENGTHS[5, modes] the counts of the
+    three index rows, of parts and of guards; MSTATES[modes, automata] automaton state numbers; RADIX[automata];
+    CODES[3, modes] sorted mode codes, their mode numbers, each mode's code."""
     n = x0.shape[0]
-    return _run(iopt[0], iopt[1], x0, fopt[0], fopt[1], fopt[2], fopt[3], fopt[4], fopt[5], fopt[6], p, u,
-                tables[0], lengths[0], tables[1], lengths[1], tables[2], lengths[2], mstates, radix, codes[0],
-                codes[1], codes[2], fopt[7], fopt[8], fopt[9], fopt[10], iopt[2], iopt[3], iopt[4] != 0, out_t,
-                out_x, out_m, ev_f[:, 0], ev_i[:, 0], ev_i[:, 1], ev_f[:, 1:1 + n], ev_f[:, 1 + n:], ev_i[:, 2],
-                info, iopt[5], iopt[6] != 0, tables[3], tables[4], tables[5], tables[6], lengths[3], lengths[4])
+    floats, ints, bools = _layout(n, RADIX.shape[0], TABLES.shape[2], samples, max_instant)
+    if wf.shape[0] < floats or wi.shape[0] < ints or wb.shape[0] < bools or info.shape[0] < 5 + n:
+        return 7, 0, 0, t0, mode, 0
+    return _run(kind, mode, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, TABLES[0], LENGTHS[0],
+                TABLES[1], LENGTHS[1], TABLES[2], LENGTHS[2], MSTATES, RADIX, CODES[0], CODES[1], CODES[2], rtol_g,
+                atol_g, jrtol, jatol, samples, max_instant, save != 0, out_t, out_x, out_m, ev_f[:, 0], ev_i[:, 0],
+                ev_i[:, 1], ev_f[:, 1:1 + n], ev_f[:, 1 + n:], ev_i[:, 2], info, max_steps, resolve_first != 0,
+                TABLES[3], TABLES[4], TABLES[5], TABLES[6], LENGTHS[3], LENGTHS[4], wf, wi, wb)
+
+
+@INLINE
+def _stop(info, x, status, n_saved, n_ev, t, m, steps):
+    """The kernel's return: the state x into info[5:], the rest as a tuple."""
+    for i in range(x.shape[0]):
+        info[5 + i] = x[i]
+    return status, n_saved, n_ev, t, m, steps
 
 
 @JIT
 def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind, n_ind, dep, n_dep, moved, n_moved,
          mstates, radix, codes, code_ids, mode_codes, rtol_g, atol_g, jrtol, jatol, samples, max_instant, save,
          out_t, out_x, out_m, ev_t, ev_mb, ev_ma, ev_xb, ev_xa, ev_at, info, max_steps, resolve_first, prel, psign,
-         pinc, pguard, npart, nguard):
+         pinc, pguard, npart, nguard, wf, wi, wb):
     n = x0.shape[0]
     ne = max(n, 1)
-    template = x0.copy()
-    z = np.empty(n)
-    dbuf = np.empty(ne)
-    r = np.empty(n)
-    s = np.empty(max(N_SIDES, 1))
-    post = np.empty(max(2 * N_SIDES, 1))
-    x_out = np.empty(n)
-    xa = np.empty(n)
-    ybuf = np.empty(ne)
-    fbuf = np.empty(ne)
-    tmpbuf = np.empty(ne)
-    ynbuf = np.empty(ne)
-    fnbuf = np.empty(ne)
-    errbuf = np.empty(ne)
-    Kbuf = np.zeros((7, ne))
-    Qbuf = np.zeros((ne, 4))
-    rx = np.empty(n)
-    rxp = np.empty(n)
-    rd = np.empty(n)
-    target = np.empty(radix.shape[0], np.int64)
-    chain = np.empty(max_instant + 1, np.int64)
-    pin_m = np.empty(64, np.int64)
-    pin_x = np.empty((64, n))
-    # event detection (_event_in_step): the points' slots and scratch
+    ns = max(N_SIDES, 1)
     width = max(prel.shape[1], 1)
     slots = _S_STEP + samples + 2 + width * (samples + 3)
-    ptau = np.zeros(slots)
-    pmg = np.zeros((slots, width))
-    ptr = np.zeros((slots, width), np.bool_)
-    phd = np.zeros(slots, np.bool_)
-    order = np.empty(slots, np.int64)
-    ext = np.empty(samples + 4, np.int64)
-    iscr = np.empty(2 * width, np.int64)
-    fscr = np.empty(width)
-    q = np.zeros(width, np.bool_)
-    scan = np.zeros(1, np.int64)
+    for i in range(5):
+        info[i] = 0.0
+    # the workspaces, carved in the order of _layout's sums; zeroed where a slot may be read before written
+    o = 0
+    template = wf[o:o + n]
+    o += n
+    for i in range(n):
+        template[i] = x0[i]
+    z = wf[o:o + n]
+    o += n
+    r = wf[o:o + n]
+    o += n
+    x_out = wf[o:o + n]
+    o += n
+    xa = wf[o:o + n]
+    o += n
+    rx = wf[o:o + n]
+    o += n
+    rxp = wf[o:o + n]
+    o += n
+    rd = wf[o:o + n]
+    o += n
+    pin_x = wf[o:o + 64 * n].reshape((64, n))
+    o += 64 * n
+    dbuf = wf[o:o + ne]
+    o += ne
+    ybuf = wf[o:o + ne]
+    o += ne
+    fbuf = wf[o:o + ne]
+    o += ne
+    tmpbuf = wf[o:o + ne]
+    o += ne
+    ynbuf = wf[o:o + ne]
+    o += ne
+    fnbuf = wf[o:o + ne]
+    o += ne
+    errbuf = wf[o:o + ne]
+    o += ne
+    zeroed = o
+    Kbuf = wf[o:o + 7 * ne].reshape((7, ne))
+    o += 7 * ne
+    Qbuf = wf[o:o + 4 * ne].reshape((ne, 4))
+    o += 4 * ne
+    s = wf[o:o + ns]
+    o += ns
+    post = wf[o:o + 2 * ns]
+    o += 2 * ns
+    ptau = wf[o:o + slots]
+    o += slots
+    pmg = wf[o:o + slots * width].reshape((slots, width))
+    o += slots * width
+    fscr = wf[o:o + width]
+    wf[zeroed:o] = 0.0  # K, Q, the sides and the points' slots
+    o = 0
+    target = wi[o:o + radix.shape[0]]
+    o += radix.shape[0]
+    chain = wi[o:o + max_instant + 1]
+    o += max_instant + 1
+    pin_m = wi[o:o + 64]
+    o += 64
+    order = wi[o:o + slots]
+    o += slots
+    ext = wi[o:o + samples + 4]
+    o += samples + 4
+    iscr = wi[o:o + 2 * width]
+    o += 2 * width
+    scan = wi[o:o + 1]
+    scan[0] = 0
+    ptr = wb[:slots * width].reshape((slots, width))
+    phd = wb[slots * width:slots * (width + 1)]
+    q = wb[slots * (width + 1):slots * (width + 1) + width]
+    wb[:slots * (width + 1) + width] = False
     t = t0
     n_saved = 0
     n_ev = 0
@@ -946,7 +1021,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                                  atol_g, jrtol, jatol, max_instant, s, post, xa, rx, rxp, rd, target, chain, pin_m,
                                  pin_x)
         if m_new < 0:
-            return 5, n_saved, n_ev, t, m, x0.copy(), steps
+            return _stop(info, x0, 5, n_saved, n_ev, t, m, steps)
         if passes > 1:
             ev_t[0] = t
             ev_mb[0] = m
@@ -996,7 +1071,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
         while code < 0:
             if steps >= max_steps:
                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                return 2, n_saved, n_ev, t, m, z.copy(), steps
+                return _stop(info, z, 2, n_saved, n_ev, t, m, steps)
             if kind < 2:
                 h = min(dt, t_end - t)
                 t_new = t + h if t + h < t_end else t_end
@@ -1013,7 +1088,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                             streak = _fixed_stiffness(num / den, 2.0, streak, dt, err, info)
                             if streak < 0:
                                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                                return 6, n_saved, n_ev, t, m, z.copy(), steps
+                                return _stop(info, z, 6, n_saved, n_ev, t, m, steps)
                     for i in range(ke):
                         K[5, i] = K[4, i]
                         K[4, i] = f[i]
@@ -1038,7 +1113,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                         streak = _fixed_stiffness(16.0 * num / den, 2.78, streak, h, err, info)
                         if streak < 0:
                             _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                            return 6, n_saved, n_ev, t, m, z.copy(), steps
+                            return _stop(info, z, 6, n_saved, n_ev, t, m, steps)
                     for i in range(ke):
                         tmp[i] = y[i] + h * K[2, i]
                     _fun(m, t + h, tmp, k, template, ind, dep, n_dep, p, u, z, dbuf, r, K[3])
@@ -1056,7 +1131,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                 while not accepted:
                     if h_abs < min_step:
                         _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                        return 3, n_saved, n_ev, t, m, z.copy(), steps
+                        return _stop(info, z, 3, n_saved, n_ev, t, m, steps)
                     h = h_abs
                     t_new = t + h
                     if t_new - t_end > 0:
@@ -1117,7 +1192,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                         info[3] = 3.25
                         info[4] = _argmax_abs(err)
                         _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                        return 6, n_saved, n_ev, t, m, z.copy(), steps
+                        return _stop(info, z, 6, n_saved, n_ev, t, m, steps)
                 else:
                     calm_run += 1
                     if calm_run >= 6:
@@ -1131,7 +1206,7 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
             steps += 1
             if not _finite(y_new):
                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                return 4, n_saved, n_ev, t_new, m, z.copy(), steps
+                return _stop(info, z, 4, n_saved, n_ev, t_new, m, steps)
             # the guards on this step
             t_ev = -1.0
             if nguard[m] > 0:
@@ -1164,17 +1239,17 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
                 n_saved += 1
             if t >= t_end:
                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                return 0, n_saved, n_ev, t, m, z.copy(), steps
+                return _stop(info, z, 0, n_saved, n_ev, t, m, steps)
             if save and n_saved >= out_t.shape[0]:
                 _full(m, y, k, t, template, ind, dep, n_dep, p, u, z, dbuf)
-                return 2, n_saved, n_ev, t, m, z.copy(), steps
+                return _stop(info, z, 2, n_saved, n_ev, t, m, steps)
         # an event at t with a priori state x_out: resolve it here if no symbolic work is needed
         if n_ev >= ev_t.shape[0]:
-            return 5, n_saved, n_ev, t, m, x_out.copy(), steps
+            return _stop(info, x_out, 5, n_saved, n_ev, t, m, steps)
         m_new, passes = _resolve(m, x_out, t, p, u, moved, n_moved, mstates, radix, codes, code_ids, mode_codes, rtol_g,
                          atol_g, jrtol, jatol, max_instant, s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x)
         if m_new < 0:
-            return 5, n_saved, n_ev, t, m, x_out.copy(), steps
+            return _stop(info, x_out, 5, n_saved, n_ev, t, m, steps)
         ev_t[n_ev] = t
         ev_mb[n_ev] = m
         ev_ma[n_ev] = m_new

@@ -18,12 +18,13 @@ subexpressions eliminated):
                                (sides affine in ``ẋ``; otherwise False when pulsed)
 ``_gparts(m, g, q)``           guard ``g`` as a boolean function of its parts' truths ``q``
                                (event detection inside a step, as
-                               :class:`switching.simulator._GuardForm`)
+                               :class:`switching.events._GuardForm`)
 
 The tables of the guards' one-sided *parts* (as ``_GuardForm.parts``: the
 comparison, the sign, inclusive, and the guard of each part, with the numbers
 of parts and guards per mode) go with the state-index tables
-(:meth:`CompiledModel._tables`: rows 3–6 of ``tables``, 3–4 of ``lengths``).
+(:func:`model_tables`: rows 3–6 of ``TABLES``, 3–4 of ``LENGTHS``), which the
+generated module holds as constants.
 
 One module with branches rather than a function per mode, so its compile
 time hardly grows with the number of modes: about 30–45 s on first use for a
@@ -60,13 +61,13 @@ from codegen.source import Argument, FunctionSpec, function_source
 from .automaton import A_POSTERIORI
 from .compiled import _tree
 from .resolution import Instant, resolve_instant
-from .simulator import guard_parts  # the guards' one-sided parts, as the Python scan
+from .events import guard_parts  # the guards' one-sided parts, as the Python scan
 
 __all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 _MAX_CODE = 2**62
-GENERATOR_VERSION = "6"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "7"  # part of the cache key: change it when the generated functions change
 
 
 
@@ -191,6 +192,54 @@ def _dispatcher(name: str, bodies: list[list[str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def model_tables(model, modes: list) -> dict:
+    """The integer tables of a compiled module for ``modes`` (numbered in list
+    order): ``TABLES[7, modes, w]`` — rows 0–2 the independent, dependent and
+    jump-moved state indices, rows 3–6 the guards' one-sided parts (relation,
+    sign, inclusive, guard); ``LENGTHS[5, modes]`` — the counts of those
+    three index rows, of parts and of guards; ``MSTATES[modes, automata]`` —
+    the automaton state numbers; ``RADIX[automata]`` — the mixed radix of the
+    mode codes; ``CODES[3, modes]`` — the sorted mode codes, their mode
+    numbers, each mode's code (all −1 when the codes would overflow: every
+    instant then goes to Python)."""
+    n, count = len(model.states), len(modes)
+    compiled = [model.compiled_mode(m) for m in modes]
+    parts = [guard_parts([g["tree"] for g in cm.guards])[0] for cm in compiled]
+    width = max([n, 1] + [len(p) for p in parts])
+    tables = np.zeros((7, count, width), dtype=np.int64)
+    lengths = np.zeros((5, count), dtype=np.int64)
+    for i, cm in enumerate(compiled):
+        for row, indices in enumerate((cm.independent, cm.dependent, cm.moved)):
+            tables[row, i, : len(indices)] = indices
+            lengths[row, i] = len(indices)
+        for j, part in enumerate(parts[i]):
+            tables[3:7, i, j] = part
+        lengths[3, i] = len(parts[i])
+        lengths[4, i] = len(cm.guards)
+    sizes = [len(a.states) for a in model.automata]
+    radix = np.ones(len(sizes), dtype=np.int64)
+    total = 1
+    for a, size in enumerate(sizes):
+        radix[a] = total
+        total *= size
+    index = [{s: j for j, s in enumerate(a.states)} for a in model.automata]
+    mstates = np.array([[index[a][s] for a, s in enumerate(m.states)] for m in modes],
+                       dtype=np.int64).reshape(count, len(sizes))
+    codes = np.full((3, count), -1, dtype=np.int64)
+    if total < _MAX_CODE:
+        mode_codes = mstates @ radix
+        order = np.argsort(mode_codes, kind="stable")
+        codes[0] = mode_codes[order]
+        codes[1] = order
+        codes[2] = mode_codes
+    return {"TABLES": tables, "LENGTHS": lengths, "MSTATES": mstates, "RADIX": radix, "CODES": codes}
+
+
+def _constant(name: str, array: np.ndarray) -> str:
+    """A module-level integer array (numba freezes it into the machine code)."""
+    return f"{name} = np.array({array.ravel().tolist()!r}, dtype=np.int64).reshape({array.shape!r})\n"
+
+
 def generate_model_source(model, modes: list) -> str:
     """The whole compiled module for ``modes`` (numbered in list order)."""
     per_mode, n_sides = [], 0
@@ -200,13 +249,15 @@ def generate_model_source(model, modes: list) -> str:
         n_sides = max(n_sides, count)
     dispatch = [_dispatcher(name, [branches[name] for branches in per_mode]) for name in _SIGNATURES]
     title = f"Compiled hybrid run of model {model.name!r}, modes {', '.join(repr(m.label) for m in modes)}"
-    return (module_header(title) + f"N_SIDES = {n_sides}\n\n" + COMPARE_SOURCE + "\n\n" + "\n\n".join(dispatch)
-            + "\n\n" + KERNEL_SOURCE)
+    constants = "".join(_constant(name, array) for name, array in model_tables(model, modes).items())
+    return (module_header(title) + f"N_SIDES = {n_sides}\n" + constants + "\n" + COMPARE_SOURCE + "\n\n"
+            + "\n\n".join(dispatch) + "\n\n" + KERNEL_SOURCE)
 
 
 class CompiledModel:
-    """The compiled module of ``model`` for a set of modes, its tables, and a
-    call of its kernel (:meth:`run`)."""
+    """The compiled module of ``model`` for a set of modes, and a call of its
+    kernel (:meth:`run`).  Buffers and workspaces are allocated once and
+    reused by every call."""
 
     def __init__(self, model, modes):
         self.model = model
@@ -221,58 +272,33 @@ class CompiledModel:
             model.cache.store(key, source)
         directory = model.cache.directory / "jit" if model.cache.directory else None
         self.module = load_module(f"hbg_model_{key}", source, directory)
-        self._tables()
-
-    def _tables(self):
-        model, modes = self.model, self.modes
-        n, count = len(model.states), len(modes)
-        compiled = [model.compiled_mode(m) for m in modes]
-        # rows 0-2: independent, dependent, jump-moved state indices; rows 3-6: the guards' parts
-        # (relation, sign, inclusive, guard), with lengths[3] parts and lengths[4] guards per mode
-        parts = [guard_parts([g["tree"] for g in cm.guards])[0] for cm in compiled]
-        width = max([n, 1] + [len(p) for p in parts])
-        self.tables = np.zeros((7, count, width), dtype=np.int64)
-        self.lengths = np.zeros((5, count), dtype=np.int64)
-        for i, cm in enumerate(compiled):
-            for row, indices in enumerate((cm.independent, cm.dependent, cm.moved)):
-                self.tables[row, i, : len(indices)] = indices
-                self.lengths[row, i] = len(indices)
-            for j, part in enumerate(parts[i]):
-                self.tables[3:7, i, j] = part
-            self.lengths[3, i] = len(parts[i])
-            self.lengths[4, i] = len(cm.guards)
-        sizes = [len(a.states) for a in model.automata]
-        self.radix = np.ones(len(sizes), dtype=np.int64)
-        total = 1
-        for a, size in enumerate(sizes):
-            self.radix[a] = total
-            total *= size
-        index = [{s: j for j, s in enumerate(a.states)} for a in model.automata]
-        self.mstates = np.array([[index[a][s] for a, s in enumerate(m.states)] for m in modes],
-                                dtype=np.int64).reshape(count, len(sizes))
-        self.codes = np.full((3, count), -1, dtype=np.int64)
-        if total < _MAX_CODE:  # else no code is found and every instant goes to Python
-            mode_codes = self.mstates @ self.radix
-            order = np.argsort(mode_codes)
-            self.codes[0] = mode_codes[order]
-            self.codes[1] = order
-            self.codes[2] = mode_codes
+        self.n = len(model.states)
         self._buffers = {}
-        self._options = (np.zeros(7, dtype=np.int64), np.zeros(11))
+        self._workspaces = {}
         self._inputs = np.zeros(0)
 
     def covers(self, mode) -> bool:
         return mode in self.ids
 
     def buffers(self, save: bool, capacity: int = 4096, event_capacity: int = 256) -> tuple:
-        """Output arrays (reused by every call with the same ``save``)."""
+        """Output arrays (reused by every call with the same ``save``):
+        ``out_t, out_x, out_m, ev_f, ev_i, info`` (see the kernel's ``run``)."""
         if save not in self._buffers:
-            n = len(self.model.states)
+            n = self.n
             size = capacity if save else 1
             self._buffers[save] = (np.empty(size), np.empty((size, n)), np.empty(size, dtype=np.int64),
                                    np.empty((event_capacity, 1 + 2 * n)), np.empty((event_capacity, 3), np.int64),
-                                   np.zeros(5))
+                                   np.zeros(5 + n))
         return self._buffers[save]
+
+    def workspace(self, samples: int, max_instant: int) -> tuple:
+        """The kernel's float, integer and boolean workspaces for ``samples``
+        guard samples per step and a cap of ``max_instant`` steps per instant."""
+        key = (samples, max_instant)
+        if key not in self._workspaces:
+            floats, ints, bools = self.module.workspace_sizes(self.n, samples, max_instant)
+            self._workspaces[key] = (np.empty(floats), np.empty(ints, dtype=np.int64), np.empty(bools, np.bool_))
+        return self._workspaces[key]
 
     def run(self, kind, mode, x, t, t_end, *, dt, rtol, atol, max_step, first_step, samples, save,
             max_steps=10**9, resolve_first=False) -> KernelResult:
@@ -281,17 +307,20 @@ class CompiledModel:
         The result's arrays are views of reused buffers: valid until the next call."""
         model = self.model
         tol = model.tolerance
-        out_t, out_x, out_m, ev_f, ev_i, info = self.buffers(bool(save))
-        info[:] = 0.0
-        iopt, fopt = self._options
-        iopt[:] = (kind, self.ids[mode], samples, model.max_steps_per_instant, bool(save), max_steps, resolve_first)
-        fopt[:] = (t, t_end, dt or 0.0, rtol, atol, max_step, first_step or 0.0, tol.rtol, tol.atol, tol.jump_rtol,
-                   tol.jump_atol)
-        status, n_saved, n_ev, t_stop, m_stop, x_stop, steps = self.module.run(
-            iopt, fopt, np.asarray(x, dtype=float), model.parameter_array, self._inputs, self.tables, self.lengths,
-            self.mstates, self.radix, self.codes, out_t, out_x, out_m, ev_f, ev_i, info)
-        return KernelResult(self, status, t_stop, self.modes[m_stop], x_stop, steps, n_saved, n_ev,
-                            (out_t, out_x, out_m, ev_f, ev_i, info))
+        max_instant = int(model.max_steps_per_instant)
+        save = bool(save)
+        buffers = self._buffers.get(save) or self.buffers(save)
+        wf, wi, wb = self._workspaces.get((samples, max_instant)) or self.workspace(samples, max_instant)
+        out_t, out_x, out_m, ev_f, ev_i, info = buffers
+        # scalars of fixed types: numba compiles the kernel anew for every new combination of argument types
+        status, n_saved, n_ev, t_stop, m_stop, steps = self.module.run(
+            kind, self.ids[mode], int(samples), max_instant, bool(save), int(max_steps), bool(resolve_first),
+            float(t), float(t_end), float(dt or 0.0), float(rtol), float(atol), float(max_step),
+            float(first_step or 0.0), float(tol.rtol), float(tol.atol), float(tol.jump_rtol), float(tol.jump_atol),
+            np.asarray(x, dtype=float), model.parameter_array, self._inputs, out_t, out_x, out_m, ev_f, ev_i, info, wf, wi, wb)
+        if status == 7:
+            raise RuntimeError(f"compiled model {self.model.name!r}: the kernel's workspace is too small (a bug)")
+        return KernelResult(self, status, t_stop, m_stop, steps, n_saved, n_ev, buffers)
 
 
 class KernelResult:
@@ -299,11 +328,17 @@ class KernelResult:
     events (in order, each with the number of samples saved before it), and
     where it stopped (``status``: see :data:`codegen.jit.STATUS`)."""
 
-    def __init__(self, compiled, status, t, mode, x, steps, n_saved, n_events, buffers):
+    def __init__(self, compiled, status, t, mode, steps, n_saved, n_events, buffers):
         self.compiled = compiled
-        self.status, self.t, self.mode, self.x, self.steps = int(status), float(t), mode, x, int(steps)
-        self.n_saved, self.n_events = int(n_saved), int(n_events)
+        self.status, self.t, self.steps = status, t, steps
+        self.n_saved, self.n_events = n_saved, n_events
+        self.mode = compiled.modes[mode]
         self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.info = buffers
+
+    @property
+    def x(self) -> np.ndarray:
+        """The state where the call stopped (a copy)."""
+        return self.info[5:].copy()
 
     def samples(self, start: int, stop: int):
         """(t, x, mode) of saved samples ``start:stop`` (copies)."""

@@ -38,6 +38,8 @@ from codegen.cache import default_cache, fingerprint
 from .compiled import CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
+from .jit_model import CompiledModel
+from .simulator import simulate
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
 
@@ -340,7 +342,11 @@ class HybridModel:
 
     @property
     def initial_mode(self) -> Mode:
-        return Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
+        mode = self.__dict__.get("_initial_mode")
+        if mode is None:
+            mode = self._initial_mode = Mode(tuple(a.initial for a in self.automata),
+                                             tuple(a.name for a in self.automata))
+        return mode
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
@@ -467,6 +473,9 @@ class HybridModel:
     def compiled_mode(self, mode) -> CompiledMode:
         """The generated numerical functions of a mode: from memory, else from
         the disk cache, else derived and generated now (and cached)."""
+        known = self._compiled.get(mode) if isinstance(mode, Mode) else None
+        if known is not None:
+            return known
         mode = self.mode(mode)
         if mode not in self._compiled:
             key = fingerprint(self.fingerprint, "mode", mode.label)
@@ -531,8 +540,6 @@ class HybridModel:
         (explored from the initial mode by :meth:`verify`), or a list.  The
         ``*-jit`` methods use the visited set: they run modes outside it with
         the Python integrators, and cover them from the next run on."""
-        from .jit_model import CompiledModel
-
         if modes == "visited":
             last = self._jit.get("visited")
             if last is not None and last[0] == len(self._compiled):
@@ -616,8 +623,6 @@ class HybridModel:
         ``*-jit`` kernels alike.
         See :func:`switching.simulator.simulate`.
         """
-        from .simulator import simulate
-
         return simulate(self, t_end, method, **options)
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):

@@ -257,3 +257,38 @@ def test_a_guard_holding_only_inside_a_step_is_caught_by_the_compiled_methods(ca
         if case == "time pulse":
             np.testing.assert_allclose(compiled.event_times, [0.26, 0.27], rtol=0, atol=1e-12)
             assert compiled.state("Q")[-1] == pytest.approx(0.02, abs=1e-12)
+
+
+# ------------------------------------------------ the kernel's call: scalars, buffers, workspaces
+
+
+def test_kernel_calls_keep_one_signature_and_reused_workspaces_change_nothing(ball):
+    """Scalars of any numeric type reach the kernel as float64/int64 (a new
+    type combination would compile the whole kernel again), and workspaces
+    reused from call to call — zeroed where read before written — give each
+    run the results of a fresh one, bit for bit."""
+    first = ball.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")
+    compiled = ball.compiled_model()
+    ball.simulate(1, "RK45-jit", rtol=np.float32(1e-5), atol=1e-8, max_step=2, event_samples=np.int64(5),
+                  x0=[2, 1])
+    ball.simulate(1.5, "rk4-jit", dt=np.float64(0.01), x0=[-1.0, 0.5])
+    again = ball.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")
+    assert len(compiled.module.run.signatures) == 1
+    np.testing.assert_array_equal(again.t, first.t)
+    np.testing.assert_array_equal(again.x, first.x)
+    assert again.mode_labels == first.mode_labels
+
+
+def test_a_workspace_smaller_than_the_kernel_needs_is_refused_before_anything_runs(ball):
+    ball.simulate(0.1, "RK45-jit", rtol=1e-6, output="events")
+    compiled = ball.compiled_model()
+    buffers = compiled.buffers(False)
+    wf, wi, wb = compiled.workspace(3, ball.max_steps_per_instant)
+    tol = ball.tolerance
+    args = (2, 0, 3, ball.max_steps_per_instant, False, 10**9, False, 0.0, 1.0, 0.0, 1e-6, 1e-9, np.inf, 0.0,
+            tol.rtol, tol.atol, tol.jump_rtol, tol.jump_atol, ball.initial_state(), ball.parameter_array,
+            np.zeros(0), *buffers)
+    status, n_saved, n_events, t, mode, steps = compiled.module.run(*args, wf[:-1], wi, wb)
+    assert (status, n_saved, n_events, t, steps) == (7, 0, 0, 0.0, 0)
+    status, *_ = compiled.module.run(*args, wf, wi, wb)
+    assert status == 0
