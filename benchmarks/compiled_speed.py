@@ -6,7 +6,7 @@ Problems (as in issue 7):
   * bouncing ball, first 2.5 s (4 bounces), RK45 at rtol 1e-6;
   * rod pivoting on its tip for 1 s, RK45 at rtol 1e-3 … 1e-9.
 
-Rows (median wall time of N runs after a warm-up that compiles):
+Rows (median wall time of N interleaved rounds after a warm-up that compiles; see timed()):
   hand numba   a hand-written @njit RK45 (Dormand–Prince 5(4), scipy's step
                control) with dense-output bisection for the event and the jump
                v⁺ = −e·v, everything in one compiled call;
@@ -196,14 +196,28 @@ def _rk45_run(problem, y0, t0, t_end, rtol, atol):
     return y, events
 
 
-def timed(fn, repeats):
-    fn()
-    samples = []
-    for _ in range(repeats):
+def timed(fns, repeats):
+    """Median wall time of one call of each of ``fns`` (a list).
+
+    The calls are interleaved — round after round, every function once per
+    round — so a change of the machine's load during the measurement moves
+    all of them alike and leaves their ratios fair.  A sample of a fast
+    function is the mean of a batch of calls lasting about 2 ms."""
+    for fn in fns:
+        fn()  # warm-up (compiles)
+    batches = []
+    for fn in fns:
         t0 = time.perf_counter()
         fn()
-        samples.append(time.perf_counter() - t0)
-    return statistics.median(samples)
+        batches.append(max(1, int(2e-3 / max(time.perf_counter() - t0, 1e-7))))
+    samples = [[] for _ in fns]
+    for _ in range(repeats):
+        for k, (fn, batch) in enumerate(zip(fns, batches)):
+            t0 = time.perf_counter()
+            for _ in range(batch):
+                fn()
+            samples[k].append((time.perf_counter() - t0) / batch)
+    return [statistics.median(column) for column in samples]
 
 
 def ball_solve_ivp(rtol):
@@ -276,27 +290,30 @@ def main(argv=None):
 
     ball = bouncing_ball.build()
     ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events")  # visit both modes: the kernel covers them
-    hand = timed(lambda: _rk45_run(0, np.array([1.0, 0.0]), 0.0, 2.5, 1e-6, 1e-9), r)
-    k3 = timed(kernel(ball, 2.5, 1e-6, 1e-9, 3), r)
-    k0 = timed(kernel(ball, 2.5, 1e-6, 1e-9, 0), r)
-    jit = timed(lambda: ball.simulate(2.5, "RK45-jit", rtol=1e-6, atol=1e-9, output="events"), r)
-    py = timed(lambda: ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events"), r)
-    ivp = timed(lambda: ball_solve_ivp(1e-6), r)
+    hand, k3, k0, jit, py, ivp = timed([
+        lambda: _rk45_run(0, np.array([1.0, 0.0]), 0.0, 2.5, 1e-6, 1e-9),
+        kernel(ball, 2.5, 1e-6, 1e-9, 3),
+        kernel(ball, 2.5, 1e-6, 1e-9, 0),
+        lambda: ball.simulate(2.5, "RK45-jit", rtol=1e-6, atol=1e-9, output="events"),
+        lambda: ball.simulate(2.5, "RK45", rtol=1e-6, atol=1e-9, output="events"),
+        lambda: ball_solve_ivp(1e-6),
+    ], r)
     rows.append(("ball 2.5 s", "rtol=1e-06", hand, k3, k0, jit, py, ivp))
 
     rod = rod_model()
     for rtol in (1e-3, 1e-6, 1e-9):
         y0 = np.array([0.9, 0.0])
-        hand = timed(lambda: _rk45_run(1, y0, 0.0, 1.0, rtol, rtol * 1e-3), r)
-        k3 = timed(kernel(rod, 1.0, rtol, rtol * 1e-3, 3), r)
-        k0 = timed(kernel(rod, 1.0, rtol, rtol * 1e-3, 0), r)
-        jit = timed(lambda: rod.simulate(1.0, "RK45-jit", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
-        py = timed(lambda: rod.simulate(1.0, "RK45", rtol=rtol, atol=rtol * 1e-3, output="events"), r)
-
         def rhs(t, y):
             return [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)]
 
-        ivp = timed(lambda: solve_ivp(rhs, (0, 1), [0.9, 0.0], method="RK45", rtol=rtol, atol=rtol * 1e-3), r)
+        hand, k3, k0, jit, py, ivp = timed([
+            lambda: _rk45_run(1, y0, 0.0, 1.0, rtol, rtol * 1e-3),
+            kernel(rod, 1.0, rtol, rtol * 1e-3, 3),
+            kernel(rod, 1.0, rtol, rtol * 1e-3, 0),
+            lambda: rod.simulate(1.0, "RK45-jit", rtol=rtol, atol=rtol * 1e-3, output="events"),
+            lambda: rod.simulate(1.0, "RK45", rtol=rtol, atol=rtol * 1e-3, output="events"),
+            lambda: solve_ivp(rhs, (0, 1), [0.9, 0.0], method="RK45", rtol=rtol, atol=rtol * 1e-3),
+        ], r)
         rows.append(("rod 1 s", f"rtol={rtol:g}", hand, k3, k0, jit, py, ivp))
 
     print(f"{'problem':<11} {'setting':<11} {'hand':>8} {'kernel s=3':>11} {'kernel s=0':>11} {'RK45-jit':>9} "
@@ -315,9 +332,11 @@ def main(argv=None):
     dt = 0.1
     while abs(rod.simulate(1.0, "rk4", dt=dt, output="events").state("rod/theta")[-1] - reference) > target:
         dt /= 1.25
-    rk4 = timed(lambda: rod.simulate(1.0, "rk4", dt=dt, output="events"), r)
-    ivp = timed(lambda: solve_ivp(lambda t, y: [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)], (0, 1),
-                                  [0.9, 0.0], method="RK45", rtol=1e-6, atol=1e-9), r)
+    rk4, ivp = timed([
+        lambda: rod.simulate(1.0, "rk4", dt=dt, output="events"),
+        lambda: solve_ivp(lambda t, y: [y[1], -9.81 * 0.5 * math.cos(y[0]) / (1 / 12 + 0.25)], (0, 1), [0.9, 0.0],
+                          method="RK45", rtol=1e-6, atol=1e-9),
+    ], r)
     print(f"\npure-Python rk4 (dt={dt:.3g}) at solve_ivp's error {target:.1e}: {1e6 * rk4:.1f} µs vs solve_ivp "
           f"{1e6 * ivp:.1f} µs (ratio {rk4 / ivp:.2f})")
     print("\n" + reload_time())

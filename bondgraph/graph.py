@@ -515,11 +515,11 @@ class BondGraph:
 
         return self._cached("equations", config, lambda c: derive_equations(self, c, self.causality(c)))
 
-    def jump_map(self, config: Configuration | None = None):
-        """The jump map into a configuration (cached); see :mod:`bondgraph.jump`."""
+    def jump_map(self, config: Configuration | None = None, law: str = "conservation"):
+        """The jump map into a configuration by a jump ``law`` (cached); see :mod:`bondgraph.jump`."""
         from .jump import derive_jump_map
 
-        return self._cached("jump", config, lambda c: derive_jump_map(self, self.equations(c)))
+        return self._cached(f"jump {law}", config, lambda c: derive_jump_map(self, self.equations(c), law))
 
     @property
     def version(self) -> int:

@@ -24,6 +24,23 @@ every other state (and every displacement) is unchanged.  ``g`` is the
 identity on states already on the constraints.  For nonlinear storage the
 balance ``x_i⁺ − x_i + Aᵀ(φ(x_i⁺) − x_d) = 0`` is solved numerically
 (:meth:`JumpMap.apply`).
+
+**Jump laws.**  The above is the ``"conservation"`` law: impulses pass
+through the junction structure only, every source stays finite.  The
+``"impulse balance"`` law integrates the configuration's own implicit rates
+``ẋ_i = F(x, t, u, ẋ_d)`` over the instant instead.  ``F`` is affine in the
+rates of the dependent states, ``B = ∂F/∂ẋ_d`` is evaluated at the positions
+(which do not jump), and every independent state whose row of ``B`` is not
+zero takes part (set ``J``):
+
+    Δx_J = B Δx_d,    x_d⁺ = φ(x_J⁺)   ⇒   (I − K B) Δx_d = φ(x) − x_d,   K = ∂φ/∂x_J.
+
+Where the only pulses are those of the storage this is the conservation law
+(``B = −M_i Kᵀ M_d⁻¹``).  A source *modulated by a constraint effort*
+carries a pulse too: a Coulomb friction source ``σ μ N`` driven by the normal
+force gives the Newton–Coulomb impact law, a tangential impulse ``−σ μ P_n``
+with the normal impulse ``P_n``.  This law needs ``B`` and ``K`` free of the
+states that jump (linear storage, linear constraints in them).
 """
 
 from __future__ import annotations
@@ -35,7 +52,9 @@ import sympy as sp
 
 from .errors import HybridBondGraphError
 
-__all__ = ["JumpMap", "derive_jump_map", "JumpMapError"]
+__all__ = ["JUMP_LAWS", "JumpMap", "derive_jump_map", "JumpMapError"]
+
+JUMP_LAWS = ("conservation", "impulse balance")
 
 
 class JumpMapError(HybridBondGraphError):
@@ -104,12 +123,17 @@ def _metric(element, x) -> sp.Expr | None:
     return 1 / slope
 
 
-def derive_jump_map(graph, equations) -> JumpMap:
-    """Derive the jump map into the configuration of ``equations``."""
+def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
+    """Derive the jump map into the configuration of ``equations`` by one of
+    :data:`JUMP_LAWS` (see the module docstring)."""
+    if law not in JUMP_LAWS:
+        raise ValueError(f"unknown jump law {law!r}; choose one of {JUMP_LAWS}")
     states = tuple(equations.states)
     dependent = tuple(equations.dependent)
     if not dependent:
         return JumpMap(states, (), (), {x: x for x in states}, True, _numeric=lambda x, t, p: np.array(x, dtype=float))
+    if law == "impulse balance":
+        return _impulse_balance_jump(equations)
 
     storage = {el.state: el for el in graph.storage}
     constraints = equations.constraints
@@ -159,6 +183,43 @@ def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:
     for k, x in enumerate(dependent):
         expressions[x] = _tidy(xd_plus[k])
     return expressions
+
+
+def _impulse_balance_jump(equations) -> JumpMap:
+    """``Δx_J = B Δx_d`` with ``B = ∂F/∂ẋ_d`` of the implicit rates, closed
+    by the constraints (the module docstring's ``"impulse balance"`` law)."""
+    states = tuple(equations.states)
+    dependent = tuple(equations.dependent)
+    rates = [equations.rate_symbols[d] for d in dependent]
+    implicit = equations.implicit_rates
+    rows = {x: [sp.diff(implicit[x], r) for r in rates] for x in equations.independent}
+    config = equations.configuration
+    for x, row in rows.items():
+        if any(entry.has(*rates) for entry in row):
+            raise JumpMapError(
+                f"the impulse-balance jump law into configuration {config} needs the rate of {x} affine in the "
+                f"rates of the dependent states {list(dependent)}; it is {implicit[x]}. Use jump_law='conservation'."
+            )
+    jumping = tuple(x for x, row in rows.items() if any(entry != 0 for entry in row))
+    phi = sp.Matrix([equations.constraints[d] for d in dependent])
+    B = sp.Matrix([rows[x] for x in jumping]) if jumping else sp.zeros(0, len(dependent))
+    K = phi.jacobian(list(jumping)) if jumping else sp.zeros(len(dependent), 0)
+    moving = set(jumping) | set(dependent)
+    if any(entry.has(*moving) for entry in (*B, *K)):
+        raise JumpMapError(
+            f"the impulse-balance jump law into configuration {config} needs the impulse coefficients ∂F/∂ẋ_d and "
+            f"the constraints' slopes ∂φ/∂x free of the states that jump ({sorted(map(str, moving))}): nonlinear "
+            "storage or constraints are not supported by it. Use jump_law='conservation'."
+        )
+    xd = sp.Matrix(dependent)
+    delta = _solve_small(sp.eye(len(dependent)) - K * B, phi - xd)
+    expressions = {x: x for x in states}
+    increments = B * delta
+    for k, x in enumerate(jumping):
+        expressions[x] = _tidy(x + increments[k])
+    for k, x in enumerate(dependent):
+        expressions[x] = _tidy(x + delta[k])
+    return JumpMap(states, jumping, dependent, expressions, True, _numeric=_lambdified(states, expressions))
 
 
 def _solve_small(lhs: sp.Matrix, rhs: sp.Matrix) -> sp.Matrix:

@@ -49,11 +49,20 @@ Automata and guards:
     slide_± → stuck  ``tip_y > y_lift`` a priori: in the air the friction
                      automaton returns to its initial state.
 
-Impacts are plastic (no restitution).  During an impact the friction force
-of a sliding tip stays finite, as in the paper (its tiny μ values): the
-impact carries no tangential impulse — this is the model's default and only
-friction-impact law here; the Newton–Coulomb law (a tangential impulse
-``−μσP_n``) is not offered yet.
+Impacts are plastic (no restitution).  Friction during an impact, option
+``impact_law``:
+
+``"paper"`` (default)
+    the friction force of a sliding tip stays finite, as in the paper (its
+    tiny μ values): the impact carries no tangential impulse (jump law
+    ``"conservation"``);
+``"newton-coulomb"``
+    the friction source, modulated by the normal force, carries a pulse with
+    it: a sliding impact with normal impulse ``P_n`` gets the tangential
+    impulse ``P_t = −σ μ P_n`` (jump law ``"impulse balance"``).  With the
+    tip velocity ``v_A`` before the impact,
+    ``P_n = −v_Ay / (1/m + l² cos θ (cos θ + σ μ sin θ)/J)``.  A stuck impact
+    is the same under both laws.
 
 The paper does not print ``m`` and ``J``; ``m = 1 kg``, ``J = 1 kg·m²``
 reproduce its Figs. 19–20: at impact the stuck mode needs a tangential
@@ -75,12 +84,12 @@ import math
 import sympy as sp
 
 from bondgraph import BondGraph, One, Se, Sf, Zero
-from switching import Automaton, HybridModel, InMode
+from switching import Automaton, HybridModel, InMode, ModelDefinitionError
 
 from ._common import merged
 from .components import rigid_planar_body
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "IMPACT_LAWS", "RUN", "SIGNALS"]
 
 DEFAULTS = {
     "m": 1.0,
@@ -111,11 +120,17 @@ SIGNALS = (
 )
 
 
-def build(**parameters) -> HybridModel:
+IMPACT_LAWS = {"paper": "conservation", "newton-coulomb": "impulse balance"}
+
+
+def build(impact_law: str = "paper", **parameters) -> HybridModel:
     """The falling rod with ``DEFAULTS`` overridden by ``parameters``.
 
     ``y0`` is the height of the centre, ``theta0`` the initial angle; the rod
-    starts at rest."""
+    starts at rest.  ``impact_law``: ``"paper"`` (no tangential impulse at an
+    impact, the default) or ``"newton-coulomb"`` (see the module docstring)."""
+    if impact_law not in IMPACT_LAWS:
+        raise ModelDefinitionError(f"unknown impact_law {impact_law!r}; choose one of: {', '.join(IMPACT_LAWS)}")
     p = merged(DEFAULTS, parameters)
     mu = sp.Symbol("mu")
 
@@ -178,6 +193,7 @@ def build(**parameters) -> HybridModel:
         initial_state={"rod/theta": p["theta0"], "rod/y": p["y0"], "rod/x": p["x0"]},
         signals=signals,
         name="falling_rod",
+        jump_law=IMPACT_LAWS[impact_law],
     )
 
 

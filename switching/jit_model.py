@@ -28,8 +28,11 @@ generated module holds as constants.
 
 One module with branches rather than a function per mode, so its compile
 time hardly grows with the number of modes: about 30–45 s on first use for a
-set of modes (the kernel dominates), then about 0.4 s to load in any later
-process (numba's disk cache).  Modes are
+set of modes (the kernel dominates), then about 0.1 s to load in any later
+process (numba's disk cache; numba's own set-up on its first use in a
+process, about 0.6 s, comes on top for any compiled function).  Each call
+passes scalars and reuses its output buffers and workspaces, so a call costs
+a few µs besides the integration itself.  Modes are
 identified in compiled code by a mixed-radix code of their automaton states,
 ``code = Σ_a state_a · radix_a``, so the kernel finds the mode a transition
 leads to without Python; a mode outside the set sends the instant back to

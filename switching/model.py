@@ -109,6 +109,15 @@ class HybridModel:
         Band for guard comparisons at an instant.
     max_steps_per_instant : int
         Cap on discrete steps in one instant (divergence of time otherwise).
+    jump_law : ``"conservation"`` (default) or ``"impulse balance"``
+        How the jump map ``g`` into a mode is derived (:mod:`bondgraph.jump`):
+        by conservation of state through the junction structure, every
+        source finite (the paper's law); or by integrating the mode's own
+        equations over the instant, so that a source modulated by a
+        constraint effort carries a pulse too — a Coulomb friction source
+        driven by the normal force then gives the Newton–Coulomb impact law
+        (tangential impulse ``−σ μ P_n``).  Both agree wherever no source
+        is modulated by a pulsed effort.
     """
 
     def __init__(
@@ -122,7 +131,13 @@ class HybridModel:
         name: str | None = None,
         tolerance: Tolerance | None = None,
         max_steps_per_instant: int = 1000,
+        jump_law: str = "conservation",
     ):
+        from bondgraph.jump import JUMP_LAWS
+
+        if jump_law not in JUMP_LAWS:
+            raise ModelDefinitionError(f"unknown jump_law {jump_law!r}; choose one of: {', '.join(JUMP_LAWS)}")
+        self.jump_law = jump_law
         graph.validate()
         self.graph = graph
         self.name = name or graph.name
@@ -450,7 +465,7 @@ class HybridModel:
         if self._fingerprint is None:
             from bondgraph import __version__
 
-            parts = [__version__, self.name]
+            parts = [__version__, self.name, f"jump law {self.jump_law}"]
             for el in self.graph.elements.values():
                 parts.append(f"{type(el).__name__} {el.name} " + " ".join(sp.srepr(e) for e in el.expressions()))
                 if hasattr(el, "state"):

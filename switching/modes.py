@@ -93,7 +93,7 @@ class ModeEquations:
         graph = model.graph
         self.values = model.mode_values(mode)
         self.equations = graph.equations(self.configuration).substituted(self.values)
-        self.jump = graph.jump_map(self.configuration).substituted(self.values)
+        self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
         self.restitution = model.restitution_of(mode)
         self.states = self.equations.states
         self._bond_values = self._raw_bond_values(graph)
