@@ -10,7 +10,8 @@ __all__ = ["merged"]
 
 
 def merged(defaults: Mapping, overrides: Mapping) -> dict:
-    """``defaults`` updated by ``overrides``; unknown names and non-numbers are errors."""
+    """``defaults`` updated by ``overrides``; unknown names and non-numbers are
+    errors (a text default is a choice: the model checks its value)."""
     unknown = set(overrides) - set(defaults)
     if unknown:
         raise UnknownParameterError(unknown, defaults)
@@ -18,7 +19,11 @@ def merged(defaults: Mapping, overrides: Mapping) -> dict:
     for name, value in overrides.items():
         default = defaults[name]
         try:
-            if isinstance(default, bool):
+            if isinstance(default, str):
+                if not isinstance(value, str):
+                    raise TypeError
+                values[name] = value
+            elif isinstance(default, bool):
                 if isinstance(value, str):
                     if value.lower() not in ("true", "false", "1", "0", "yes", "no"):
                         raise ValueError
@@ -32,6 +37,7 @@ def merged(defaults: Mapping, overrides: Mapping) -> dict:
             else:
                 values[name] = float(value)
         except (TypeError, ValueError):
-            kind = "true/false" if isinstance(default, bool) else "an integer" if isinstance(default, int) else "a number"
+            kind = ("text" if isinstance(default, str) else "true/false" if isinstance(default, bool)
+                    else "an integer" if isinstance(default, int) else "a number")
             raise InvalidGraphError(f"parameter {name!r} must be {kind}, got {value!r}") from None
     return values

@@ -52,7 +52,7 @@ def _parse_sets(items, defaults) -> dict:
         name = name.strip()
         if name not in defaults:
             raise _UsageError(f"unknown parameter {name!r}; parameters: {', '.join(defaults)}")
-        if isinstance(defaults[name], bool):
+        if isinstance(defaults[name], (bool, str)):  # parsed and checked by the model
             values[name] = value.strip()
             continue
         try:

@@ -102,6 +102,7 @@ DEFAULTS = {
     "y0": 0.23,
     "x0": 0.0,
     "y_lift": 1e-9,
+    "impact_law": "paper",
 }
 RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = (
@@ -123,15 +124,15 @@ SIGNALS = (
 IMPACT_LAWS = {"paper": "conservation", "newton-coulomb": "impulse balance"}
 
 
-def build(impact_law: str = "paper", **parameters) -> HybridModel:
+def build(**parameters) -> HybridModel:
     """The falling rod with ``DEFAULTS`` overridden by ``parameters``.
 
     ``y0`` is the height of the centre, ``theta0`` the initial angle; the rod
     starts at rest.  ``impact_law``: ``"paper"`` (no tangential impulse at an
     impact, the default) or ``"newton-coulomb"`` (see the module docstring)."""
-    if impact_law not in IMPACT_LAWS:
-        raise ModelDefinitionError(f"unknown impact_law {impact_law!r}; choose one of: {', '.join(IMPACT_LAWS)}")
     p = merged(DEFAULTS, parameters)
+    if p["impact_law"] not in IMPACT_LAWS:
+        raise ModelDefinitionError(f"unknown impact_law {p['impact_law']!r}; choose one of: {', '.join(IMPACT_LAWS)}")
     mu = sp.Symbol("mu")
 
     scene = BondGraph("falling_rod")
@@ -193,7 +194,7 @@ def build(impact_law: str = "paper", **parameters) -> HybridModel:
         initial_state={"rod/theta": p["theta0"], "rod/y": p["y0"], "rod/x": p["x0"]},
         signals=signals,
         name="falling_rod",
-        jump_law=IMPACT_LAWS[impact_law],
+        jump_law=IMPACT_LAWS[p["impact_law"]],
     )
 
 

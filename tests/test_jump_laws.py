@@ -10,7 +10,7 @@ import pytest
 import sympy as sp
 
 from bondgraph import BondGraph, C, One, Zero
-from bondgraph.errors import CausalityConflictError
+from bondgraph.errors import CausalityConflictError, InvalidGraphError
 from bondgraph.jump import JumpMapError
 from models import ball_chain, colliding_balls, diode_circuit, falling_rod, parallel_capacitors
 from switching import ModelDefinitionError
@@ -120,6 +120,8 @@ def test_a_stuck_impact_is_the_same_under_both_laws():
 def test_unknown_laws_are_refused_with_the_choices():
     with pytest.raises(ModelDefinitionError, match="newton-coulomb"):
         falling_rod.build(impact_law="coulomb")
+    with pytest.raises(InvalidGraphError, match="must be text"):
+        falling_rod.build(impact_law=1)
     from switching import HybridModel
 
     with pytest.raises(ModelDefinitionError, match="impulse balance"):
@@ -140,3 +142,13 @@ def test_impulse_balance_refuses_nonlinear_storage_and_says_what_to_use():
     assert g.jump_map({"sw": True}, "conservation").expressions is None
     with pytest.raises(JumpMapError, match="jump_law='conservation'"):
         g.jump_map({"sw": True}, "impulse balance")
+
+
+def test_the_command_line_chooses_the_impact_law():
+    from test_cli import hbg
+
+    out = hbg("run", "falling-rod", "--set", "impact_law=newton-coulomb", "--set", "mu=0.002", "--t-end", "0.25")
+    assert out.returncode == 0, out.stderr
+    assert "contact=contact, friction=slide_neg" in out.stdout
+    out = hbg("run", "falling-rod", "--set", "impact_law=sticky")
+    assert out.returncode != 0 and "choose one of: paper, newton-coulomb" in out.stderr
