@@ -284,7 +284,8 @@ def _interp(kind, t_old, h, y_old, f_old, y_new, f_new, Q, tau, out):
 # event detection (switching.events._GuardScan): the points of a step are slots of the arrays
 # ptau [slots], pmg [slots, parts] (margins), ptr [slots, parts] (truths), phd [slots] (a guard holds);
 # slot 0: the flow's last point (the step's start), 1: the previous step's point before its end,
-# 2: the bisection's last point not holding, 3: unused, 4: a hold found between the changes of parts, 5: scratch, 6…: the step's points
+# 2: the bisection's last point not holding, 3: unused, 4: a hold found between the changes of parts,
+# 5: scratch, 6…: the step's points
 _S_START = 0
 _S_BEFORE = 1
 _S_INSIDE = 4
@@ -321,7 +322,8 @@ def _parts(slot, tau, hd, m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg,
 def _point(slot, tau, at, yv, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep, n_dep, p, u,
            z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd):
     """The guards at ``tau`` into ``slot``: on ``yv`` if ``at`` (a step's end, a flow's start), else on the
-    interpolant.  Returns whether a guard holds."""
+    interpolant.  Returns whether a guard holds.  (Callers pass np.int64/np.bool_ constants: a literal
+    argument would compile a specialisation of this function per value.)"""
     if at:
         hd = _holds_at(m, yv, k, tau, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol)
     else:
@@ -474,9 +476,9 @@ def _event_in_step(kind, m, k, t_old, t_new, h, y_old, f_old, y_new, f_new, Q, t
                     if ptau[order[jj]] == tau:
                         new = False
                 if new:
-                    _point(nxt, tau, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
-                           ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg,
-                           ptr, phd)
+                    _point(nxt, tau, np.bool_(False), y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q,
+                           template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart,
+                           ptau, pmg, ptr, phd)
                     order[total] = nxt
                     total += 1
                     nxt += 1
@@ -621,8 +623,9 @@ def _pieces(a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break
-            _point(_S_SCRATCH, mid, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind,
-                   dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+            _point(np.int64(_S_SCRATCH), mid, np.bool_(False), y_new, kind, m, k, t_old, h, y_old, f_old, y_new,
+                   f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart,
+                   ptau, pmg, ptr, phd)
             if ptr[_S_SCRATCH, i] == truth_lo:
                 lo = mid
             else:
@@ -641,9 +644,9 @@ def _pieces(a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
         if j > 0 and tau == fscr[j - 1]:
             continue
         if tau < ptau[b]:
-            if _point(_S_INSIDE, tau, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template,
-                      ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr,
-                      phd):
+            if _point(np.int64(_S_INSIDE), tau, np.bool_(False), y_new, kind, m, k, t_old, h, y_old, f_old, y_new,
+                      f_new, Q, template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc,
+                      npart, ptau, pmg, ptr, phd):
                 return _S_INSIDE
     return -1
 
@@ -657,8 +660,9 @@ def _maximize(i, a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, temp
     x = a + golden * (b - a)
     w = x
     v = x
-    _point(_S_SCRATCH, x, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
-           n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+    _point(np.int64(_S_SCRATCH), x, np.bool_(False), y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q,
+           template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr,
+           phd)
     fx = -pmg[_S_SCRATCH, i]
     fw = fx
     fv = fx
@@ -694,8 +698,9 @@ def _maximize(i, a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, temp
             e = (b - x) if x < middle else (a - x)
             d = golden * e
         uu = x + (d if abs(d) >= tol1 else (tol1 if d > 0 else -tol1))
-        _point(_S_SCRATCH, uu, False, y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, template, ind, dep,
-               n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+        _point(np.int64(_S_SCRATCH), uu, np.bool_(False), y_new, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q,
+               template, ind, dep, n_dep, p, u, z, dbuf, s, rtol, atol, tmp, prel, psign, pinc, npart, ptau, pmg, ptr,
+               phd)
         fu = -pmg[_S_SCRATCH, i]
         if fu <= 0.0:
             return uu
@@ -876,7 +881,7 @@ def _initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, template, ind, de
 
 @INLINE
 def _layout(n, n_automata, width, samples, max_instant):
-    """Sizes of the float, integer and boolean workspaces of a run (see _run)."""
+    """Sizes of the float, integer and boolean workspaces of a run (see run)."""
     ne = max(n, 1)
     w = max(width, 1)
     slots = _S_STEP + samples + 2 + w * (samples + 3)
@@ -915,27 +920,16 @@ def run(kind, mode, samples, max_instant, save, max_steps, resolve_first, t0, t_
     floats, ints, bools = _layout(n, RADIX.shape[0], TABLES.shape[2], samples, max_instant)
     if wf.shape[0] < floats or wi.shape[0] < ints or wb.shape[0] < bools or info.shape[0] < 5 + n:
         return 7, 0, 0, t0, mode, 0
-    return _run(kind, mode, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, TABLES[0], LENGTHS[0],
-                TABLES[1], LENGTHS[1], TABLES[2], LENGTHS[2], MSTATES, RADIX, CODES[0], CODES[1], CODES[2], rtol_g,
-                atol_g, jrtol, jatol, samples, max_instant, save != 0, out_t, out_x, out_m, ev_f[:, 0], ev_i[:, 0],
-                ev_i[:, 1], ev_f[:, 1:1 + n], ev_f[:, 1 + n:], ev_i[:, 2], info, max_steps, resolve_first != 0,
-                TABLES[3], TABLES[4], TABLES[5], TABLES[6], LENGTHS[3], LENGTHS[4], wf, wi, wb)
-
-
-@INLINE
-def _stop(info, x, status, n_saved, n_ev, t, m, steps):
-    """The kernel's return: the state x into info[5:], the rest as a tuple."""
-    for i in range(x.shape[0]):
-        info[5 + i] = x[i]
-    return status, n_saved, n_ev, t, m, steps
-
-
-@JIT
-def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind, n_ind, dep, n_dep, moved, n_moved,
-         mstates, radix, codes, code_ids, mode_codes, rtol_g, atol_g, jrtol, jatol, samples, max_instant, save,
-         out_t, out_x, out_m, ev_t, ev_mb, ev_ma, ev_xb, ev_xa, ev_at, info, max_steps, resolve_first, prel, psign,
-         pinc, pguard, npart, nguard, wf, wi, wb):
-    n = x0.shape[0]
+    m = mode
+    save = save != 0
+    resolve_first = resolve_first != 0
+    ind, n_ind, dep, n_dep, moved, n_moved = TABLES[0], LENGTHS[0], TABLES[1], LENGTHS[1], TABLES[2], LENGTHS[2]
+    mstates, radix, codes, code_ids, mode_codes = MSTATES, RADIX, CODES[0], CODES[1], CODES[2]
+    prel, psign, pinc, pguard, npart, nguard = TABLES[3], TABLES[4], TABLES[5], TABLES[6], LENGTHS[3], LENGTHS[4]
+    ev_t, ev_mb, ev_ma, ev_at = ev_f[:, 0], ev_i[:, 0], ev_i[:, 1], ev_i[:, 2]
+    ev_xb, ev_xa = ev_f[:, 1:1 + n], ev_f[:, 1 + n:]
+    # (the whole run is this one function: a separate callee would be optimised twice by LLVM, once on its
+    # own and again when inlined here, adding seconds of compile time)
     ne = max(n, 1)
     ns = max(N_SIDES, 1)
     width = max(prel.shape[1], 1)
@@ -1044,8 +1038,8 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
         y_new = ynbuf[:ke]
         f_new = fnbuf[:ke]
         err = errbuf[:ke]
-        K = Kbuf[:, :ke]
-        Q = Qbuf[:ke, :]
+        K = Kbuf  # whole (rows of ne ≥ ke entries): one array layout for every compiled callee
+        Q = Qbuf
         for i in range(k):
             y[i] = template[ind[m, i]]
         if k == 0:
@@ -1054,8 +1048,8 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
         # the guards at the flow's start; no previous step yet
         scan[0] = 0
         if nguard[m] > 0:
-            _point(_S_START, t, True, y, kind, m, k, t, 0.0, y, f, y, f, Q, template, ind, dep, n_dep, p, u, z, dbuf,
-                   s, rtol_g, atol_g, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
+            _point(np.int64(_S_START), t, np.bool_(True), y, kind, m, k, t, 0.0, y, f, y, f, Q, template, ind, dep,
+                   n_dep, p, u, z, dbuf, s, rtol_g, atol_g, tmp, prel, psign, pinc, npart, ptau, pmg, ptr, phd)
         h_abs = 0.0
         if kind == 2:
             if first_step > 0.0:
@@ -1260,6 +1254,16 @@ def _run(kind, m, x0, t0, t_end, dt, rtol, atol, max_step, first_step, p, u, ind
             template[i] = xa[i]
         n_ev += 1
         m = m_new
+
+
+@JIT
+def _stop(info, x, status, n_saved, n_ev, t, m, steps):
+    """The kernel's return: the state x into info[5:], the rest as a tuple."""
+    for i in range(x.shape[0]):
+        info[5 + i] = x[i]
+    return status, n_saved, n_ev, t, m, steps
+
+
 '''.replace("@ENTRY", ENTRY).replace("@JIT", JIT).replace("@INLINE", INLINE).replace("@DISPATCH", DISPATCH)
 
 

@@ -585,7 +585,7 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
             raise _FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
                                "step size collapsed (stiff here? try Radau or BDF)", t, x, steps, mode)
         if status == "stiff":
-            h_lambda, h, _, limit, component = result.info
+            h_lambda, h, _, limit, component = result.info[:5]
             cm = model.compiled_mode(mode)
             exc = StiffnessDetected(method, t, h, h_lambda, limit, int(component) if len(cm.independent) else None,
                                     (t_end - t) / h if method == "RK45-jit" else None)

@@ -1,7 +1,7 @@
 """The compiled (numba) kernels give the Python methods' results.
 
 Every model structure and set of modes compiles a kernel of its own (about
-35 s on first use): tests that need one no other test shares are marked
+20–30 s on first use): tests that need one no other test shares are marked
 ``slow`` and run with ``pytest -m slow`` or ``HBG_SLOW=1``."""
 
 import numpy as np
@@ -147,7 +147,7 @@ def test_modes_outside_the_compiled_set_flow_in_python_until_the_next_run(ball):
     assert second.event_times[1] == pytest.approx(t_first + 2 * 0.7 * v1 / 9.81, abs=1e-9)
 
 
-@pytest.mark.slow  # compiles a kernel of its own (~35 s)
+@pytest.mark.slow  # compiles a kernel of its own (~20–30 s)
 def test_a_divergence_of_time_in_the_kernel_is_reported_by_python():
     """Plastic chain at v_th = 0: the kernel sees a pinnacle repeat its state
     and hands the instant back; Python reports the loop, as in the Python path."""
@@ -162,8 +162,7 @@ def test_a_divergence_of_time_in_the_kernel_is_reported_by_python():
     assert info.value.instant.t == pytest.approx(0.1, abs=1e-13)
 
 
-@pytest.mark.slow  # compiles a kernel of its own (~35 s)
-def test_the_compiled_rk45_reports_stiffness():
+def test_the_compiled_rk45_reports_stiffness():  # compiles a kernel of its own (~20 s): kept in the fast set
     """A damped contact relaxing at k/b = 1e8 /s after separation: RK45 is held
     at its stability limit; Hairer's test stops the kernel with StiffnessError
     naming the mode, the step and |hλ| (≈ 3.3 for Dormand–Prince)."""
@@ -183,7 +182,7 @@ def test_the_compiled_rk45_reports_stiffness():
     np.testing.assert_allclose(momenta.sum(axis=1), 1.0, atol=1e-12)
 
 
-@pytest.mark.slow  # compiles a kernel of its own (~35 s)
+@pytest.mark.slow  # compiles a kernel of its own (~20–30 s)
 @pytest.mark.parametrize("method, factor", [("euler", 3.0), ("rk4", 4.0)])
 def test_fixed_step_kernels_report_stiffness_where_python_does(method, factor):
     """Touching balls on an undamped contact, ω·dt = 3 and 4 (beyond Euler's
@@ -208,7 +207,7 @@ def test_fixed_step_kernels_report_stiffness_where_python_does(method, factor):
     assert f"{method}-jit is beyond its stability limit" in str(compiled) and "dt <" in str(compiled)
 
 
-@pytest.mark.slow  # compiles a kernel of its own (~35 s)
+@pytest.mark.slow  # compiles a kernel of its own (~20–30 s)
 def test_a_kernel_for_the_reachable_modes_resolves_the_first_run_in_compiled_code():
     """compiled_model("reachable") explores the modes from the initial one
     (verify's exploration): the first compiled run then needs no Python at
