@@ -27,7 +27,7 @@ of parts and guards per mode) go with the state-index tables
 generated module holds as constants.
 
 One module with branches rather than a function per mode, so its compile
-time hardly grows with the number of modes: about 30–45 s on first use for a
+time hardly grows with the number of modes: about 20–30 s on first use for a
 set of modes (the kernel dominates), then about 0.1 s to load in any later
 process (numba's disk cache; numba's own set-up on its first use in a
 process, about 0.6 s, comes on top for any compiled function).  Each call
