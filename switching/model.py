@@ -29,6 +29,7 @@ from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
 from bondgraph import BondGraph, t as TIME
 from bondgraph.errors import MissingParameterError, UnknownNameError, UnknownParameterError
+from bondgraph.jump import JUMP_LAWS
 from bondgraph.symbols import check_name
 
 from .automaton import Automaton
@@ -133,8 +134,6 @@ class HybridModel:
         max_steps_per_instant: int = 1000,
         jump_law: str = "conservation",
     ):
-        from bondgraph.jump import JUMP_LAWS
-
         if jump_law not in JUMP_LAWS:
             raise ModelDefinitionError(f"unknown jump_law {jump_law!r}; choose one of: {', '.join(JUMP_LAWS)}")
         self.jump_law = jump_law
@@ -142,6 +141,7 @@ class HybridModel:
         self.graph = graph
         self.name = name or graph.name
         self.automata = tuple(automata)
+        self._initial_mode = Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
         self.tolerance = tolerance or Tolerance()
         self.max_steps_per_instant = int(max_steps_per_instant)
         self.time = TIME
@@ -357,11 +357,7 @@ class HybridModel:
 
     @property
     def initial_mode(self) -> Mode:
-        mode = self.__dict__.get("_initial_mode")
-        if mode is None:
-            mode = self._initial_mode = Mode(tuple(a.initial for a in self.automata),
-                                             tuple(a.name for a in self.automata))
-        return mode
+        return self._initial_mode
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``

@@ -56,7 +56,8 @@ def test_charge_sharing_symbolic():
     assert sp.simplify(jm.expressions[q1] / C1 - jm.expressions[q2] / C2) == 0
 
 
-def test_nonlinear_capacitor_jump_is_solved_numerically():
+def nonlinear_capacitor_pair() -> BondGraph:
+    """C1 (effort q + k q³) and C2 (linear), joined by the switch ``sw``."""
     g = BondGraph("nl_caps")
     n1, n2, sw = g.add(Zero("n1")), g.add(Zero("n2")), g.add(One("sw", controlled=True))
     k, C2 = sp.symbols("k C2")
@@ -64,6 +65,12 @@ def test_nonlinear_capacitor_jump_is_solved_numerically():
     g.connect(n2, C("C2", C2))
     g.connect(n1, sw)
     g.connect(sw, n2)
+    return g
+
+
+def test_nonlinear_capacitor_jump_is_solved_numerically():
+    g = nonlinear_capacitor_pair()
+    k, C2 = sp.symbols("k C2")
     jm = g.jump_map({"sw": True})
     assert not jm.linear and jm.expressions is None
     params = {k: 0.5, C2: 2.0}

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from bondgraph import BondGraph, C, One, Zero
 from bondgraph.errors import CausalityConflictError, InvalidGraphError
 from bondgraph.jump import JumpMapError
 from models import ball_chain, colliding_balls, diode_circuit, falling_rod, parallel_capacitors
@@ -132,13 +131,9 @@ def test_impulse_balance_refuses_nonlinear_storage_and_says_what_to_use():
     """Charge sharing onto a nonlinear capacitor: its constraint is not
     linear in the charges that jump (the conservation law solves it
     numerically, tests/test_jump.py)."""
-    g = BondGraph("nl_caps")
-    n1, n2, sw = g.add(Zero("n1")), g.add(Zero("n2")), g.add(One("sw", controlled=True))
-    k, C2 = sp.symbols("k C2")
-    g.connect(n1, C("C1", effort_law=lambda q: q + k * q**3))
-    g.connect(n2, C("C2", C2))
-    g.connect(n1, sw)
-    g.connect(sw, n2)
+    from test_jump import nonlinear_capacitor_pair
+
+    g = nonlinear_capacitor_pair()
     assert g.jump_map({"sw": True}, "conservation").expressions is None
     with pytest.raises(JumpMapError, match="jump_law='conservation'"):
         g.jump_map({"sw": True}, "impulse balance")
