@@ -260,7 +260,8 @@ def generate_model_source(model, modes: list) -> str:
 class CompiledModel:
     """The compiled module of ``model`` for a set of modes, and a call of its
     kernel (:meth:`run`).  Buffers and workspaces are allocated once and
-    reused by every call."""
+    reused by every call, so one model is not to be simulated from two
+    threads at once (``simulate_many`` runs its workers as processes)."""
 
     def __init__(self, model, modes):
         self.model = model
