@@ -221,9 +221,25 @@ class BondGraph:
 
     def displacement(self, name: str, of, sign: int = 1) -> sp.Symbol:
         """Declare an integrated displacement state ``name`` with
-        ``d(name)/dt = sign * f`` of a bond: ``of`` is a bond (or its name), a
-        one-port element (its bond) or a 1-junction (its common flow).
-        Returns the state symbol (use it in moduli, e.g. ``l*sp.sin(theta)``)."""
+        ``d(name)/dt = sign * f``, where the flow ``f`` is chosen by ``of``:
+
+        * an **element name** (or :class:`~bondgraph.elements.Element`) of a
+          connected one-port (``I``, ``C``, ``R``, a source): the flow *into
+          that element* along its bond, whichever way the bond is drawn (an
+          ``I`` of mass ``m`` gives ``d(name)/dt = +p/m``);
+        * a **1-junction** (element name or object): its common flow, the flow
+          variable ``f_b`` that all its bonds share, each bond's flow positive
+          in the bond's drawn direction — the flow into every element whose
+          bond is drawn *from* the junction, out of every element whose bond is
+          drawn *into* it.  To fix the direction by an element instead, name
+          that one-port (or pass one of the junction's bonds);
+        * a :class:`Bond` object, or a **bond name that is not an element
+          name**: that bond's flow in its drawn direction (tail → head).
+
+        A name that is both a bond and an element (:meth:`connect` names a
+        bond after its one-port end by default) means the **element**.
+        Returns the state symbol (use it in moduli, e.g. ``l*sp.sin(theta)``).
+        """
         check_name(name, "displacement name")
         if sign not in (1, -1):
             raise InvalidGraphError(f"displacement {name!r}: sign must be +1 or -1, not {sign!r}")
@@ -239,19 +255,37 @@ class BondGraph:
 
     def _bond_for_displacement(self, of, name: str) -> tuple[str, int]:
         """(bond, ±1): the bond whose flow integrates to the displacement, and
-        +1 if that flow is oriented *into* the element given (an I's velocity)."""
+        the sign that turns that bond's flow into the flow meant by ``of``
+        (see :meth:`displacement`): an element name wins over a bond name."""
         if isinstance(of, Bond):
-            of = of.name
-        if isinstance(of, str) and of in self.bonds:
+            if self.bonds.get(of.name) != of:
+                raise UnknownNameError(f"displacement {name!r}: {of} is not a bond of graph {self.name!r}", of.name)
+            return of.name, 1
+        if isinstance(of, Element):
+            if self.elements.get(of.name) is not of and self.elements.get(of.name) != of:
+                raise UnknownNameError(
+                    f"displacement {name!r}: graph {self.name!r} has no element {of.name!r}{self._suggest(of.name)}",
+                    of.name,
+                )
+            element = of.name
+        elif isinstance(of, str) and of in self.elements:
+            element = of
+        elif isinstance(of, str) and of in self.bonds:
             return of, 1
-        element = self._resolve(of)
+        else:
+            raise UnknownNameError(
+                f"displacement {name!r}: graph {self.name!r} has no element or bond {of!r}{self._suggest(str(of))}",
+                str(of),
+            )
         bonds = self._bonds_of[element]
         if not bonds:
             raise InvalidGraphError(f"displacement {name!r}: element {element!r} has no bond yet; connect it first", [element])
         el = self.elements[element]
-        if el.kind == "1" or (isinstance(el, OnePort) and len(bonds) == 1):
+        if el.kind == "1":
+            return bonds[0], 1
+        if isinstance(el, OnePort) and len(bonds) == 1:
             bond = self.bonds[bonds[0]]
-            return bond.name, 1 if el.kind == "1" else bond.sign_at(element)
+            return bond.name, bond.sign_at(element)
         raise InvalidGraphError(
             f"displacement {name!r}: {el.kind}-element {element!r} has no single flow; give a bond, a one-port or a 1-junction",
             [element],

@@ -114,26 +114,29 @@ def available() -> bool:
     return importlib.util.find_spec("numba") is not None
 
 
-def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0) -> str:
+def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0, scale: str | None = None) -> str:
     """Source deciding a guard tree (see :func:`switching.compiled.decide_tree`).
 
-    Comparison ``k`` reads its left/right finite parts from
-    ``finite[2k], finite[2k+1]`` and, when ``impulse`` names an array, their
-    impulse areas from ``impulse[offset + 2k], impulse[offset + 2k + 1]``."""
+    Comparison ``k`` reads its left/right finite parts and round-off scale
+    from ``finite[3k], finite[3k+1], finite[3k+2]`` and, when ``impulse``
+    names an array, the sides' impulse areas from ``impulse[offset + 2k],
+    impulse[offset + 2k + 1]``; with ``scale`` naming another array of triples,
+    the larger of the two scales counts (a priori and a posteriori)."""
     kind = tree[0]
     if kind == "const":
         return "True" if tree[1] else "False"
     if kind in ("and", "or"):
-        return "(" + f" {kind} ".join(tree_expression(t, finite, impulse, offset) for t in tree[1]) + ")"
+        return "(" + f" {kind} ".join(tree_expression(t, finite, impulse, offset, scale) for t in tree[1]) + ")"
     if kind == "not":
-        return f"(not {tree_expression(tree[1], finite, impulse, offset)})"
+        return f"(not {tree_expression(tree[1], finite, impulse, offset, scale)})"
     _, k, op, _text = tree
-    a, b = 2 * k, 2 * k + 1
+    a, b, c = 3 * k, 3 * k + 1, 3 * k + 2
     if impulse is None:
         ia = ib = "0.0"
     else:
-        ia, ib = f"{impulse}[{offset + a}]", f"{impulse}[{offset + b}]"
-    return f"_dec({_OP_CODES[op]}, {ia}, {finite}[{a}], {ib}, {finite}[{b}], rtol, atol)"
+        ia, ib = f"{impulse}[{offset + 2 * k}]", f"{impulse}[{offset + 2 * k + 1}]"
+    sc = f"{finite}[{c}]" if scale is None else f"_larger({finite}[{c}], {scale}[{c}])"
+    return f"_dec({_OP_CODES[op]}, {ia}, {finite}[{a}], {ib}, {finite}[{b}], {sc}, rtol, atol)"
 
 
 def module_header(title: str) -> str:
@@ -157,10 +160,30 @@ def module_header(title: str) -> str:
     ]) + "\n"
 
 
-# codegen.runtime.decide in compiled form; op: 0 <, 1 <=, 2 >, 3 >=, 4 ==, 5 !=
+# codegen.runtime.decide in compiled form; op: 0 <, 1 <=, 2 >, 3 >=, 4 ==, 5 !=; sides come in triples
+# (left, right, round-off scale), switching.compiled
 COMPARE_SOURCE = f'''
 {INLINE}
-def _dec(op, li, lf, ri, rf, rtol, atol):
+def _larger(a, b):
+    """The larger of two round-off scales, ignoring a non-finite one."""
+    a = a if np.isfinite(a) else 0.0
+    b = b if np.isfinite(b) else 0.0
+    return a if a > b else b
+
+
+{INLINE}
+def _band(lf, rf, sc, rtol, atol):
+    """rtol·max(|lf|, |rf|, sc) + atol, sc counted when finite; 0 when a side is not finite."""
+    scale = max(abs(lf), abs(rf))
+    if not np.isfinite(scale):
+        return 0.0
+    if np.isfinite(sc) and sc > scale:
+        scale = sc
+    return rtol * scale + atol
+
+
+{INLINE}
+def _dec(op, li, lf, ri, rf, sc, rtol, atol):
     impulse = li - ri
     if impulse != 0.0 and abs(impulse) > 1e-6 * max(abs(li), abs(ri)):
         if op <= 1:
@@ -169,8 +192,7 @@ def _dec(op, li, lf, ri, rf, rtol, atol):
             return impulse > 0.0
         return op == 5
     diff = lf - rf
-    scale = max(abs(lf), abs(rf))
-    band = rtol * scale + atol if np.isfinite(scale) else 0.0
+    band = _band(lf, rf, sc, rtol, atol)
     if op == 0:
         return diff < -band
     if op == 1:
@@ -300,11 +322,10 @@ def _parts(slot, tau, hd, m, s, rtol, atol, prel, psign, pinc, npart, ptau, pmg,
     ``_dec``; as switching.events._GuardForm), the time and whether a guard holds (``hd``)."""
     for i in range(npart[m]):
         r = prel[m, i]
-        left = s[2 * r]
-        right = s[2 * r + 1]
+        left = s[3 * r]
+        right = s[3 * r + 1]
         d = left - right
-        scale = max(abs(left), abs(right))
-        band = rtol * scale + atol if scale < np.inf else 0.0
+        band = _band(left, right, s[3 * r + 2], rtol, atol)
         sign = psign[m, i]
         if sign == 0:
             pmg[slot, i] = 0.0
@@ -733,22 +754,26 @@ def _maximize(i, a, b, kind, m, k, t_old, h, y_old, f_old, y_new, f_new, Q, temp
 
 @INLINE
 def _pulse(m, x, xp, moved, n_moved, jrtol, jatol, d):
-    """x⁺ − x with round-off removed (switching.compiled.CompiledMode.pulse)."""
+    """x⁺ − x with round-off removed into d (switching.compiled.CompiledMode.pulse); True if all of it was."""
     for i in range(x.shape[0]):
         d[i] = xp[i] - x[i]
     nm = n_moved[m]
     if nm == 0:
         for i in range(x.shape[0]):
             d[i] = 0.0
-        return
+        return True
     scale = 0.0
     for j in range(nm):
         i = moved[m, j]
         scale = max(scale, abs(x[i]), abs(xp[i]))
     band = jrtol * scale + jatol
+    none = True
     for i in range(x.shape[0]):
         if abs(d[i]) <= band:
             d[i] = 0.0
+        else:
+            none = False
+    return none
 
 
 @INLINE
@@ -788,10 +813,10 @@ def _resolve(m0, x_in, t, p, u, moved, n_moved, mstates, radix, codes, code_ids,
             return -1, 0
         if not _jump(cur, x, t, p, u, xp):
             return -1, 0
-        _pulse(cur, x, xp, moved, n_moved, jrtol, jatol, d)
+        quiet = _pulse(cur, x, xp, moved, n_moved, jrtol, jatol, d) and passes == 1
         for a in range(target.shape[0]):
             target[a] = -1
-        if not _fire(cur, x, xp, t, p, u, d, s, post, rtol, atol, target):
+        if not _fire(cur, x, xp, t, p, u, d, s, post, rtol, atol, target, quiet):
             return -1, 0
         fired = False
         for a in range(target.shape[0]):
@@ -812,7 +837,7 @@ def _resolve(m0, x_in, t, p, u, moved, n_moved, mstates, radix, codes, code_ids,
             return -1, 0
         for i in range(n):
             d[i] = 0.0
-        if not _fire(cur, x, x, t, p, u, d, s, post, rtol, atol, target):
+        if not _fire(cur, x, x, t, p, u, d, s, post, rtol, atol, target, True):
             return -1, 0
         fired = False
         for a in range(target.shape[0]):

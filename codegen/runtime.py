@@ -7,12 +7,14 @@ operators then compute the impulse area (linear in the pulses) and the finite
 part of the result.  A product of two pulses, a pulse in a denominator or
 inside a nonlinear function has no meaning and raises :class:`PulseError`.
 :func:`decide` compares two such values with a tolerance band (``<=``
-includes the band, ``<`` excludes it; a non-zero impulse dominates).
+includes the band, ``<`` excludes it; a non-zero impulse dominates), widened
+by the comparison's round-off scale (:mod:`codegen.roundoff`);
+:class:`Comparison` keeps the figures of one decision for the record.
 """
 
 import math
 
-__all__ = ["Hyper", "PulseError", "H", "decide", "hyper"]
+__all__ = ["Comparison", "Hyper", "PulseError", "H", "decide", "hyper"]
 
 
 class PulseError(ArithmeticError):
@@ -162,10 +164,19 @@ for _name in (
     setattr(H, _name, staticmethod(_smooth(getattr(math, _name))))
 
 
-def decide(op: str, left, right, rtol: float, atol: float) -> bool:
-    """``left op right`` for ``op`` in ``<, <=, >, >=, ==, !=``, on numbers or
-    :class:`Hyper` values, with the band ``rtol·max(|left|, |right|) + atol``."""
-    left, right = hyper(left), hyper(right)
+def _band(left, right, rtol, atol, scale):
+    """``rtol·max(|left|, |right|, scale) + atol`` on finite parts (``scale``: the
+    comparison's round-off scale, ignored unless finite); 0 if the sides are not finite."""
+    magnitude = max(abs(left.finite), abs(right.finite))
+    if not math.isfinite(magnitude):
+        return 0.0
+    if math.isfinite(scale) and scale > magnitude:
+        magnitude = scale
+    return rtol * magnitude + atol
+
+
+def _pulse_decides(op, left, right):
+    """The decision when a non-zero impulse dominates, else ``None``."""
     impulse = left.impulse - right.impulse
     if impulse and abs(impulse) > 1e-6 * max(abs(left.impulse), abs(right.impulse)):
         if op in ("<", "<="):
@@ -173,19 +184,83 @@ def decide(op: str, left, right, rtol: float, atol: float) -> bool:
         if op in (">", ">="):
             return impulse > 0
         return op == "!="
-    diff = left.finite - right.finite
-    scale = max(abs(left.finite), abs(right.finite))
-    band = rtol * scale + atol if math.isfinite(scale) else 0.0
+    return None
+
+
+def _margin(op, diff, band):
+    """Signed distance of ``diff = left − right`` from the decision's edge:
+    ``≥ 0`` holds for inclusive comparisons, ``> 0`` for strict ones."""
     if op == "<=":
-        return diff <= band
+        return band - diff
     if op == "<":
-        return diff < -band
+        return -band - diff
     if op == ">=":
-        return diff >= -band
+        return diff + band
     if op == ">":
-        return diff > band
+        return diff - band
     if op == "==":
-        return abs(diff) <= band
+        return band - abs(diff)
     if op == "!=":
-        return abs(diff) > band
+        return abs(diff) - band
     raise ValueError(f"unknown comparison {op!r}")
+
+
+def decide(op: str, left, right, rtol: float, atol: float, scale: float = 0.0) -> bool:
+    """``left op right`` for ``op`` in ``<, <=, >, >=, ==, !=``, on numbers or
+    :class:`Hyper` values, with the band ``rtol·max(|left|, |right|, scale) +
+    atol`` (``scale``: the comparison's round-off scale, :mod:`codegen.roundoff`).
+    ``<=``, ``>=`` and ``==`` include the band, ``<``, ``>`` and ``!=`` exclude
+    it; a non-zero impulse dominates any finite part."""
+    left, right = hyper(left), hyper(right)
+    by_pulse = _pulse_decides(op, left, right)
+    if by_pulse is not None:
+        return by_pulse
+    margin = _margin(op, left.finite - right.finite, _band(left, right, rtol, atol, scale))
+    return margin >= 0 if op in ("<=", ">=", "==") else margin > 0
+
+
+class Comparison:
+    """One decided comparison, for the record of an instant: ``text``, the
+    ``left`` and ``right`` values (:class:`Hyper` or numbers), the ``band``
+    used, the round-off ``scale``, ``result``, and ``margin`` — the signed
+    distance of ``left − right`` from the decision's edge (``None`` when an
+    impulse decided)."""
+
+    __slots__ = ("text", "op", "left", "right", "scale", "band", "margin", "result")
+
+    def __init__(self, text, op, left, right, scale, band, margin, result):
+        self.text, self.op, self.left, self.right = text, op, left, right
+        self.scale, self.band, self.margin, self.result = scale, band, margin, result
+
+    @classmethod
+    def of(cls, text, op, left, right, rtol, atol, scale=0.0):
+        """Decide ``left op right`` as :func:`decide` does and keep the figures."""
+        lh, rh = hyper(left), hyper(right)
+        by_pulse = _pulse_decides(op, lh, rh)
+        if by_pulse is not None:
+            return cls(text, op, left, right, scale, None, None, by_pulse)
+        band = _band(lh, rh, rtol, atol, scale)
+        margin = _margin(op, lh.finite - rh.finite, band)
+        result = margin >= 0 if op in ("<=", ">=", "==") else margin > 0
+        return cls(text, op, left, right, scale, band, margin, result)
+
+    @property
+    def edge_ulps(self):
+        """``|margin|`` in units in the last place of the comparison's largest
+        magnitude (``max(|left|, |right|, scale)``): how many round-offs would
+        have flipped the decision (``inf`` when an impulse decided)."""
+        if self.margin is None:
+            return math.inf
+        lh, rh = hyper(self.left), hyper(self.right)
+        magnitude = max(abs(lh.finite), abs(rh.finite), self.scale if math.isfinite(self.scale) else 0.0)
+        unit = math.ulp(magnitude) if magnitude > 0 else math.ulp(0.0)
+        return abs(self.margin) / unit
+
+    def __iter__(self):  # (text, left, right, result), as the records of earlier versions
+        return iter((self.text, self.left, self.right, self.result))
+
+    def __str__(self):
+        text = f"{self.text}: {self.left} vs {self.right} → {self.result}"
+        if self.band is not None:
+            text += f" (band {self.band:.3g})"
+        return text

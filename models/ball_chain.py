@@ -82,6 +82,23 @@ positive to the right; momenta ``p<i>`` [N·s]; ``m`` [kg], ``r`` [m],
 States: ``p1…pN`` (momenta), ``q1…q(N−1)`` (spring compressions, compliant
 only), ``pos1…posN`` (integrated displacements: the positions).
 Signals: ``x1…xN`` (positions, = ``pos<i>``), ``v1…vN`` (velocities ``p/m``).
+
+Valid range (exercised by ``tests/test_model_ranges.py``).  Ideal contacts:
+``N >= 2``, ``0 <= e <= 1``, ``v_th`` from 1e-9·v0 to 1e-3·v0 (tested ``N`` up
+to 8, ``v0`` and ``m`` from 1e-3 to 1e3): one instant, momentum conserved,
+after it no pair approaches faster than ``v_th``.  ``e = 0`` with
+``v_th = 0`` and ``N >= 3``: the plastic pinnacles reach the common velocity
+only in the limit of infinitely many steps at one instant; the relative
+velocities halve at each pass, and when they reach round-off either the
+remaining ones fall inside the comparison bands first and the instant ends at
+the limit (all balls at ``v0/N``, as for ``N = 3``), or a pinnacle repeats its
+state within round-off and the run raises
+:class:`~switching.DivergenceOfTimeError` (``N = 4, 5``; or its subclass
+``TooManyStepsError`` after ``max_steps_per_instant``).  Give ``v_th > 0``.
+Compliant contacts: ``k`` from 1e2 to 1e8 N/m, ``b >= 0``, ``gap >= 0``.  With
+``b > 0`` a free spring relaxes through the damper at the rate ``k/b``: when
+that rate is far above the run's (``k/b`` ≳ 1e5/s here) an explicit method
+(RK45) stops with :class:`~switching.StiffnessError`; use Radau, BDF or LSODA.
 """
 
 from __future__ import annotations

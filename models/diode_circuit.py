@@ -35,6 +35,22 @@ off, the inductor's flux would vanish, the diode turns on, …: the paper's
 divergence-of-time loop, reported as an error that shows the loop.
 
 Units: V, A, Ω, H, s.  Signals: ``i_L``, ``v_L``, ``i_D``, ``v_D``.
+
+Valid range (exercised by ``tests/test_model_ranges.py``): ``I_th = 0`` (the
+ideal diode turns off when its current reaches zero), ``V``, ``R``, ``L``
+over orders of magnitude (tested ``V`` from 1e-2 to 1e4 V (with
+``V_th = 0.07·V``), ``R`` from 1e-2 to 1e2 Ω, ``L`` from 1e-6 to 10 H).  The
+switch opens at ``t_open`` with the current ``i_open``; the current then
+reaches zero at ``t_open + (L/R)·ln(1 + R·i_open/V_th)``, where the diode
+turns off (``open|off``, no current) for the rest of the run.  Any holding
+current ``I_th > 0`` is met by the decaying current, at
+``t_open + (L/R)·ln((i_open + V_th/R)/(I_th + V_th/R))``, or at ``t_open``
+itself when ``I_th >= i_open``: there the run raises
+:class:`~switching.DivergenceOfTimeError` — the loop described above, a
+property of the ideal model (an inductor's current cannot be interrupted), not
+of round-off.  When ``L/R`` is far below the run length, an explicit method
+(RK45) stops with :class:`~switching.StiffnessError` while the switch is
+closed; use Radau, BDF or LSODA.
 """
 
 from __future__ import annotations

@@ -27,17 +27,24 @@ F = −e_tangent`` (along +x).
 Automata and guards:
 
 ``contact``
-    free → contact   ``tip_y <= 0 and tip_vy < 0``  a priori — a collision
-                     (time-scale abstraction), judged on the velocity before it;
-                     ``tip_vy < 0`` keeps a separating rod from re-colliding
-                     (the paper's section 4.2 fix);
+    free → contact   ``tip_y <= 0 and (tip_vy < 0 or tip_vy <= 0 and N_contact > 0)``
+                     a priori — a collision (time-scale abstraction), judged on
+                     the velocity before it; ``tip_vy < 0`` keeps a separating
+                     rod from re-colliding (the paper's section 4.2 fix); a tip
+                     at rest on the floor comes into contact when the floor
+                     would have to push it (``N_contact``: the normal force of
+                     the contact mode, friction as it is), i.e. when it would
+                     otherwise fall through: after a sticking impact whose
+                     stuck mode would need a pulling floor and more friction
+                     than the cone allows, both automata step (to free,
+                     sliding) and this brings the tip back to sliding contact;
     contact → free   ``normal_force <= 0``          a posteriori — the floor
                      can only push (parameter abstraction of a stiff floor).
 ``friction``
     stuck → slide_pos / slide_neg   ``F < −μN`` / ``F > μN``   a posteriori —
                      Coulomb's law judged on the forces the stuck state would
                      need, impulses included (Lemma 5.3: pulses dominate);
-    slide_± → stuck  ``|tip_vx| <= v_th and |F_stick| <= μ N_stick``  a posteriori
+    slide_± → stuck  ``|tip_vx| <= v_th and |F_stick| < μ N_stick``  a posteriori
                      — the paper's Eq. (25) ``|v⁺_Ax| ≤ v_th``, judged on the state
                      the sliding mode jumps to (entering it at an impact, the
                      tip's velocity after the frictionless impact, not the one
@@ -45,9 +52,23 @@ Automata and guards:
                      of the stuck mode, computed from ``h(g_stuck(x))``
                      (``InMode`` signals ``F_stick``, ``N_stick``), allow it;
                      otherwise a slide → stuck → slide loop would stop time;
+                     strictly inside the cone, as the slip out of stuck needs
+                     strictly outside it: on the cone's edge (within the
+                     comparison band) the tip keeps what it does, so a slip
+                     located in flow is not undone at once; and only a floor
+                     that pushes can hold the tip (in the air both forces are
+                     0 and ``<=`` would be vacuous).  The stick's plastic jump
+                     (the remaining ``|tip_vx| <= v_th`` set to 0) abstracts
+                     the last of a continuous deceleration, not a collision:
+                     the transition is marked ``pulses=False``, so the stuck
+                     mode judges its finite forces, not the pulses of that
+                     jump (which would exceed the cone and undo the stick);
     slide_± → slide_∓  the tip velocity changes sign (a posteriori);
-    slide_± → stuck  ``tip_y > y_lift`` a priori: in the air the friction
-                     automaton returns to its initial state.
+    slide_± → stuck  ``tip_y > y_lift and normal_force <= 0`` a priori: in the
+                     air the friction automaton returns to its initial state
+                     (the floor not pushing: in contact the tip's height drifts
+                     with the integration error, since the contact holds its
+                     velocity, and may pass ``y_lift``).
 
 Impacts are plastic (no restitution).  Friction during an impact, option
 ``impact_law``:
@@ -74,7 +95,28 @@ slides for a point in time and lifts off (Fig. 20).
 
 Units: kg, m, s, rad, N.  Signals: ``theta``, ``omega``, ``vx``, ``vy``,
 ``x_cm``, ``y_cm``, ``tip_x``, ``tip_y``, ``tip_vx``, ``tip_vy``,
-``normal_force``, ``friction_force`` (and ``F_stick``, ``N_stick``).
+``normal_force``, ``friction_force`` (and ``F_stick``, ``N_stick``, ``N_contact``).
+
+Valid range (exercised by ``tests/test_model_ranges.py``): the documented
+points above, each run to t = 2 s (defaults, ``mu = 0.002``, ``mu = 0.004``,
+the long rod ``l = 10, y0 = 23, mu = 0.002``, and ``mu = 0.002`` with
+``impact_law="newton-coulomb"``); the slow grid takes ``mu`` from 1e-4 to 1
+and ``l`` from 0.1 to 10 m (``y0 = 2.3 l``, ``theta0`` at its default) under
+both impact laws.  Masses, lengths and ``g`` may be given in any consistent
+units (``tests/test_units.py``; scale ``v_th`` and ``y_lift`` with the
+lengths).  No error is documented in this range: every
+:class:`~switching.DivergenceOfTimeError` there is a defect.  Beyond it,
+``tests/test_rod_reference.py`` runs a uniform rod (``J = m (2l)²/12``) over
+``theta0`` 0.2 to 1.4, ``mu`` 0.01 to 5, ``l`` 0.1 and 0.5 m and both impact
+laws to the time the far end reaches the floor (which the model does not
+see), against an independent simulation: the same modes and states there.
+Painlevé's singularity: sliding with direction ``σ``, the normal force is
+``(…)/k_σ`` with ``k_σ = 1/m + l² cos θ (cos θ + σ μ sin θ)/J``, which
+vanishes when ``cos θ + σ μ sin θ`` is negative enough (friction large
+against the rod's inclination); as a sliding rod turns towards it the force
+grows without bound and the run stops with :class:`~switching.StepSizeError`
+(the rigid model has no solution there: the paradox).  In the slow grid the
+long rod ``l = 10`` with ``mu = 1`` reaches it.
 """
 
 from __future__ import annotations
@@ -153,7 +195,8 @@ def build(**parameters) -> HybridModel:
     contact = Automaton(
         "contact", {"free": {"cy": False, "cx": False}, "contact": {"cy": True, "cx": True}}, "free"
     )
-    contact.add_transition("free", "contact", "tip_y <= 0 and tip_vy < 0", "a priori")
+    contact.add_transition("free", "contact", "tip_y <= 0 and (tip_vy < 0 or tip_vy <= 0 and N_contact > 0)",
+                           "a priori")
     contact.add_transition("contact", "free", "normal_force <= 0", "a posteriori")
 
     friction = Automaton(
@@ -165,9 +208,10 @@ def build(**parameters) -> HybridModel:
     friction.add_transition("stuck", "slide_pos", "friction_force < -mu*normal_force", "a posteriori")
     friction.add_transition("stuck", "slide_neg", "friction_force > mu*normal_force", "a posteriori")
     for state, sign in (("slide_pos", 1), ("slide_neg", -1)):
-        friction.add_transition(state, "stuck", "tip_y > y_lift", "a priori")
+        friction.add_transition(state, "stuck", "tip_y > y_lift and normal_force <= 0", "a priori")
         near = "tip_vx <= v_th" if sign > 0 else "tip_vx >= -v_th"
-        friction.add_transition(state, "stuck", f"{near} and abs(F_stick) <= mu*N_stick", "a posteriori")
+        friction.add_transition(state, "stuck", f"{near} and abs(F_stick) < mu*N_stick",
+                                "a posteriori", pulses=False)
         other = "slide_neg" if sign > 0 else "slide_pos"
         friction.add_transition(state, other, "tip_vx < 0" if sign > 0 else "tip_vx > 0", "a posteriori")
 
@@ -186,6 +230,7 @@ def build(**parameters) -> HybridModel:
         "friction_force": "-e_tangent",
         "F_stick": InMode("-e_tangent", friction="stuck"),
         "N_stick": InMode("-e_normal", friction="stuck"),
+        "N_contact": InMode("-e_normal", contact="contact"),
     }
     return HybridModel(
         scene,

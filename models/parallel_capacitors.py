@@ -48,6 +48,18 @@ States: ``q1``, ``q2``.
 Signals: ``v1``, ``v2`` (voltages), ``q_total = q1 + q2`` (conserved at every
 instant and during flow), ``energy = q1²/(2 C1) + q2²/(2 C2)`` (the stored
 electric energy).
+
+Valid range (exercised by ``tests/test_model_ranges.py``): ``C1, C2 > 0``
+(tested 1e-12 to 1 F, ratios 1e-3 to 1e3), ``R >= 0`` (0, and 1e-3 to 1e6 Ω),
+any initial voltages (tested 1e-6 to 1e6 V, equal or opposite).  One instant at
+``t_close``; ``q_total`` is conserved throughout.  With ``R > 0`` the time
+constant is ``τ = R C1 C2/(C1 + C2)``; when ``τ`` is far below the run (below
+about 1e-3 of it) an explicit method (RK45) stops with
+:class:`~switching.StiffnessError` after the switch closes; use Radau, BDF
+or LSODA (or ``R = 0``, the ideal limit).  A ``τ`` at the round-off of the time
+itself (below about 1e-11 of ``t_close``: a milliohm on femtofarads) cannot be
+stepped by any method when the voltages differ: :class:`~switching.StepSizeError`;
+use ``R = 0``.
 """
 
 from __future__ import annotations

@@ -63,6 +63,14 @@ arrows (pump into tank 1, tank 1 → tank 2, tank 2 → atmosphere), ``A1``,
 Signals: ``h1``, ``h2`` (levels), ``p1``, ``p2`` (pressures), ``Q_pump``
 (pump flow), ``Q_valve`` (flow through the transfer valve), ``Q_out``
 (outflow through the drain), ``V_total`` (stored volume).
+
+Valid range (exercised by ``tests/test_model_ranges.py``): positive
+``Q_in``, areas, resistances, ``rho`` and ``g``, with ``h_low < h_high`` for
+each valve (tested ``Q_in`` 1e-3 to 1e-1 m³/s, ``A1`` 0.1 to 10 m² with
+``A2 = A1/2``, ``R_v`` 5e4 to 5e6 Pa·s/m³).  Each valve moves exactly at its
+thresholds, alternately open and closed.  Outside the cycling condition above
+(a large ``Q_in``) the valves open and stay open while the levels rise without
+bound (the tanks have no overflow): no further events, no error.
 """
 
 from __future__ import annotations

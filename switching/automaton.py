@@ -61,13 +61,14 @@ class Transition:
     target: str
     guard: object
     when: str = A_PRIORI
+    pulses: bool = True
 
     @property
     def a_posteriori(self) -> bool:
         return self.when == A_POSTERIORI
 
     def __str__(self) -> str:
-        return f"{self.source} → {self.target} when {self.guard} ({self.when})"
+        return f"{self.source} → {self.target} when {self.guard} ({self.when}{'' if self.pulses else ', no pulses'})"
 
 
 class Automaton:
@@ -153,10 +154,20 @@ class Automaton:
                 [self.name],
             )
 
-    def add_transition(self, source: str, target: str, guard, when: str = A_PRIORI) -> Transition:
+    def add_transition(self, source: str, target: str, guard, when: str = A_PRIORI, *, pulses: bool = True) -> Transition:
         """Add ``source → target`` firing when ``guard`` holds (``when``: ``"a priori"`` or ``"a posteriori"``).
 
-        Transitions from one state are tried in the order they were added."""
+        Transitions from one state are tried in the order they were added.
+
+        ``pulses=False`` marks a transition whose jump abstracts a fast but
+        continuous approach rather than a collision — e.g. a sliding velocity
+        below a sticking threshold ``v_th`` taken as zero (the paper's
+        Eq. 25).  The state still jumps (``x⁺ = g(x)``), but the a posteriori
+        guards of the mode it leads to judge the finite values only: the
+        Dirac pulses of that jump, artefacts of the threshold, would
+        otherwise dominate every comparison (Lemma 5.3).  When several
+        automata step at once, pulses are dropped only if every transition
+        taken is ``pulses=False``."""
         self._check_state(source, "a transition")
         self._check_state(target, "a transition")
         if source == target:
@@ -171,7 +182,11 @@ class Automaton:
             raise ModelDefinitionError(
                 f"automaton {self.name!r}: guard {guard!r} must be a text or a sympy condition", [self.name]
             )
-        transition = Transition(source, target, guard, _WHEN[key])
+        if not isinstance(pulses, bool):
+            raise ModelDefinitionError(
+                f"automaton {self.name!r}: pulses= must be True or False, not {pulses!r}", [self.name]
+            )
+        transition = Transition(source, target, guard, _WHEN[key], pulses)
         self.transitions.append(transition)
         return transition
 

@@ -9,8 +9,16 @@ Generated functions of one mode (arrays: ``x`` states, ``p`` parameters,
 ``phi(x, t, p, u, out)``       dependent states from the independent ones
 ``rates(x, t, p, u, out)``     ``dx/dt`` of every state
 ``jump(x, t, p, u, out)``      ``x⁺ = g(x)`` with restitution (symbolic jumps only)
-``sides(x, t, p, u, out)``     finite left and right sides of every guard comparison
-``sides_raw(x, t, p, u, xdot)``  the same on raw signals, impulse-aware
+``sides(x, t, p, u, out)``     for every guard comparison ``k``: its finite left and
+                               right sides and their round-off scale
+                               ``max(R(left), R(right))`` (:mod:`codegen.roundoff`) at
+                               ``out[3k], out[3k + 1], out[3k + 2]``
+``sides_raw(x, t, p, u, xdot)``  the left and right sides on raw signals,
+                               impulse-aware (``[2k], [2k + 1]``)
+
+A comparison is decided with the band ``rtol·max(|left|, |right|, R) + atol``
+(:func:`codegen.runtime.decide`): a difference that is zero up to the
+round-off of the terms that formed it compares as zero, whatever the units.
 
 The metadata ``META`` (independent / dependent indices, the guards as trees
 of comparisons) is part of the same source, so a module loaded from disk
@@ -19,15 +27,21 @@ needs nothing else.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import sympy as sp
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
-from codegen.runtime import Hyper, decide
+from codegen.roundoff import roundoff_scale
+from codegen.runtime import Comparison, Hyper, decide
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
-__all__ = ["CompiledMode", "generate_mode_source", "decide_tree"]
+__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
+
+#: part of the disk-cache key of a mode's source: change it when the generated functions change
+MODE_SOURCE_VERSION = "5"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -58,7 +72,10 @@ def _tree(condition, relations: list):
 
 
 def decide_tree(tree, sides, rtol, atol, record=None) -> bool:
-    """Evaluate a guard tree on the values of the comparison sides."""
+    """Evaluate a guard tree on the comparison triples ``sides`` (left, right,
+    round-off scale of comparison ``k`` at ``[3k], [3k + 1], [3k + 2]``).
+    ``record`` collects a :class:`codegen.runtime.Comparison` per comparison
+    evaluated."""
     kind = tree[0]
     if kind == "const":
         return tree[1]
@@ -69,11 +86,22 @@ def decide_tree(tree, sides, rtol, atol, record=None) -> bool:
     if kind == "not":
         return not decide_tree(tree[1], sides, rtol, atol, record)
     _, k, op, text = tree
-    left, right = sides[2 * k], sides[2 * k + 1]
-    result = decide(op, left, right, rtol, atol)
-    if record is not None:
-        record.append((text, left, right, result))
-    return result
+    left, right, scale = sides[3 * k], sides[3 * k + 1], sides[3 * k + 2]
+    if record is None:
+        return decide(op, left, right, rtol, atol, scale)
+    comparison = Comparison.of(text, op, left, right, rtol, atol, scale)
+    record.append(comparison)
+    return comparison.result
+
+
+def comparison_triples(me, relations) -> list:
+    """``[left, right, max(R(left), R(right))]`` of every comparison, finite
+    parts (``ẋ = f(x)`` substituted), concatenated: the outputs of ``sides``."""
+    triples = []
+    for rel in relations:
+        left, right = me.finite(rel.lhs), me.finite(rel.rhs)
+        triples += [left, right, sp.Max(roundoff_scale(left), roundoff_scale(right), evaluate=False)]
+    return triples
 
 
 def generate_mode_source(model, me) -> str:
@@ -103,15 +131,16 @@ def generate_mode_source(model, me) -> str:
                 "source": tr.source,
                 "target": tr.target,
                 "when": tr.when,
+                "pulses": tr.pulses,
                 "text": guard.text,
                 "tree": _tree(guard.condition, relations),
             }
         )
-    finite_sides, raw_sides = [], []
+    finite_sides, raw_sides = comparison_triples(me, relations), []
     for rel in relations:
         raw_sides += [rel.lhs, rel.rhs]
-        finite_sides += [me.finite(rel.lhs), me.finite(rel.rhs)]
     side_names = tuple(f"{side} of {rel}" for rel in relations for side in ("left", "right"))
+    triple_names = tuple(f"{side} of {rel}" for rel in relations for side in ("left", "right", "round-off scale"))
 
     g = me.g
     jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
@@ -120,8 +149,8 @@ def generate_mode_source(model, me) -> str:
                      f"Dependent states of mode {label} (x_d = phi(x_i, t)).", tuple(map(str, dependent))),
         FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
                      tuple(map(str, states))),
-        FunctionSpec("sides", base_args, tuple(finite_sides), f"Guard comparison sides in mode {label} (finite).",
-                     side_names),
+        FunctionSpec("sides", base_args, tuple(finite_sides),
+                     f"Guard comparison sides in mode {label} (finite) with their round-off scales.", triple_names),
         FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
                      f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names, raw=True),
     ]
@@ -164,7 +193,8 @@ class CompiledMode:
         self._sides_raw = namespace["sides_raw"]
         self._jump = namespace.get("jump")
         self.n = meta["n_states"]
-        self.n_sides = 2 * sum(_count_rel(g["tree"]) for g in self.guards)
+        self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
+        self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
 
     # ----------------------------------------------------------- evaluation
 
@@ -204,16 +234,30 @@ class CompiledMode:
         return delta
 
     def sides(self, x, t) -> np.ndarray:
+        """The comparison triples at ``x`` (a round-off scale may be ``inf``
+        where a derivative is, e.g. ``acos`` at ±1: the band then falls back
+        to the sides' own size, :func:`codegen.runtime.decide`)."""
         model = self.model
-        return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
 
-    def sides_impulsive(self, x, x_plus, t) -> list:
-        """Comparison sides a posteriori: on ``x_plus`` with the pulses of ``x → x_plus``."""
+    def sides_impulsive(self, x, x_plus, t, pulses: bool = True) -> list:
+        """Comparison triples a posteriori: the sides on ``x_plus`` with the
+        pulses of ``x → x_plus`` (none with ``pulses=False``: a jump that
+        abstracts a continuous approach); as round-off scale the larger of
+        the scales on ``x`` and on ``x_plus`` (the jump's own round-off is of
+        the size of the terms it started from)."""
         model = self.model
         finite = self.rates(x_plus, t)
-        delta = self.pulse(x, x_plus)
+        delta = self.pulse(x, x_plus) if pulses else np.zeros(self.n)
         xdot = [Hyper(delta[k], finite[k]) for k in range(self.n)]
-        return self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
+        raw = self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
+        before, after = self.sides(x, t), self.sides(x_plus, t)
+        triples = []
+        for k in range(self.n_relations):
+            scale = _larger(before[3 * k + 2], after[3 * k + 2])
+            triples += [raw[2 * k], raw[2 * k + 1], scale]
+        return triples
 
     def holds(self, x, t, rtol, atol) -> bool:
         """Does any guard hold during flow at ``x`` (no jump)?"""
@@ -221,6 +265,13 @@ class CompiledMode:
             return False
         sides = self.sides(x, t)
         return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
+
+
+def _larger(a: float, b: float) -> float:
+    """The larger of two scales, ignoring a non-finite one (0 if both are)."""
+    a = a if math.isfinite(a) else 0.0
+    b = b if math.isfinite(b) else 0.0
+    return a if a > b else b
 
 
 def _count_rel(tree) -> int:

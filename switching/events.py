@@ -83,15 +83,17 @@ class _GuardForm:
         self.by_guard = [[i for i, part in enumerate(parts) if part[3] == g] for g in range(len(cm.guards))]
         # each guard from its parts' truths (for possible(): which guards could hold)
         self.guard_of_parts = [eval("lambda q: " + expression) for expression in of_parts]  # our own expressions
-        ops = [ops.get(k) for k in range(cm.n_sides // 2)]
+        ops = [ops.get(k) for k in range(cm.n_relations)]
         truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
                  "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
         lines = ["def evaluate(s, rtol, atol):"]
         for k, op in enumerate(ops):
             if op is None:
                 continue
-            lines.append(f"    left = s[{2 * k}]; right = s[{2 * k + 1}]; d{k} = left - right; left = abs(left); "
+            lines.append(f"    left = s[{3 * k}]; right = s[{3 * k + 1}]; d{k} = left - right; left = abs(left); "
                          f"right = abs(right); scale = right if right > left else left")  # = max(|left|, |right|)
+            # the round-off scale widens the band when finite (codegen.runtime.decide)
+            lines.append(f"    r = s[{3 * k + 2}]; scale = r if scale < r < INF else scale")
             lines.append(f"    b{k} = rtol * scale + atol if scale < INF else 0.0")  # band 0 if scale is not finite
             lines.append(f"    r{k} = " + truth[op].format(k=k))
         margins, truths = [], []

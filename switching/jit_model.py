@@ -11,11 +11,14 @@ subexpressions eliminated):
 ``_phi(m, x, t, p, u, out)``   the dependent states ``x_d = φ(x_i, t)``
 ``_holds(m, y, t, p, u, s, …)``  does a guard hold during flow (finite sides on ``y``)?
 ``_jump(m, x, t, p, u, out)``  ``x⁺ = g(x)`` with restitution (False: numerical jump map)
-``_fire(m, x, xp, t, p, u, d, s, post, …, target)``  the first holding transition of each
-                               automaton at an instant: a priori sides on ``x``, a
+``_fire(m, x, xp, t, p, u, d, s, post, …, target, quiet)``  the first holding transition of
+                               each automaton at an instant: a priori sides on ``x``, a
                                posteriori ones on ``x⁺ = xp`` with the impulse areas
                                ``Σ_k ∂side/∂ẋ_k · d_k`` of the pulse ``d = x⁺ − x``
-                               (sides affine in ``ẋ``; otherwise False when pulsed)
+                               (sides affine in ``ẋ``; otherwise False when pulsed);
+                               ``quiet`` (no pulse): every guard on the flow's own sides
+                               at ``x``, as ``_holds`` decides them; False when a
+                               transition marked ``pulses=False`` fires (Python resolves)
 ``_gparts(m, g, q)``           guard ``g`` as a boolean function of its parts' truths ``q``
                                (event detection inside a step, as
                                :class:`switching.events._GuardForm`)
@@ -62,7 +65,7 @@ from codegen.jit import (
 from codegen.source import Argument, FunctionSpec, function_source
 
 from .automaton import A_POSTERIORI
-from .compiled import _tree
+from .compiled import _tree, comparison_triples
 from .resolution import Instant, resolve_instant
 from .events import guard_parts  # the guards' one-sided parts, as the Python scan
 
@@ -70,7 +73,7 @@ __all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 _MAX_CODE = 2**62
-GENERATOR_VERSION = "7"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "11"  # part of the cache key: change it when the generated functions change
 
 
 
@@ -92,11 +95,10 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
 
     relations: list = []
     trees = [(guard, _tree(guard.condition, relations)) for guard in me.guards]
-    finite, impulses = [], []
+    finite, impulses = comparison_triples(me, relations), []  # (left, right, round-off scale) per comparison
     affine = True
     for rel in relations:
         for raw in (rel.lhs, rel.rhs):
-            finite.append(me.finite(raw))
             area = sp.Integer(0)
             for rate, pulse in zip(rate_symbols, pulses):
                 if raw.has(rate):
@@ -135,23 +137,35 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     holds.append("return " + (" or ".join(tree_expression(tree, "s") for _, tree in trees) or "False"))
     branches["_holds"] = holds
 
+    automaton_index = {a.name: k for k, a in enumerate(model.automata)}
+    state_index = {a.name: {s: j for j, s in enumerate(a.states)} for a in model.automata}
+
+    def take(guard, test):
+        """Set the automaton's target when ``test`` holds (a transition without pulses: Python resolves)."""
+        a = automaton_index[guard.automaton]
+        if guard.transition.pulses:
+            return [f"if target[{a}] < 0 and {test}:", f"    target[{a}] = {state_index[guard.automaton][guard.transition.target]}"]
+        return [f"if target[{a}] < 0 and {test}:", "    return False"]
+
     fire = [f"# mode {label}: the first holding transition of each automaton at an instant"]
+    if trees:  # quiet (no pulse): every guard on the flow's own sides, so a located crossing holds here too
+        fire += ["if quiet:"]
+        quiet = body("sq", base, [flow_form(side) for side in finite], "s")
+        for guard, tree in trees:
+            quiet += take(guard, tree_expression(tree, "s"))
+        fire += ["    " + line for line in quiet + ["return True"]]
     prior = any(guard.transition.when != A_POSTERIORI for guard, _ in trees)
     posterior = any(guard.transition.when == A_POSTERIORI for guard, _ in trees)
-    if prior and n_sides:
+    if (prior or posterior) and n_sides:  # a posteriori guards take the larger round-off scale of x and x⁺
         fire += body("sides", base, finite, "s")
     if posterior:
         if not affine:  # a pulse in a side that is not affine in ẋ: Python decides (or reports it)
             fire += ["for k in range(d.shape[0]):", "    if d[k] != 0.0:", "        return False"]
         fire += body("post", xp_args, finite + impulses, "post")
-    automaton_index = {a.name: k for k, a in enumerate(model.automata)}
-    state_index = {a.name: {s: j for j, s in enumerate(a.states)} for a in model.automata}
     for guard, tree in trees:
-        a = automaton_index[guard.automaton]
-        target = state_index[guard.automaton][guard.transition.target]
-        test = (tree_expression(tree, "post", "post", n_sides) if guard.transition.when == A_POSTERIORI
+        test = (tree_expression(tree, "post", "post", n_sides, "s") if guard.transition.when == A_POSTERIORI
                 else tree_expression(tree, "s"))
-        fire += [f"if target[{a}] < 0 and {test}:", f"    target[{a}] = {target}"]
+        fire += take(guard, test)
     branches["_fire"] = fire + ["return True"]
 
     g = me.g
@@ -178,7 +192,7 @@ _SIGNATURES = {
     "_phi": "x, t, p, u, out",
     "_holds": "y, t, p, u, s, rtol, atol",
     "_jump": "x, t, p, u, out",
-    "_fire": "x, xp, t, p, u, d, s, post, rtol, atol, target",
+    "_fire": "x, xp, t, p, u, d, s, post, rtol, atol, target, quiet",
     "_gparts": "g, q",
 }
 _DEFAULTS = {"_fy": "return", "_phi": "return", "_holds": "return False", "_jump": "return False",

@@ -36,7 +36,7 @@ from .automaton import Automaton
 from .errors import ModelDefinitionError
 from codegen.cache import default_cache, fingerprint
 
-from .compiled import CompiledMode, generate_mode_source
+from .compiled import MODE_SOURCE_VERSION, CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 from .jit_model import CompiledModel
@@ -69,16 +69,39 @@ class InMode:
 class Tolerance:
     """Tolerances at an instant.
 
-    Guard comparisons use the band ``rtol·max(|lhs|, |rhs|) + atol`` (``<=``
-    includes it, ``<`` excludes it).  A state change at a jump smaller than
-    ``jump_rtol·(largest moved state) + jump_atol`` is round-off: it is no
-    jump and carries no Dirac pulse.  Absolute values are in the states' own
-    units; scale them for models whose states are far from 1."""
+    Guard comparisons use the band ``rtol·max(|lhs|, |rhs|, R) + atol``
+    (``<=`` includes it, ``<`` excludes it), where ``R = max(R(lhs), R(rhs))`` is
+    the comparison's round-off scale: the size of the terms that formed its
+    sides (:mod:`codegen.roundoff`; at an instant, a posteriori, the larger
+    of its values before and after the jump).  A difference that is zero up
+    to the round-off of those terms thus compares as zero, in any units,
+    while a small quantity of a small-scale model still counts.  A state
+    change at a jump smaller than ``jump_rtol·(largest moved state) +
+    jump_atol`` is round-off: it is no jump and carries no Dirac pulse.
+    ``atol`` and ``jump_atol`` are absolute, in the quantities' own units, and
+    0 by default: with the round-off scale no absolute part is needed, and one
+    would make decisions depend on the units (a current of 1e-15 A is 'zero'
+    in amperes and not in kiloamperes).  Set them only for a model whose
+    quantities of interest are all of one known size."""
 
     rtol: float = 1e-13
-    atol: float = 1e-15
+    atol: float = 0.0
     jump_rtol: float = 1e-12
-    jump_atol: float = 1e-13
+    jump_atol: float = 0.0
+
+
+def _canonical(expr) -> str:
+    """``srepr`` of ``expr`` with its ``Dummy`` symbols (an element law's
+    placeholder argument) renamed by order of first appearance: the same text
+    in every process, whatever the dummies' process-wide indices."""
+    expr = sp.sympify(expr)
+    dummies = []
+    for node in sp.preorder_traversal(expr):
+        if isinstance(node, sp.Dummy) and node not in dummies:
+            dummies.append(node)
+    if dummies:
+        expr = expr.xreplace({d: sp.Symbol(f"_placeholder{k}_{d.name}") for k, d in enumerate(dummies)})
+    return sp.srepr(expr)
 
 
 class InitialStateProjected(UserWarning):
@@ -463,7 +486,7 @@ class HybridModel:
 
             parts = [__version__, self.name, f"jump law {self.jump_law}"]
             for el in self.graph.elements.values():
-                parts.append(f"{type(el).__name__} {el.name} " + " ".join(sp.srepr(e) for e in el.expressions()))
+                parts.append(f"{type(el).__name__} {el.name} " + " ".join(_canonical(e) for e in el.expressions()))
                 if hasattr(el, "state"):
                     parts.append(el.state.name)
                 parts.append(str(getattr(el, "controlled", "")))
@@ -472,12 +495,13 @@ class HybridModel:
             parts += [" ".join(self.graph.inputs), " ".join(s.name for s in self.parameter_symbols)]
             for automaton in self.automata:
                 parts.append(f"{automaton.name} {automaton.states!r} {automaton.initial}")
-                parts += [f"{k} {sorted((n, sp.srepr(v)) for n, v in t.items())}" for k, t in automaton.values.items()]
-                parts += [f"{k} {sp.srepr(v)}" for k, v in automaton.restitution.items()]
+                parts += [f"{k} {sorted((n, _canonical(v)) for n, v in t.items())}" for k, t in automaton.values.items()]
+                parts += [f"{k} {_canonical(v)}" for k, v in automaton.restitution.items()]
             for (name, tr), (condition, _) in self._guards.items():
-                parts.append(f"{name} {tr.source} {tr.target} {tr.when} {sp.srepr(condition)}")
-            parts += [f"{k} {sp.srepr(v)}" for k, v in self._signals.items()]
-            parts += [f"{k} {sp.srepr(v)} {o!r}" for k, (v, o) in self._cross.items()]
+                parts.append(f"{name} {tr.source} {tr.target} {tr.when} {_canonical(condition)}"
+                             + ("" if tr.pulses else " no pulses"))
+            parts += [f"{k} {_canonical(v)}" for k, v in self._signals.items()]
+            parts += [f"{k} {_canonical(v)} {o!r}" for k, (v, o) in self._cross.items()]
             self._fingerprint = fingerprint(*parts)
         return self._fingerprint
 
@@ -489,7 +513,7 @@ class HybridModel:
             return known
         mode = self.mode(mode)
         if mode not in self._compiled:
-            key = fingerprint(self.fingerprint, "mode", mode.label)
+            key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
             source = self.cache.load(key)
             if source is None:
                 source = generate_mode_source(self, self.mode_equations(mode))

@@ -13,6 +13,14 @@ From an a priori state ``x`` in mode α:
    ``x`` (with ``x⁺ = x``), β was a *pinnacle* and resolution continues;
    otherwise β is *continuous* and the instant ends.  A repeated
    (mode, x) pair among pinnacles, or more steps than the cap, is an error.
+
+A candidate reached only by transitions marked ``pulses=False`` (a jump that
+abstracts a continuous approach) judges its a posteriori guards without the
+jump's Dirac pulses.  Where no pulse is involved — the mode the instant began
+in when its own jump is round-off, and the check after a real jump — guards
+are decided on the finite sides exactly as event detection decides them in
+flow, so a located crossing holds, and a mode found continuous flows without
+a guard holding at once.
 """
 
 from __future__ import annotations
@@ -40,7 +48,14 @@ class FiredGuard:
     target: str
     guard: str
     when: str
-    comparisons: tuple  # (text, left Impulsive, right Impulsive, result)
+    comparisons: tuple  # codegen.runtime.Comparison: text, left, right, result, band, margin
+    pulses: bool = True  # False: the transition's jump abstracts a continuous approach (no Dirac pulses)
+
+    @property
+    def near_edge(self) -> list:
+        """The comparisons decided within :data:`EDGE_ULPS` units in the last
+        place of their band's edge: round-off could have flipped them."""
+        return [c for c in self.comparisons if c.edge_ulps <= EDGE_ULPS]
 
     def __str__(self) -> str:
         values = "; ".join(f"{text}: {left} vs {right} → {result}" for text, left, right, result in self.comparisons)
@@ -145,14 +160,23 @@ class Instant:
 # ------------------------------------------------------------------ guards
 
 
-def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float) -> list:
+def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_in_flow: bool = False,
+                    pulses: bool = True) -> list:
     """The first holding transition of each automaton in compiled mode ``cm``.
 
     A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
-    with the impulses of the jump ``x → x_plus``."""
+    with the impulses of the jump ``x → x_plus``.  ``as_in_flow``: every
+    guard on the finite sides at ``x``, exactly as event detection tests
+    them during flow (for an instant whose jump carries no pulse, so that a
+    located event is seen to hold by the same arithmetic that located it).
+    ``pulses=False``: a posteriori guards see the finite values only (the
+    mode was entered by transitions whose jump abstracts a continuous
+    approach, :meth:`Automaton.add_transition`)."""
     fired = []
     done = set()
     prior = post = None
+    if as_in_flow:
+        prior = post = cm.sides(x, t)
     rtol, atol = model.tolerance.rtol, model.tolerance.atol
     for guard in cm.guards:
         if guard["automaton"] in done:
@@ -160,7 +184,7 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float) -> l
         if guard["when"] == A_POSTERIORI:
             if post is None:
                 try:
-                    post = cm.sides_impulsive(x, x_plus, t)
+                    post = cm.sides_impulsive(x, x_plus, t, pulses)
                 except PulseError as exc:
                     raise ImpulseError(
                         f"a guard of mode {cm.mode.describe()} at t = {t:.12g} combines pulses wrongly: {exc}"
@@ -175,7 +199,7 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float) -> l
             done.add(guard["automaton"])
             fired.append(
                 FiredGuard(guard["automaton"], guard["source"], guard["target"], guard["text"], guard["when"],
-                           tuple(comparisons))
+                           tuple(comparisons), guard.get("pulses", True))
             )
     return fired
 
@@ -207,6 +231,11 @@ def _next_mode(model, mode: Mode, fired: list) -> Mode:
     return Mode(tuple(states), mode.automata)
 
 
+#: a comparison decided within this many units in the last place of its band's edge is
+#: reported as possibly decided by round-off (divergence-of-time messages)
+EDGE_ULPS = 64
+#: near-edge comparisons listed in a divergence-of-time message
+SHOWN_NEAR = 1
 #: steps shown at the start and at the end of a long loop in an error message
 SHOWN_FIRST, SHOWN_LAST = 3, 3
 #: states listed by name and value when a pinnacle repeats a state
@@ -249,12 +278,32 @@ def _state_text(model, x: np.ndarray) -> str:
     return ", ".join(pairs)
 
 
+def _roundoff_lines(numbered) -> list:
+    """Whether any guard of the loop was decided within :data:`EDGE_ULPS`
+    ulps of its band's edge (round-off could have decided it) or all with
+    room to spare (the loop is in the guards and the physics)."""
+    near = [(number, f, c) for number, step in numbered for f in step.fired for c in f.near_edge]
+    if not near:
+        return [f"Round-off: none; every comparison in the loop was decided more than {EDGE_ULPS} ulps from the "
+                "edge of its band, so the loop is in the model's guards and physics."]
+    lines = [f"Round-off: possibly; {len(near)} comparison(s) in the loop were decided within {EDGE_ULPS} ulps of the "
+             "edge of their band (a located crossing sits there; otherwise rerun with a wider "
+             "Tolerance(rtol=...) to tell), e.g.:"]
+    for number, fired, c in near[:SHOWN_NEAR]:
+        lines.append(f"      step {number}, {fired.automaton}: {c.text}: {c.left} vs {c.right} "
+                     f"(band {c.band:.3g}, {c.edge_ulps:.0f} ulps from its edge)")
+    return lines
+
+
 def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
     """The divergence-of-time message: what repeats, the steps (numbered as
-    in the instant, long loops shortened), ``detail`` lines, ``advice``."""
+    in the instant, long loops shortened), ``detail`` lines, whether
+    round-off decided a guard of the loop, ``advice``."""
+    numbered = list(numbered)
     lines = [f"divergence of time at t = {t:.12g}: {kind_text}; the loop:"]
     lines += _step_lines(numbered)
     lines += list(detail)
+    lines += _roundoff_lines(numbered)
     lines.append(advice)
     return "\n".join(lines)
 
@@ -307,12 +356,16 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     chain_start = 0  # index in `steps` where the current mythical chain began
     pinnacles: dict[Mode, list] = {}  # (step index, state) of each pass of each pinnacle mode
     current = mode
+    pulses = True  # False while the candidate was reached only by transitions marked pulses=False
     for n in range(max_steps):
         cm = model.compiled_mode(current)
         x_plus = cm.jump(x, t)
-        fired = evaluate_guards(model, cm, x, x_plus, t)
+        # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
+        # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
+        quiet_start = n == 0 and not np.any(cm.pulse(x, x_plus))
+        fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet_start, pulses=pulses)
         if fired:
-            kind = "start" if n == 0 and not np.any(cm.pulse(x, x_plus)) else "mythical"
+            kind = "start" if quiet_start else "mythical"
             steps.append(Step(current, kind, x, x, tuple(fired)))
             nxt = _next_mode(model, current, fired)
             if nxt in chain:
@@ -326,6 +379,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
                 )
             chain.append(nxt)
             current = nxt
+            pulses = any(f.pulses for f in fired)
             continue
         x_before, x = x, x_plus
         if not np.all(np.isfinite(x)):
@@ -335,7 +389,8 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
                 f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
                 + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
             )
-        fired = evaluate_guards(model, cm, x, x, t)
+        # no jump from here: every guard is decided as flow will decide it
+        fired = evaluate_guards(model, cm, x, x, t, as_in_flow=True)
         if fired:
             # a loop of pinnacles repeats a state: compare with this mode's recent passes
             # (bounded work per pinnacle; longer cycles end at the step cap)
@@ -351,6 +406,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             pinnacles.setdefault(current, []).append((len(steps), x.copy()))
             steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
             current = _next_mode(model, current, fired)
+            pulses = any(f.pulses for f in fired)
             chain = [current]
             chain_start = len(steps)
             continue

@@ -449,9 +449,10 @@ def _sides_function(model, cm):
     def sides(x, tau):
         u = u0 if inputs is None else inputs(tau)
         try:
-            return generated(x.tolist(), tau, floats, u, np.empty(count)).tolist()
+            return generated(x.tolist(), float(tau), floats, u, np.empty(count)).tolist()
         except _NUMERIC_ERRORS:
-            return generated(x, tau, p, u, np.empty(count)).tolist()
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a side or scale may be inf
+                return generated(x, tau, p, u, np.empty(count)).tolist()
 
     return sides
 

@@ -63,7 +63,9 @@ def test_generated_code_agrees_with_lambdified_sympy_in_every_mode(build):
                 ref_side = sp.lambdify([states, t, params], [me.finite(rel.lhs), me.finite(rel.rhs)])(
                     x, tt, model.parameter_array
                 )
-                np.testing.assert_allclose(sides[2 * k : 2 * k + 2], ref_side, rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(sides[3 * k : 3 * k + 2], ref_side, rtol=1e-12, atol=1e-12)
+                # the round-off scale max(R(left), R(right)) bounds both sides' sizes
+                assert sides[3 * k + 2] >= max(abs(v) for v in ref_side) * (1 - 1e-15)
                 # raw sides with no pulse reduce to the finite ones
             raw = [hyper(h) for h in cm.sides_impulsive(x, x, tt)]
             np.testing.assert_allclose([h.finite for h in raw], sides, rtol=1e-12, atol=1e-12)
@@ -84,6 +86,30 @@ def test_generated_source_is_readable_and_documented():
     assert "rod_theta = x[5]" in source  # sanitized identifiers only
     assert "/" not in "".join(line.split("=")[0] for line in source.splitlines() if line.startswith("    _c"))
     compile(source, "<check>", "exec")
+
+
+def test_fingerprints_are_the_same_in_every_process(tmp_path):
+    """Issue 21: a model's fingerprint (its disk-cache key) does not depend on
+    the process: not on sympy's Dummy indices (resistors' laws hold one), nor
+    on Python's hash seed.  Two processes with different seeds, one of them
+    creating Dummies first, give the same key for every shipped model."""
+    script = textwrap.dedent(
+        """
+        import json, sys
+        import sympy as sp
+        [sp.Dummy() for _ in range(int(sys.argv[1]))]
+        import models
+        print(json.dumps({name: models.load(name).build().fingerprint for name in models.MODELS}))
+        """
+    )
+    runs = []
+    for seed, dummies in (("1", "0"), ("2", "17")):
+        env = {**os.environ, "HBG_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(ROOT), "PYTHONHASHSEED": seed}
+        done = subprocess.run([sys.executable, "-c", script, dummies], cwd=ROOT, env=env, capture_output=True,
+                              text=True, check=True, timeout=600)
+        runs.append(json.loads(done.stdout))
+    assert runs[0] == runs[1]
+    assert len(set(runs[0].values())) == len(runs[0])  # and different models differ
 
 
 def test_disk_cache_is_reused_by_a_second_process(tmp_path):

@@ -213,6 +213,87 @@ def test_displacement_integrates_a_bond_flow():
         g.displacement("x", of=v)
 
 
+def _mass_graph(mass_bond_into_mass: bool, mass_bond_name=None):
+    """A force on a mass through a 1-junction ``v``; the mass's bond is drawn
+    ``v → m`` or ``m → v`` (named after the mass by default, like connect())."""
+    g = BondGraph("mass")
+    v = g.add(One("v"))
+    g.connect(Se("F", "F"), v)
+    mass = I("m", "m")
+    bond = g.connect(v, mass, name=mass_bond_name) if mass_bond_into_mass else g.connect(mass, v, name=mass_bond_name)
+    return g, v, mass, bond
+
+
+def _rate(g, state):
+    return g.equations().rate(state)
+
+
+@pytest.mark.parametrize("into_mass", [True, False], ids=["v->m", "m->v"])
+def test_displacement_of_an_element_is_the_flow_into_it_whichever_way_its_bond_is_drawn(into_mass):
+    """Issue 12 item 6: ``of="m"`` names both the mass and (by connect()'s
+    default naming) its bond; the element wins, so the rate is +p/m both ways."""
+    p, m = sp.symbols("p_m m")
+    g, v, mass, bond = _mass_graph(into_mass)
+    assert bond.name == "m" and "m" in g.elements
+    x = g.displacement("x", of="m")
+    y = g.displacement("y", of=mass)  # the element object: the same
+    z = g.displacement("z", of="m", sign=-1)
+    assert sp.simplify(_rate(g, x) - p / m) == 0
+    assert sp.simplify(_rate(g, y) - p / m) == 0
+    assert sp.simplify(_rate(g, z) + p / m) == 0
+
+
+@pytest.mark.parametrize("into_mass", [True, False], ids=["v->m", "m->v"])
+def test_displacement_of_a_bond_is_its_flow_in_the_drawn_direction(into_mass):
+    p, m = sp.symbols("p_m m")
+    expected = p / m if into_mass else -p / m
+    # a bond object, whose name is also the element's: the bond's direction counts
+    g, _, _, bond = _mass_graph(into_mass)
+    x = g.displacement("x", of=bond)
+    assert sp.simplify(_rate(g, x) - expected) == 0
+    # a bond named apart from every element: by object and by name alike
+    g, _, _, bond = _mass_graph(into_mass, mass_bond_name="link")
+    x = g.displacement("x", of=bond)
+    y = g.displacement("y", of="link")
+    z = g.displacement("z", of="m")  # the element: still the flow into it
+    assert sp.simplify(_rate(g, x) - expected) == 0
+    assert sp.simplify(_rate(g, y) - expected) == 0
+    assert sp.simplify(_rate(g, z) - p / m) == 0
+
+
+@pytest.mark.parametrize("into_mass", [True, False], ids=["v->m", "m->v"])
+def test_displacement_of_a_one_junction_is_its_common_flow_as_drawn(into_mass):
+    """The docstring's rule: the flow variable all the junction's bonds share,
+    into the elements its bonds point to (so −p/m when the mass's bond is
+    drawn into the junction)."""
+    p, m = sp.symbols("p_m m")
+    g, v, _, _ = _mass_graph(into_mass)
+    x = g.displacement("x", of=v)
+    y = g.displacement("y", of="v")
+    expected = p / m if into_mass else -p / m
+    assert sp.simplify(_rate(g, x) - expected) == 0
+    assert sp.simplify(_rate(g, y) - expected) == 0
+
+
+def test_displacement_of_a_capacitor_is_the_flow_into_it_and_bad_references_are_named():
+    g = BondGraph("charging")
+    n = g.add(Zero("n"))
+    g.connect(Sf("I", "I0"), n)
+    g.connect(C("C", "C"), n)  # drawn out of the capacitor
+    q = g.displacement("Q", of="C")
+    eq = g.equations()
+    assert sp.simplify(eq.rate(q) - eq.rate(g.state("q_C"))) == 0
+    assert sp.simplify(eq.rate(q) - sp.Symbol("I0")) == 0
+    with pytest.raises(InvalidGraphError) as info:
+        g.displacement("bad", of=n)  # a 0-junction has no single flow
+    assert "'n'" in str(info.value)
+    with pytest.raises(UnknownNameError):
+        g.displacement("bad", of="nowhere")
+    with pytest.raises(UnknownNameError):
+        g.displacement("bad", of=I("stranger", "m"))
+    assert "stranger" not in g.elements
+
+
 def test_submodel_instances_get_hierarchical_names():
     g = BondGraph("ladder")
     cell = rlc_cell()

@@ -77,8 +77,11 @@ def test_continuous_conduction_edges_and_slopes_are_exact():
     trajectory = model.simulate(20.25 * T, "RK45", **options)
     assert set(trajectory.mode_labels) == {"on|off", "off|on"}  # never both off: continuous conduction
     closing, opening = pwm_edges(trajectory, True), pwm_edges(trajectory, False)
-    np.testing.assert_allclose([e.t for e in closing], T * np.arange(1, 21), rtol=0, atol=1e-15)
-    np.testing.assert_allclose([e.t for e in opening], T * (np.arange(20) + D), rtol=0, atol=1e-15)
+    # exact to the comparison band: rtol·R of the carrier, R ≈ 6·|2π f_sw t|/π (the round-off scale of
+    # its argument), crossed at the carrier's slope 2 f_sw: ≈ 1e-13·6·2t = 1.2e-15 s at t = 2 ms
+    band = 1e-13 * 6 * 2 * 20 * T
+    np.testing.assert_allclose([e.t for e in closing], T * np.arange(1, 21), rtol=0, atol=band)
+    np.testing.assert_allclose([e.t for e in opening], T * (np.arange(20) + D), rtol=0, atol=band)
     for e in closing:  # the diode, shorted by the switch, is turned off through a mythical mode
         assert [m.label for m in e.modes] == ["off|on", "on|on", "on|off"]
         assert e.kinds == ["start", "mythical", "continuous"]
