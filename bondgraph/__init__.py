@@ -42,6 +42,8 @@ from .errors import InvalidGraphError as InvalidGraphError
 from .errors import MissingParameterError as MissingParameterError
 from .errors import UnknownNameError as UnknownNameError
 from .errors import UnknownParameterError as UnknownParameterError
+from .errors import ParameterValueError as ParameterValueError
+from .errors import PhysicalRangeWarning as PhysicalRangeWarning
 from .jump import JumpMap as JumpMap
 from .jump import JumpMapError as JumpMapError
 from .jump import derive_jump_map as derive_jump_map

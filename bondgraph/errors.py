@@ -21,11 +21,29 @@ __all__ = [
     "MissingParameterError",
     "UnknownParameterError",
     "DerivationError",
+    "ParameterValueError",
+    "PhysicalRangeWarning",
 ]
 
 
+def _restore(cls, args, state):
+    """Rebuild a pickled error without calling its ``__init__`` (whose
+    signature differs from ``args``, e.g. :class:`UnknownParameterError`)."""
+    error = cls.__new__(cls, *args)
+    error.args = args
+    error.__dict__.update(state)
+    return error
+
+
 class HybridBondGraphError(Exception):
-    """Base class of every error the toolkit raises on purpose."""
+    """Base class of every error the toolkit raises on purpose.
+
+    Every error of the hierarchy pickles and unpickles with its message and
+    attributes (a sweep's worker sends it to the parent process), whatever its
+    ``__init__`` takes."""
+
+    def __reduce__(self):
+        return _restore, (type(self), self.args, dict(self.__dict__))
 
 
 class InvalidGraphError(HybridBondGraphError, ValueError):
@@ -79,29 +97,43 @@ class AlgebraicLoopError(HybridBondGraphError):
 
 class MissingParameterError(HybridBondGraphError, KeyError):
     """Parameters used by the model have no numerical value; ``missing`` lists
-    all of them at once."""
+    all of them at once.  ``hints`` maps a name to where it was met when that
+    tells more than "no value" — a name written in a guard or signal that is
+    no state, signal or parameter of any law is more often a typo than a
+    parameter."""
 
-    def __init__(self, missing: Iterable[str]):
+    def __init__(self, missing: Iterable[str], hints: dict | None = None):
         self.missing = tuple(sorted(missing))
-        super().__init__(
+        self.hints = dict(hints or {})
+        lines = [
             f"{len(self.missing)} parameter(s) have no value: {', '.join(self.missing)}. "
             "Pass a value for each (e.g. parameters={'%s': ...})." % self.missing[0]
-        )
+        ]
+        lines += [f"  {name}: {self.hints[name]}" for name in self.missing if name in self.hints]
+        super().__init__("\n".join(lines))
 
     def __str__(self) -> str:
         return str(self.args[0])
 
 
 class UnknownParameterError(HybridBondGraphError, KeyError):
-    """Values were given for names the model does not use (usually a typo)."""
+    """Values were given for names that no law, guard, signal or jump of the
+    model uses (usually a typo); the message offers the closest names."""
 
     def __init__(self, unknown: Iterable[str], known: Iterable[str]):
+        import difflib
+
         self.unknown = tuple(sorted(unknown))
         known = sorted(known)
-        super().__init__(
-            f"unknown parameter(s) {', '.join(self.unknown)}; the model's parameters are: "
-            f"{', '.join(known) if known else '(none)'}"
-        )
+        lines = [
+            f"value(s) given for {', '.join(self.unknown)}, which no law, guard, signal or jump of the model "
+            f"uses; the model's parameters are: {', '.join(known) if known else '(none)'}"
+        ]
+        for name in self.unknown:
+            close = difflib.get_close_matches(name, known, n=3)
+            if close:
+                lines.append(f"  {name}: did you mean {' or '.join(map(repr, close))}?")
+        super().__init__("\n".join(lines))
 
     def __str__(self) -> str:
         return str(self.args[0])
@@ -115,3 +147,20 @@ class DerivationError(HybridBondGraphError):
     def __init__(self, message: str, elements: Iterable[str] = ()):
         super().__init__(message)
         self.elements = tuple(elements)
+
+
+class ParameterValueError(HybridBondGraphError, ValueError):
+    """A parameter, initial value or option has a value the toolkit cannot
+    compute with (NaN, infinite where a finite number is needed, not a
+    number).  ``name`` is the culprit and ``value`` its value."""
+
+    def __init__(self, message: str, name: str = "", value=None):
+        super().__init__(message)
+        self.name = name
+        self.value = value
+
+
+class PhysicalRangeWarning(UserWarning):
+    """A value the toolkit can compute with but that lies outside the physical
+    range the model states (a negative capacitance, a restitution coefficient
+    above 1): the run goes on, the result may not be physical."""

@@ -2,16 +2,65 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Mapping
+from dataclasses import dataclass
 
-from bondgraph.errors import InvalidGraphError, UnknownParameterError
+from bondgraph.errors import InvalidGraphError, ParameterValueError, PhysicalRangeWarning, UnknownParameterError
 
-__all__ = ["merged"]
+__all__ = ["merged", "Range", "positive", "nonnegative"]
 
 
-def merged(defaults: Mapping, overrides: Mapping) -> dict:
-    """``defaults`` updated by ``overrides``; unknown names and non-numbers are
-    errors (a text default is a choice: the model checks its value)."""
+@dataclass(frozen=True)
+class Range:
+    """The physical range of one parameter: ``low <= value <= high`` (a
+    bound is left out with ``None``, excluded with ``low_open``/``high_open``);
+    ``what`` says what the parameter is (shown in the warning)."""
+
+    what: str
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    required: bool = False  # outside: an error (the model cannot be built), not a warning
+
+    def holds(self, value: float) -> bool:
+        if self.low is not None and (value <= self.low if self.low_open else value < self.low):
+            return False
+        return not (self.high is not None and (value >= self.high if self.high_open else value > self.high))
+
+    def requirement(self) -> str:
+        if self.low == 0 and self.high is None:
+            return "positive" if self.low_open else "zero or positive"
+        return f"in {self.describe('the range')}"
+
+    def describe(self, name: str) -> str:
+        parts = []
+        if self.low is not None:
+            parts.append(f"{self.low:g} {'<' if self.low_open else '<='} ")
+        parts.append(name)
+        if self.high is not None:
+            parts.append(f" {'<' if self.high_open else '<='} {self.high:g}")
+        return "".join(parts)
+
+
+def positive(what: str, required: bool = False) -> Range:
+    return Range(what, 0.0, low_open=True, required=required)
+
+
+def nonnegative(what: str, required: bool = False) -> Range:
+    return Range(what, 0.0, required=required)
+
+
+def merged(defaults: Mapping, overrides: Mapping, ranges: Mapping[str, Range] | None = None,
+           model: str = "model") -> dict:
+    """``defaults`` updated by ``overrides``; unknown names, non-numbers and
+    non-finite numbers are errors (a text default is a choice: the model
+    checks its value).  A value outside its :class:`Range` in ``ranges`` gives
+    a :class:`~bondgraph.errors.PhysicalRangeWarning` naming ``model``, the
+    parameter and the range, or, for a ``required`` range (one the model
+    cannot be built outside), an :class:`~bondgraph.errors.InvalidGraphError`."""
     unknown = set(overrides) - set(defaults)
     if unknown:
         raise UnknownParameterError(unknown, defaults)
@@ -40,4 +89,15 @@ def merged(defaults: Mapping, overrides: Mapping) -> dict:
             kind = ("text" if isinstance(default, str) else "true/false" if isinstance(default, bool)
                     else "an integer" if isinstance(default, int) else "a number")
             raise InvalidGraphError(f"parameter {name!r} must be {kind}, got {value!r}") from None
+        if isinstance(values[name], float) and not math.isfinite(values[name]):
+            raise ParameterValueError(f"parameter {name!r} of {model} is {values[name]}: it needs a finite number",
+                                      name, values[name])
+    for name, allowed in (ranges or {}).items():
+        if not allowed.holds(values[name]) and allowed.required:
+            raise InvalidGraphError(f"parameter {name!r} of {model} must be {allowed.requirement()} "
+                                    f"({allowed.what}), got {values[name]:g}", [name])
+        if not allowed.holds(values[name]):
+            warnings.warn(PhysicalRangeWarning(
+                f"{model}: {name} = {values[name]:g} is outside the physical range {allowed.describe(name)} "
+                f"({allowed.what}); the run goes on, but its result may not be physical"), stacklevel=3)
     return values

@@ -109,7 +109,7 @@ from bondgraph import C, BondGraph, I, One, R, Zero
 from bondgraph.errors import InvalidGraphError
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import Range, merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "signals_for", "error_estimate"]
 
@@ -126,6 +126,17 @@ DEFAULTS = {
     "k": 1e4,
     "b": 0.0,
 }
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "m": positive("a mass", required=True),
+    "r": positive("a radius", required=True),
+    "e": Range("a restitution coefficient", 0.0, 1.0),
+    "v_th": nonnegative("a separation threshold speed", required=True),
+    "distance": nonnegative("the distance between neighbours' centres", required=True),
+    "gap": nonnegative("a gap", required=True),
+    "k": positive("a contact stiffness", required=True),
+    "b": nonnegative("a contact damping", required=True),
+}
 #: a meaningful default run (used by ``hbg run``): the impact at t = 0.1 s,
 #: then ball N moves away
 RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
@@ -139,16 +150,10 @@ def signals_for(N: int) -> tuple:
 
 def build(**parameters) -> HybridModel:
     """The ball chain with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "ball_chain")
     n = p["N"]
     if n < 2:
         raise InvalidGraphError(f"parameter 'N' must be at least 2 (a chain of balls), got {n}")
-    for name in ("m", "r", "k"):
-        if p[name] <= 0:
-            raise InvalidGraphError(f"parameter {name!r} must be positive, got {p[name]}")
-    for name in ("distance", "gap", "b", "v_th"):
-        if p[name] < 0:
-            raise InvalidGraphError(f"parameter {name!r} must be zero or positive, got {p[name]}")
     compliant = p["compliant"]
     damped = compliant and p["b"] > 0
     g = BondGraph("ball_chain")

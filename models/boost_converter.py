@@ -88,7 +88,7 @@ from __future__ import annotations
 from bondgraph import BondGraph, C, I, One, R, Se, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import Range, merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
 
@@ -103,6 +103,15 @@ DEFAULTS = {
     "v_C0": 12.0,
     "i_L0": 0.0,
 }
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "L": positive("an inductance"),
+    "C": positive("a capacitance"),
+    "R_L": nonnegative("the inductor's resistance"),
+    "R_load": positive("a load resistance"),
+    "f_sw": positive("a switching frequency"),
+    "D": Range("a duty cycle", 0.0, 1.0, low_open=True, high_open=True),
+}
 #: a meaningful default run (used by ``hbg run``): the start-up from v_C = Vin over 200 periods
 RUN = {"t_end": 0.02, "method": "RK45", "rtol": 1e-8, "max_step": 0.1 / DEFAULTS["f_sw"]}
 SIGNALS = ("i_L", "v_C", "v_in", "v_L", "i_D", "v_D", "v_sw", "i_sw", "i_load", "carrier")
@@ -110,7 +119,7 @@ SIGNALS = ("i_L", "v_C", "v_in", "v_L", "i_D", "v_D", "v_sw", "i_sw", "i_load", 
 
 def build(**parameters) -> HybridModel:
     """The boost converter with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "boost_converter")
     g = BondGraph("boost_converter")
     loop = g.add(One("iL"))
     a, b = g.add(Zero("A")), g.add(Zero("B"))

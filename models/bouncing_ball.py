@@ -45,11 +45,19 @@ import sympy as sp
 from bondgraph import BondGraph, I, One, Se, Sf, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import Range, merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
 
 DEFAULTS = {"m": 1.0, "g": 9.81, "e": 0.8, "y0": 1.0, "v0": 0.0, "v_rest": 0.0}
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "m": positive("a mass"),
+    "g": positive("gravity pulling the ball to the floor"),
+    "e": Range("a restitution coefficient", 0.0, 1.0),
+    "y0": nonnegative("a height above the floor"),
+    "v_rest": nonnegative("a resting threshold speed"),
+}
 #: a meaningful default run (used by ``hbg run``)
 RUN = {"t_end": 2.5, "method": "RK45", "rtol": 1e-8}
 SIGNALS = ("y", "v")
@@ -57,7 +65,7 @@ SIGNALS = ("y", "v")
 
 def build(**parameters) -> HybridModel:
     """The bouncing ball with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "bouncing_ball")
     g = BondGraph("bouncing_ball")
     v = g.add(One("v"))
     g.connect(Se("gravity", -sp.Symbol("m") * sp.Symbol("g")), v)

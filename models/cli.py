@@ -2,21 +2,53 @@
 
     hbg list                                  shipped models, descriptions, parameters
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
-                  [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...] [--samples N]
+                  [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
+                  [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
     hbg modes MODEL [--mode LABEL] [--latex]  f, g, h and guards of the visited modes (or one)
-    hbg verify MODEL                          static divergence-of-time check
+    hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
     hbg draw MODEL [--mode LABEL] -o FILE.png the bond graph with causal strokes
     hbg graphs | hbg equations NAME           plain bond graphs and their equations
 
-Model names accept ``-`` or ``_`` (``falling-rod``).  Bad input gets one
-clear line on stderr and exit status 2, never a traceback.
+Model names accept ``-`` or ``_`` (``falling-rod``).
+
+Output of ``hbg run``: ``--samples N`` (default 500, at least 2) writes at
+most ``N`` rows to the CSV/NPZ/plot, at ``N`` equally spaced times from 0 to
+``t_end`` (a run that ends early: the times it reached and its last state).
+``--with-instants`` adds the two samples (just before, just after) of every
+instant, so each instant adds two rows.  ``--samples 0`` writes every
+integrator step and every instant (no cap).  ``--no-keep-instants`` does not
+keep the record of each instant (memory stays flat on long runs; the summary
+then only counts instants).  ``--on-zeno stop`` ends a Zeno run at the
+accumulation point instead of failing.  The data files are written first,
+then the plot, each on its own: one that cannot be written does not stop the
+others.
+
+Nothing computed is lost: when a run fails (any error of the toolkit, e.g. a
+divergence of time or Zeno behaviour) or is interrupted with Ctrl-C, the
+files asked for are written with the part of the run that was computed
+(stderr says up to which time), the whole error message is printed, and the
+exit status says what happened.  No traceback is printed (set
+``HBG_TRACEBACK=1`` to see one for an unexpected error).
+
+Exit status:
+
+    0    success (``verify``: no divergence of time found)
+    1    the run failed (the partial run is saved), ``verify`` found a
+         divergence of time, an output file could not be written, or an
+         unexpected internal error
+    2    bad input, rejected before anything runs: the command line (unknown
+         model, parameter, option or signal; a non-finite or out-of-range
+         number; an unsupported plot format; an output directory that does not
+         exist or is not writable) or the model as parameterised
+    130  interrupted (Ctrl-C); what was computed is saved
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import math
 import os
 import sys
 import time
@@ -25,6 +57,9 @@ from bondgraph import HybridBondGraphError
 
 from . import MODELS, load
 from .graphs import GRAPHS
+
+#: exit statuses (see the module docstring)
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class _UsageError(Exception):
@@ -43,6 +78,17 @@ def _module(name):
         raise _UsageError(f"unknown model {name!r}; shipped models: {', '.join(m.replace('_', '-') for m in MODELS)}")
 
 
+def _finite(value: str) -> str:
+    """Why a number given as text is not finite ('' if it is)."""
+    number = float(value)
+    if math.isnan(number):
+        return "not a number"
+    if math.isinf(number):
+        text = value.strip().lower().lstrip("+-")
+        return "infinite" if text in ("inf", "infinity") else "too large (overflows to infinity)"
+    return ""
+
+
 def _parse_sets(items, defaults) -> dict:
     values = {}
     for item in items:
@@ -56,15 +102,26 @@ def _parse_sets(items, defaults) -> dict:
             values[name] = value.strip()
             continue
         try:
-            values[name] = float(value)
+            number = float(value)
         except ValueError:
             raise _UsageError(f"parameter {name!r} needs a number, got {value!r}") from None
+        problem = _finite(value)
+        if problem:
+            raise _UsageError(f"--set {name}={value.strip()}: parameter {name!r} must be a finite number, "
+                              f"got {value.strip()!r} ({problem})")
+        values[name] = number
     return values
 
 
 def _build(args):
     module = _module(args.model)
     return module, module.build(**_parse_sets(getattr(args, "set", None) or [], module.DEFAULTS))
+
+
+def _positive(option: str, value: float) -> None:
+    """A usage error unless ``value`` is finite and > 0, naming the option and the value."""
+    if not (math.isfinite(value) and value > 0):
+        raise _UsageError(f"{option} must be a finite positive number, got {value!r}")
 
 
 def _run_options(args, module) -> tuple[float, str, dict]:
@@ -78,8 +135,10 @@ def _run_options(args, module) -> tuple[float, str, dict]:
 
     if method not in METHODS:
         raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}")
-    if t_end <= 0:
-        raise _UsageError("--t-end must be positive")
+    _positive("--t-end", t_end)
+    for option, value in (("--dt", args.dt), ("--rtol", args.rtol)):
+        if value is not None:
+            _positive(option, value)
     options = {}
     if method in FIXED_STEP:
         if args.rtol is not None:
@@ -93,10 +152,137 @@ def _run_options(args, module) -> tuple[float, str, dict]:
         options.update({k: v for k, v in run.items() if k in ("rtol", "atol", "max_step")})
         if args.rtol is not None:
             options["rtol"] = args.rtol
-    for key in ("dt", "rtol"):
-        if key in options and not options[key] > 0:
-            raise _UsageError(f"--{key} must be positive")
     return t_end, method, options
+
+
+# ------------------------------------------------------------------ output files
+
+
+def _plot_formats() -> dict:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return FigureCanvasBase.get_supported_filetypes()
+
+
+def _plot_target(path: str) -> str:
+    """The file matplotlib writes for ``path`` (it adds its default format's
+    extension when there is none)."""
+    if os.path.splitext(path)[1]:
+        return path
+    import matplotlib
+
+    return f"{path}.{matplotlib.rcParams['savefig.format']}"
+
+
+def _npz_target(path):
+    """The file ``numpy.savez`` writes for ``path`` (it adds ``.npz`` when missing)."""
+    if not path:
+        return path
+    return path if path.endswith(".npz") else path + ".npz"
+
+
+def _check_output(option: str, path: str, plot: bool = False) -> None:
+    """Usage errors, before anything runs, for an output file that cannot be
+    written: an unsupported plot format, a missing or read-only directory."""
+    if plot:
+        extension = os.path.splitext(path)[1][1:].lower()
+        if extension:
+            formats = _plot_formats()
+            if extension not in formats:
+                raise _UsageError(f"{option} {path}: matplotlib cannot write {extension!r} files; "
+                                  f"supported extensions: {', '.join(sorted(formats))}")
+    if os.path.isdir(path):
+        raise _UsageError(f"{option} {path}: is a directory, give a file name")
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise _UsageError(f"{option} {path}: directory {directory} does not exist")
+    if not os.access(directory, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise _UsageError(f"{option} {path}: not writable (permission denied)")
+
+
+def _output_rows(trajectory, t_eval, with_instants: bool):
+    """The trajectory restricted to what the output files hold: the samples at
+    the times ``t_eval`` and the last state (where a run that ended early
+    stopped), plus the two samples of every instant when ``with_instants``;
+    ``t_eval=None``: every sample.  At most ``len(t_eval)`` rows without
+    instants: a run that ends early misses the sample at ``t_end``."""
+    if t_eval is None:
+        return trajectory
+    n = len(trajectory.t)
+    event_rows = set()
+    for k in trajectory.event_index:
+        event_rows.update((k - 1, k))
+    plain = [k for k in range(n) if k not in event_rows]
+    # of samples at one time (the start before and after the initial instant) keep the last
+    keep = {k for k, nxt in zip(plain, plain[1:] + [None]) if nxt is None or trajectory.t[nxt] != trajectory.t[k]}
+    if with_instants:
+        keep |= event_rows & set(range(n))
+    elif n and n - 1 not in keep:  # the run ended at an instant: its last state replaces a sample at that time
+        keep = {k for k in keep if trajectory.t[k] != trajectory.t[n - 1]} | {n - 1}
+    rows = sorted(keep)
+    if len(rows) == n:
+        return trajectory
+    position = {k: j for j, k in enumerate(rows)}
+    out = object.__new__(type(trajectory))  # a shallow copy that keeps the model (pickling drops it)
+    out.__dict__.update(trajectory.__dict__)
+    out.t = trajectory.t[rows]
+    out.x = trajectory.x[rows]
+    out.modes = [trajectory.modes[k] for k in rows]
+    out.event_index = [position[k] for k in trajectory.event_index if k in position] if with_instants else []
+    return out
+
+
+def _write_outputs(args, trajectory, signals) -> list[str]:
+    """Write the requested files, data first, each on its own; return the
+    failures (each names the file and the reason)."""
+    extra = [s for s in signals if s not in trajectory.state_names]
+    failures = []
+
+    def attempt(kind, path, write):
+        try:
+            write()
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:  # noqa: BLE001 - reported, the other files are still written
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            failures.append(f"could not write {kind} {path}: {reason}")
+            print(f"hbg: error: could not write {kind} {path}: {reason}", file=sys.stderr)
+            return
+        print(f"  {kind}: {path}")
+
+    def data(writer):
+        def write():
+            try:
+                writer(extra)
+            except (OSError, KeyboardInterrupt):
+                raise
+            except Exception as exc:  # a signal that cannot be evaluated: keep the states at least
+                if not extra:
+                    raise
+                print(f"hbg: warning: signals {', '.join(extra)} could not be evaluated "
+                      f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); writing the states only",
+                      file=sys.stderr)
+                writer([])
+        return write
+
+    if args.csv:
+        attempt("csv", args.csv, data(lambda sig: trajectory.to_csv(args.csv, signals=sig)))
+    if args.npz:
+        attempt("npz", _npz_target(args.npz), data(lambda sig: trajectory.to_npz(args.npz, signals=sig)))
+    if args.plot:
+        def plot():
+            from switching.plotting import _plt, plot_trajectory
+
+            if len(trajectory.t) == 0:
+                raise ValueError("no samples to plot")
+            fig = plot_trajectory(trajectory, signals)
+            try:
+                fig.savefig(args.plot, dpi=110)
+            finally:
+                _plt().close(fig)
+
+        attempt("plot", _plot_target(args.plot), plot)
+    return failures
 
 
 class _Progress:
@@ -134,41 +320,77 @@ def _cmd_list(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    module, model = _build(args)
+    import numpy as np
+
+    module = _module(args.model)
+    parameters = _parse_sets(args.set or [], module.DEFAULTS)
     t_end, method, options = _run_options(args, module)
+    if args.samples < 0 or args.samples == 1:
+        raise _UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
+    if args.with_instants and not args.keep_instants:
+        raise _UsageError("--with-instants needs the instants: drop --no-keep-instants")
+    for option, path in (("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)):
+        if path:
+            _check_output(option, path, plot=option == "--plot")
+    model = module.build(**parameters)
     signals = [s for s in (args.signals.split(",") if args.signals else module.SIGNALS) if s]
     for s in signals:
         if s not in model.signal_names and s not in {b.effort.name for b in model.graph.bonds.values()} | {
             b.flow.name for b in model.graph.bonds.values()
         }:
             raise _UsageError(f"unknown signal {s!r}; signals: {', '.join(model.signal_names)}")
-    if args.samples < 0:
-        raise _UsageError("--samples must be 0 (every step) or positive")
-    if args.samples:
-        import numpy as np
+    t_eval = np.linspace(0.0, t_end, args.samples) if args.samples else None
+    if t_eval is not None:
+        options["t_eval"] = t_eval
+    options.update(on_zeno=args.on_zeno, keep_instants=args.keep_instants)
+    wants_files = bool(args.csv or args.npz or args.plot)
 
-        options["t_eval"] = np.linspace(0.0, t_end, args.samples)
     progress = _Progress(t_end)
+    failure = None
+    status = EXIT_OK
     try:
-        trajectory = model.simulate(t_end, method, progress=progress, **options)
-    finally:
-        progress.close()
-    print(trajectory.summary())
-    if hasattr(module, "error_estimate"):
-        print(f"  error estimate: {module.error_estimate(trajectory)}")
-    if args.plot:
-        from switching.plotting import plot_trajectory
+        try:
+            trajectory = model.simulate(t_end, method, progress=progress, **options)
+        finally:
+            progress.close()
+    except KeyboardInterrupt as exc:  # SimulationInterrupted too: it carries the partial run
+        failure, status = exc, EXIT_INTERRUPTED
+        trajectory = getattr(exc, "trajectory", None)
+        message = str(exc) if isinstance(exc, HybridBondGraphError) and str(exc) else "the run was stopped"
+        print(f"hbg: interrupted (Ctrl-C): {message}", file=sys.stderr)
+    except HybridBondGraphError as exc:  # every failure of the run; simulation errors carry the partial run
+        failure, status = exc, EXIT_FAILED
+        trajectory = getattr(exc, "trajectory", None)
+        print(f"hbg: error: {exc}", file=sys.stderr)
 
-        fig = plot_trajectory(trajectory, signals)
-        fig.savefig(args.plot, dpi=110)
-        print(f"  plot: {args.plot}")
-    if args.csv:
-        trajectory.to_csv(args.csv, signals=[s for s in signals if s not in trajectory.state_names])
-        print(f"  csv: {args.csv}")
-    if args.npz:
-        trajectory.to_npz(args.npz, signals=[s for s in signals if s not in trajectory.state_names])
-        print(f"  npz: {args.npz}")
-    return 0
+    if trajectory is None:
+        if wants_files:
+            print("hbg: nothing was computed: no file written", file=sys.stderr)
+        return status
+    if failure is not None:
+        if len(trajectory.t):
+            print(("hbg: the files hold the partial run up to " if wants_files else "hbg: the run stopped at ")
+                  + f"t = {trajectory.t[-1]:.10g} s (of t_end = {t_end:g} s)", file=sys.stderr)
+        else:
+            print("hbg: the run stopped before its first sample", file=sys.stderr)
+    try:
+        print(("partial " if failure is not None else "") + trajectory.summary())
+    except Exception as exc:  # noqa: BLE001 - a summary of a partial run must not lose its files
+        print(f"hbg: warning: no summary of this run ({exc})", file=sys.stderr)
+    if failure is None and hasattr(module, "error_estimate"):
+        try:
+            print(f"  error estimate: {module.error_estimate(trajectory)}")
+        except Exception as exc:  # noqa: BLE001
+            print(f"hbg: warning: no error estimate ({exc})", file=sys.stderr)
+    if wants_files:
+        out = _output_rows(trajectory, t_eval, args.with_instants)
+        if out is not trajectory:
+            print(f"  output: {len(out.t)} rows at --samples {args.samples} times"
+                  + ("" if args.with_instants or not trajectory.event_index
+                     else f" (--with-instants adds 2 rows for each of the {len(trajectory.event_index)} instants)"))
+        if _write_outputs(args, out, signals) and status == EXIT_OK:
+            status = EXIT_FAILED
+    return status
 
 
 def _visited_modes(module, model):
@@ -194,6 +416,8 @@ def _cmd_modes(args) -> int:
 
 
 def _cmd_verify(args) -> int:
+    if args.samples < 1:
+        raise _UsageError(f"--samples must be at least 1, got {args.samples}")
     _, model = _build(args)
     report = model.verify(samples=args.samples)
     print(report)
@@ -214,14 +438,18 @@ def _cmd_draw(args) -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    from switching.plotting import draw_bond_graph
+    from switching.plotting import _plt, draw_bond_graph
 
+    _check_output("-o/--output", args.output, plot=True)
     _, model = _build(args)
     mode = model.mode(args.mode) if args.mode else model.initial_mode
     ax = draw_bond_graph(model.graph, model.configuration_of(mode))
     ax.set_title(f"{model.name} in mode {mode.describe()}", fontsize=9)
-    ax.figure.savefig(args.output, dpi=110)
-    print(f"wrote {args.output}")
+    try:
+        ax.figure.savefig(args.output, dpi=110)
+    finally:
+        _plt().close(ax.figure)
+    print(f"wrote {_plot_target(args.output)}")
     return 0
 
 
@@ -272,7 +500,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--npz", metavar="FILE")
     p.add_argument("--signals", help="comma-separated signals to plot/save")
     p.add_argument("--samples", type=int, default=500,
-                   help="output at this many equally spaced times plus every instant (0: every step)")
+                   help="write at most this many rows, at equally spaced times (default 500, at least 2; "
+                        "0: every step and every instant)")
+    p.add_argument("--with-instants", action="store_true",
+                   help="also write the two samples (before, after) of every instant")
+    p.add_argument("--keep-instants", action=argparse.BooleanOptionalAction, default=True,
+                   help="keep the record of every instant (default); --no-keep-instants keeps memory flat "
+                        "on long runs, the summary then only counts them")
+    p.add_argument("--on-zeno", choices=("raise", "stop"), default="raise",
+                   help="on Zeno behaviour fail (raise, default) or end the run at the accumulation point (stop)")
     p.set_defaults(run=_cmd_run)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")
@@ -285,7 +521,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("verify", help="static divergence-of-time check")
     p.add_argument("model")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("--samples", type=int, default=10)
+    p.add_argument("--samples", type=int, default=10, help="sampled states per mode (at least 1)")
     p.set_defaults(run=_cmd_verify)
 
     p = sub.add_parser("codegen", help="export the generated per-mode functions")
@@ -312,17 +548,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _failed_run(exc) -> bool:
+    from switching.errors import DivergenceOfTimeError, SimulationError
+
+    return isinstance(exc, (SimulationError, DivergenceOfTimeError))
+
+
 def main(argv=None) -> int:
+    """Run ``hbg`` with ``argv`` (default: the command line); return the exit status."""
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         return args.run(args)
-    except (_UsageError, HybridBondGraphError) as exc:
-        print(f"hbg: error: {str(exc).splitlines()[0]}", file=sys.stderr)
-        return 2
+    except _UsageError as exc:
+        print(f"hbg: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("hbg: interrupted (Ctrl-C)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except HybridBondGraphError as exc:  # the whole message: loops, carets and hints span lines
+        print(f"hbg: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED if _failed_run(exc) else EXIT_USAGE
     except OSError as exc:
         print(f"hbg: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - never a raw traceback
+        if os.environ.get("HBG_TRACEBACK", "") not in ("", "0"):
+            raise
+        print(f"hbg: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print("hbg: this is a bug; set HBG_TRACEBACK=1 to see where it happened", file=sys.stderr)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -66,7 +66,7 @@ from __future__ import annotations
 from bondgraph import BondGraph, I, One, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import Range, merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate"]
 
@@ -82,6 +82,15 @@ DEFAULTS = {
     "v1_0": 1.0,
     "v2_0": -0.5,
 }
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "m1": positive("a mass"),
+    "m2": positive("a mass"),
+    "e": Range("a restitution coefficient", 0.0, 1.0),
+    "v_th": nonnegative("a separation threshold speed"),
+    "r1": nonnegative("a radius"),
+    "r2": nonnegative("a radius"),
+}
 #: a meaningful default run (used by ``hbg run``): one collision at t ≈ 0.533 s
 RUN = {"t_end": 1.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("x1", "x2", "v1", "v2")
@@ -89,7 +98,7 @@ SIGNALS = ("x1", "x2", "v1", "v2")
 
 def build(**parameters) -> HybridModel:
     """Two colliding balls with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "colliding_balls")
     g = BondGraph("colliding_balls")
     for i in (1, 2):
         v = g.add(One(f"v{i}"))

@@ -60,11 +60,18 @@ import sympy as sp
 from bondgraph import BondGraph, I, One, R, Se, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
 
 DEFAULTS = {"V": 10.0, "R": 1.0, "L": 0.1, "V_th": 0.7, "I_th": 0.0, "t_open": 0.5, "i0": 0.0}
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "R": positive("a resistance"),
+    "L": positive("an inductance"),
+    "V_th": nonnegative("the diode's threshold voltage"),
+    "I_th": nonnegative("the diode's holding current"),
+}
 RUN = {"t_end": 1.0, "method": "RK45", "rtol": 1e-8}
 SIGNALS = ("i_L", "v_L", "i_D", "v_D")
 
@@ -72,7 +79,7 @@ SIGNALS = ("i_L", "v_L", "i_D", "v_D")
 def build(**parameters) -> HybridModel:
     """The diode circuit with ``DEFAULTS`` overridden by ``parameters``
     (``i0``: inductor current at t = 0)."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "diode_circuit")
     g = BondGraph("diode_circuit")
     sw, node, loop = g.add(One("sw", controlled=True)), g.add(Zero("n")), g.add(One("loop"))
     diode = g.add(One("D", controlled=True))

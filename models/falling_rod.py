@@ -128,7 +128,7 @@ import sympy as sp
 from bondgraph import BondGraph, One, Se, Sf, Zero
 from switching import Automaton, HybridModel, InMode, ModelDefinitionError
 
-from ._common import merged
+from ._common import merged, nonnegative, positive
 from .components import rigid_planar_body
 
 __all__ = ["build", "DEFAULTS", "IMPACT_LAWS", "RUN", "SIGNALS"]
@@ -145,6 +145,16 @@ DEFAULTS = {
     "x0": 0.0,
     "y_lift": 1e-9,
     "impact_law": "paper",
+}
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "m": positive("a mass"),
+    "l": positive("a length"),
+    "J": positive("a moment of inertia"),
+    "g": positive("gravity pulling the rod to the floor"),
+    "mu": nonnegative("a friction coefficient"),
+    "v_th": nonnegative("a sticking threshold speed"),
+    "y_lift": nonnegative("a lift-off height"),
 }
 RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = (
@@ -172,7 +182,7 @@ def build(**parameters) -> HybridModel:
     ``y0`` is the height of the centre, ``theta0`` the initial angle; the rod
     starts at rest.  ``impact_law``: ``"paper"`` (no tangential impulse at an
     impact, the default) or ``"newton-coulomb"`` (see the module docstring)."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "falling_rod")
     if p["impact_law"] not in IMPACT_LAWS:
         raise ModelDefinitionError(f"unknown impact_law {p['impact_law']!r}; choose one of: {', '.join(IMPACT_LAWS)}")
     mu = sp.Symbol("mu")

@@ -65,10 +65,9 @@ use ``R = 0``.
 from __future__ import annotations
 
 from bondgraph import C, BondGraph, One, R, Zero
-from bondgraph.errors import InvalidGraphError
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate"]
 
@@ -80,6 +79,12 @@ DEFAULTS = {
     "R": 0.0,
     "t_close": 0.01,
 }
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "C1": positive("a capacitance", required=True),
+    "C2": positive("a capacitance", required=True),
+    "R": nonnegative("a resistance", required=True),
+}
 #: a meaningful default run (used by ``hbg run``): the switch closes at 10 ms
 RUN = {"t_end": 0.05, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("v1", "v2", "q_total", "energy")
@@ -87,12 +92,7 @@ SIGNALS = ("v1", "v2", "q_total", "energy")
 
 def build(**parameters) -> HybridModel:
     """The two capacitors with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
-    for name in ("C1", "C2"):
-        if p[name] <= 0:
-            raise InvalidGraphError(f"parameter {name!r} must be positive, got {p[name]}")
-    if p["R"] < 0:
-        raise InvalidGraphError(f"parameter 'R' must be zero or positive, got {p['R']}")
+    p = merged(DEFAULTS, parameters, RANGES, "parallel_capacitors")
     g = BondGraph("parallel_capacitors")
     n1, sw, n2 = g.add(Zero("n1")), g.add(One("sw", controlled=True)), g.add(Zero("n2"))
     g.connect(n1, C("cap1", "C1", state="q1"))

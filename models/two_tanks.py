@@ -80,7 +80,7 @@ import sympy as sp
 from bondgraph import BondGraph, C, One, R, Sf, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged
+from ._common import merged, nonnegative, positive
 
 __all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
 
@@ -99,6 +99,16 @@ DEFAULTS = {
     "h1_0": 0.5,
     "h2_0": 0.0,
 }
+#: physical ranges: a value outside gives a PhysicalRangeWarning
+RANGES = {
+    "Q_in": nonnegative("an inflow"),
+    "A1": positive("a tank's area"),
+    "A2": positive("a tank's area"),
+    "R_v": positive("a valve's resistance"),
+    "R_out": positive("an outlet's resistance"),
+    "rho": positive("a density"),
+    "g": positive("gravity"),
+}
 #: a meaningful default run (used by ``hbg run``): several valve cycles
 RUN = {"t_end": 1000.0, "method": "RK45", "rtol": 1e-8}
 SIGNALS = ("h1", "h2", "p1", "p2", "Q_pump", "Q_valve", "Q_out", "V_total")
@@ -106,7 +116,7 @@ SIGNALS = ("h1", "h2", "p1", "p2", "Q_pump", "Q_valve", "Q_out", "V_total")
 
 def build(**parameters) -> HybridModel:
     """The two tanks with ``DEFAULTS`` overridden by ``parameters``."""
-    p = merged(DEFAULTS, parameters)
+    p = merged(DEFAULTS, parameters, RANGES, "two_tanks")
     rho, g_, A1, A2 = (sp.Symbol(n) for n in ("rho", "g", "A1", "A2"))
     g = BondGraph("two_tanks")
     n1, n2 = g.add(Zero("n1")), g.add(Zero("n2"))

@@ -16,6 +16,7 @@ from .errors import NonFiniteStateError as NonFiniteStateError
 from .errors import SimulationError as SimulationError
 from .errors import StepSizeError as StepSizeError
 from .errors import StiffnessError as StiffnessError
+from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper

@@ -143,16 +143,16 @@ def _run_one(job):
     from bondgraph.errors import HybridBondGraphError
 
     start = time.perf_counter()
-    with shared_model(build, parameters) as model:
-        try:
+    try:
+        with shared_model(build, parameters) as model:
             trajectory = model.simulate(t_end, method, **options)
-        except HybridBondGraphError as exc:
-            partial = getattr(exc, "trajectory", None)
-            if partial is None:
-                return RunResult(dict(parameters), np.zeros(0), np.zeros((0, 0)), [], [], np.zeros(0), [],
-                                 error=str(exc), wall_time=time.perf_counter() - start)
-            return _result(parameters, partial, error=str(exc), wall=time.perf_counter() - start)
-        return _result(parameters, trajectory, wall=time.perf_counter() - start)
+    except HybridBondGraphError as exc:  # a bad parameter set included: one failed run, not a failed sweep
+        partial = getattr(exc, "trajectory", None)
+        if partial is None:
+            return RunResult(dict(parameters), np.zeros(0), np.zeros((0, 0)), [], [], np.zeros(0), [],
+                             error=str(exc), wall_time=time.perf_counter() - start)
+        return _result(parameters, partial, error=str(exc), wall=time.perf_counter() - start)
+    return _result(parameters, trajectory, wall=time.perf_counter() - start)
 
 
 def simulate_many(build, parameter_sets, t_end: float, method: str = "RK45", workers: int | None = None,

@@ -16,6 +16,7 @@ __all__ = [
     "NonFiniteStateError",
     "StepSizeError",
     "StiffnessError",
+    "SimulationInterrupted",
 ]
 
 
@@ -99,3 +100,10 @@ class StiffnessError(StepSizeError):
         self.h = h
         self.h_lambda = h_lambda
         self.limit = limit
+
+
+class SimulationInterrupted(SimulationError, KeyboardInterrupt):
+    """The run was interrupted (Ctrl-C, ``KeyboardInterrupt``) while it
+    computed.  ``trajectory`` holds everything computed up to the interruption;
+    ``t`` and ``mode`` say where it was.  Being a ``KeyboardInterrupt`` too,
+    it still ends a script that does not catch it."""

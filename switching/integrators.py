@@ -57,6 +57,11 @@ _HAIRER_STIFF, _HAIRER_RESET = 15, 6  # Hairer's counts for the adaptive methods
 _CRAWL_STEPS = 10_000  # … reported when the rest of the flow would take more steps than this at that step size
 
 
+class StepFailed(RuntimeError):
+    """Raised by a stepper whose solver reports a failed step (the step size
+    collapsed); other exceptions from the right-hand side pass through."""
+
+
 class StiffnessDetected(RuntimeError):
     """Raised by a stepper beyond its stability limit: ``h`` the step,
     ``h_lambda`` the estimated ``|h·λ|``, ``limit`` the method's limit,
@@ -282,7 +287,7 @@ class Adaptive(_Stepper):
         message = self.solver.step()
         if self.solver.status == "failed":
             self.message = message or "step failed"
-            raise RuntimeError(self.message)
+            raise StepFailed(self.message)
         self.t_old = self.t
         self.t, self.y = self.solver.t, self.solver.y.copy()
         self._dense = None

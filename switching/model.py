@@ -18,9 +18,10 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -28,7 +29,7 @@ from sympy.core.relational import Relational
 from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
 from bondgraph import BondGraph, t as TIME
-from bondgraph.errors import MissingParameterError, UnknownNameError, UnknownParameterError
+from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
 from bondgraph.jump import JUMP_LAWS
 from bondgraph.symbols import check_name
 
@@ -120,6 +121,8 @@ class HybridModel:
     parameters : mapping name → number
         A value for every parameter of the graph, the guards, the signals and
         the restitution coefficients (all missing ones are listed at once).
+        Every value must be finite (NaN never is): :class:`~bondgraph.errors.ParameterValueError`
+        names the culprit otherwise.
     initial_state : mapping name → number, optional
         Initial values by state name; states not given start at 0.
     signals : mapping name → expression, optional
@@ -142,6 +145,9 @@ class HybridModel:
         driven by the normal force then gives the Newton–Coulomb impact law
         (tangential impulse ``−σ μ P_n``).  Both agree wherever no source
         is modulated by a pulsed effort.
+    allow_infinite : iterable of parameter names, optional
+        Parameters that may be ``±inf`` where that is physical (a threshold
+        never reached, an open circuit's resistance).
     """
 
     def __init__(
@@ -156,6 +162,7 @@ class HybridModel:
         tolerance: Tolerance | None = None,
         max_steps_per_instant: int = 1000,
         jump_law: str = "conservation",
+        allow_infinite: Iterable[str] = (),
     ):
         if jump_law not in JUMP_LAWS:
             raise ModelDefinitionError(f"unknown jump_law {jump_law!r}; choose one of: {', '.join(JUMP_LAWS)}")
@@ -178,6 +185,7 @@ class HybridModel:
         self._guards = self._parse_guards()
         self._inputs = self._check_inputs(inputs or {})
         self.parameter_symbols = self._collect_parameters()
+        self.allow_infinite = frozenset(allow_infinite)
         self.parameter_values = self._check_parameter_values(parameters or {})
         self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
         self._initial_given = self._check_initial_state(initial_state or {})
@@ -320,14 +328,45 @@ class HybridModel:
             raise UnknownParameterError(unknown, by_name)
         missing = set(by_name) - set(given)
         if missing:
-            raise MissingParameterError(missing)
+            raise MissingParameterError(missing, self._text_only_names(missing))
         out = {}
         for name, v in given.items():
             try:
-                out[by_name[name]] = float(v)
-            except (TypeError, ValueError):
-                raise ModelDefinitionError(f"parameter {name!r} must be a number, got {v!r}", [name]) from None
+                value = float(v)
+            except (TypeError, ValueError, OverflowError):
+                raise ParameterValueError(f"parameter {name!r} must be a number, got {v!r}", name, v) from None
+            if math.isnan(value) or (math.isinf(value) and name not in self.allow_infinite):
+                raise ParameterValueError(
+                    f"parameter {name!r} of model {self.name!r} is {value}: every parameter needs a finite value"
+                    + ("" if math.isnan(value) else
+                       f" (if {name} = {value} is physical here, build the model with allow_infinite={{{name!r}}})"),
+                    name, value)
+            out[by_name[name]] = value
         return out
+
+    def _text_only_names(self, names) -> dict:
+        """For each name met only in guard or signal text (no element law uses
+        it): where it was written, and the closest known names — such a name
+        is more often a mistyped signal or state than a parameter."""
+        import difflib
+
+        in_laws = {p.name for p in self.graph.parameters}
+        known = sorted(set(self._names) | set(self._signals))
+        hints = {}
+        for name in names:
+            if name in in_laws:
+                continue
+            symbol = sp.Symbol(name)
+            places = [f"signal {s!r}" for s, value in self._signals.items() if symbol in value.free_symbols]
+            places += [f"guard {text!r} of automaton {auto!r} ({tr.source} → {tr.target})"
+                       for (auto, tr), (condition, text) in self._guards.items() if symbol in condition.free_symbols]
+            if not places:
+                continue
+            close = difflib.get_close_matches(name, known, n=3)
+            hints[name] = (f"written in {', '.join(places)} and used by no element law: a parameter of its own, "
+                           "or a mistyped name of a state or signal"
+                           + (f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""))
+        return hints
 
     def _check_initial_state(self, initial: Mapping) -> np.ndarray:
         x = np.zeros(len(self.states))
@@ -338,7 +377,13 @@ class HybridModel:
                 raise UnknownNameError(
                     f"initial value for unknown state {key!r}; states are: {', '.join(by_name)}", key
                 )
-            x[by_name[key]] = float(value)
+            try:
+                x[by_name[key]] = float(value)
+            except (TypeError, ValueError, OverflowError):
+                raise ParameterValueError(f"initial value of state {key!r} must be a number, got {value!r}",
+                                          key, value) from None
+            if not math.isfinite(x[by_name[key]]):
+                raise ParameterValueError(f"initial value of state {key!r} is {value}: it must be finite", key, value)
         return x
 
     # ------------------------------------------------------------ names and values
@@ -648,8 +693,16 @@ class HybridModel:
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
         ``keep_instants=False`` keeps neither the instants' records nor their
-        samples (only their count, in ``stats``): with ``t_eval`` or
+        samples (only their count, ``trajectory.instant_count``, and the time
+        spent in each mode, ``time_in_modes()``): with ``t_eval`` or
         ``output="events"`` the memory of a long run then stays bounded.
+        ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run.
+        A failed run raises a :class:`~switching.errors.SimulationError`
+        carrying the trajectory computed so far (``error.trajectory``);
+        Ctrl-C raises :class:`~switching.errors.SimulationInterrupted`, a
+        ``KeyboardInterrupt`` that carries it too.  A flow that would start
+        from non-finite rates or guard sides (a zero inductance) raises
+        :class:`~switching.errors.NonFiniteStateError` naming them at once.
         ``event_samples`` (default 3): guards are also tested at this many
         interior points of every step, and searched between them (an
         extremum of a comparison that comes within reach of its threshold,

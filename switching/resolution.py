@@ -97,6 +97,11 @@ class Instant:
     steps: list
     model: object = field(repr=False, default=None)
 
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["model"] = None  # pickled without the model (generated functions do not pickle)
+        return state
+
     @property
     def x_before(self) -> np.ndarray:
         return self.steps[0].x_before

@@ -27,13 +27,16 @@ import weakref
 
 import numpy as np
 
+from bondgraph.errors import HybridBondGraphError
 from codegen.jit import STATUS as _KERNEL_STATUS
 from codegen.jit import available as _jit_available
 
-from .errors import NonFiniteStateError, SimulationError, StepSizeError, StiffnessError, ZenoError
+from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepSizeError, StiffnessError,
+                     ZenoError)
 from .events import _GuardScan, _locate
-from .integrators import ADAPTIVE, FIXED_STEP, StiffnessDetected, make_stepper
+from .integrators import ADAPTIVE, FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
 from .jit_model import KINDS, CompiledInstant
+from .preflight import nonfinite_at_start
 from .trajectory import Trajectory
 
 __all__ = ["simulate", "METHODS"]
@@ -49,6 +52,8 @@ class _Recorder:
         self.keep_instants = keep_instants
         self.n_events = 0
         self.last_instant = None
+        self.mode_time: dict = {}  # flow time per mode [s], whatever samples are kept
+        self.boundary = None  # the time of the last instant (or the start)
         self.t_eval = None if t_eval is None else np.asarray(sorted(t_eval), dtype=float)
         self.eval_pos = 0
         self.t: list = []
@@ -76,9 +81,13 @@ class _Recorder:
                 self.modes.append(mode)
             self.eval_pos += 1
 
+    def start(self, t):
+        self.boundary = float(t)
+
     def event(self, instant):
         self.n_events += 1
         self.last_instant = instant
+        self._flowed(instant.t, instant.mode_before)
         if not self.keep_instants:
             return
         self.t.append(instant.t)
@@ -90,12 +99,21 @@ class _Recorder:
         self.events.append(instant)
         self.event_index.append(len(self.t) - 1)
 
+    def _flowed(self, t, mode):
+        if self.boundary is not None and t > self.boundary:
+            self.mode_time[mode] = self.mode_time.get(mode, 0.0) + (t - self.boundary)
+        self.boundary = max(self.boundary if self.boundary is not None else t, t)
+
     def trajectory(self, stopped=None, stats=None):
         stats = dict(stats or {})
         stats["instants"] = self.n_events
         n = len(self.model.states)
         x = np.array(self.x).reshape(len(self.x), n) if self.x else np.zeros((0, n))
-        return Trajectory(self.model, self.t, x, self.modes, self.events, self.event_index, stopped, stats)
+        mode_time = dict(self.mode_time)
+        if self.t and self.boundary is not None and self.t[-1] > self.boundary:
+            mode_time[self.modes[-1]] = mode_time.get(self.modes[-1], 0.0) + (self.t[-1] - self.boundary)
+        return Trajectory(self.model, self.t, x, self.modes, self.events, self.event_index, stopped, stats,
+                          mode_time=mode_time, instants_kept=self.keep_instants)
 
 
 class _ZenoWatch:
@@ -154,8 +172,32 @@ def _check_options(method, dt, rtol, atol):
             raise SimulationError(f"method {method!r} is fixed-step: give a positive step dt=…")
     elif dt is not None:
         raise SimulationError(f"method {method!r} is adaptive: give rtol/atol, not dt (dt is for euler and rk4)")
-    if not (rtol > 0 and atol > 0):
-        raise SimulationError("rtol and atol must be positive")
+    if not (rtol > 0 and atol > 0 and math.isfinite(rtol) and math.isfinite(atol)):
+        raise SimulationError(f"rtol and atol must be positive and finite, got rtol={rtol!r}, atol={atol!r}")
+
+
+def _check_times(t0, t_end, t_eval, max_step, first_step):
+    """Times of a run: finite ends, ``t_eval`` finite and inside ``[t0, t_end]``."""
+    for name, value in (("t0", t0), ("t_end", t_end)):
+        if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value):
+            raise SimulationError(f"{name} must be a finite number of seconds, got {value!r}"
+                                  + ("; a run needs an end: give the time you want to see" if name == "t_end" else ""))
+    if not t_end > t0:
+        raise SimulationError(f"t_end ({t_end}) must be after t0 ({t0})")
+    if not max_step > 0:
+        raise SimulationError(f"max_step must be positive (inf for no limit), got {max_step!r}")
+    if first_step is not None and not (first_step > 0 and math.isfinite(first_step)):
+        raise SimulationError(f"first_step must be positive and finite, got {first_step!r}")
+    if t_eval is None:
+        return None
+    times = np.asarray(t_eval, dtype=float).ravel()
+    bad = np.flatnonzero(~np.isfinite(times) | (times < t0) | (times > t_end))
+    if len(bad):
+        k = int(bad[0])
+        raise SimulationError(
+            f"t_eval[{k}] = {float(times[k])!r} is outside the run [{t0}, {t_end}] s ({len(bad)} value(s) are); "
+            "give sample times inside the run")
+    return np.sort(times)
 
 
 def simulate(
@@ -187,21 +229,22 @@ def simulate(
         raise SimulationError("on_zeno must be 'raise' or 'stop'")
     if output not in ("steps", "events"):
         raise SimulationError("output must be 'steps' or 'events' (give t_eval=… for chosen times)")
-    if not t_end > t0:
-        raise SimulationError(f"t_end ({t_end}) must be after t0 ({t0})")
+    t_eval = _check_times(t0, t_end, t_eval, max_step, first_step)
     if t_eval is not None:
         output = "events"
     started = _time.perf_counter()
-    x = model.initial_state() if x0 is None else np.array(x0, dtype=float)
+    x = model.initial_state() if x0 is None else _check_x0(model, x0)
     current = model.initial_mode if mode is None else model.mode(mode)
     recorder = _Recorder(model, output, t_eval, keep_instants)
+    recorder.start(t0)
     zeno = _ZenoWatch(zeno_window, t_end, 1e-9 * (t_end - t0) if zeno_min_gap is None else zeno_min_gap)
     rtol_g, atol_g = model.tolerance.rtol, model.tolerance.atol
     n_steps = 0
     t = float(t0)
 
     def fail(cls, message, **extra):
-        recorder.sample(t, x, current, force=True)
+        if not recorder.t or t > recorder.t[-1] or (t == recorder.t[-1] and not np.array_equal(x, recorder.x[-1])):
+            recorder.sample(t, x, current, force=True)  # (a flow stopped mid-way has recorded beyond t)
         return cls(message, trajectory=recorder.trajectory(stats={"failed": message.splitlines()[0]}), t=t,
                    mode=current, **extra)
 
@@ -231,76 +274,112 @@ def simulate(
             raise
         if len(instant.steps) > 1:
             recorder.event(instant)
+        if not np.all(np.isfinite(instant.x_after)):
+            raise fail(NonFiniteStateError, _nonfinite_jump_message(model, instant))
         x, current = instant.x_after, instant.mode_after
 
-    recorder.sample(t, x, current, force=True)
-    initial_in_kernel = compiled is not None and compiled.covers(current)
-    if not initial_in_kernel:
-        initial_instant()
-    if t_eval is not None:
-        recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
-
-    options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
-                   save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g)
     stopped = None
     accumulation = None
     python_instants = 0
 
-    def after_event(instant) -> bool:
-        """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
-        nonlocal t, x, current, accumulation
-        recorder.event(instant)
-        t, x, current = instant.t, instant.x_after, instant.mode_after
-        if recorder.n_events > max_events:
-            raise fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
-        accumulation = zeno.add(t)
-        if accumulation is None:
-            return False
-        message = (
-            f"Zeno behaviour: events pile up in shrinking time near t = {t:.12g} (mode {current.describe()}); "
-            f"they accumulate at t ≈ {accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
-            "threshold), or pass on_zeno='stop' to end the run there."
-        )
-        if on_zeno == "raise":
-            raise fail(ZenoError, message, accumulation_time=accumulation)
-        return True
+    def run():
+        """The run itself; returns the reason it stopped early (``"zeno"``) or None."""
+        nonlocal t, x, current, n_steps, python_instants
+        recorder.sample(t, x, current, force=True)
+        initial_in_kernel = compiled is not None and compiled.covers(current)
+        if not initial_in_kernel:
+            initial_instant()
+        elif not model.compiled_mode(current).holds(x, t, rtol_g, atol_g):  # the kernel flows from x at once
+            problem = nonfinite_at_start(model, model.compiled_mode(current), x, t)
+            if problem:
+                raise fail(NonFiniteStateError, problem)
+        if t_eval is not None:
+            recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
 
-    while t < t_end:
-        try:
-            if compiled is not None and compiled.covers(current):
-                event, t, x, current, steps, stop = _run_kernel(model, compiled, method, current, x, t, t_end,
-                                                                 options, recorder, after_event, initial_in_kernel)
-                if stop == "initial":  # the kernel leaves this initial instant to Python
+        options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
+                       save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g)
+
+        def after_event(instant) -> bool:
+            """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
+            nonlocal t, x, current, accumulation
+            recorder.event(instant)
+            t, x, current = instant.t, instant.x_after, instant.mode_after
+            if recorder.n_events > max_events:
+                raise fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
+            accumulation = zeno.add(t)
+            if accumulation is None:
+                return False
+            message = (
+                f"Zeno behaviour: events pile up in shrinking time near t = {t:.12g} (mode {current.describe()}); "
+                f"they accumulate at t ≈ {accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
+                "threshold), or pass on_zeno='stop' to end the run there."
+            )
+            if on_zeno == "raise":
+                raise fail(ZenoError, message, accumulation_time=accumulation)
+            return True
+
+        while t < t_end:
+            try:
+                if compiled is not None and compiled.covers(current):
+                    event, t, x, current, steps, stop = _run_kernel(model, compiled, method, current, x, t, t_end,
+                                                                     options, recorder, after_event, initial_in_kernel)
+                    if stop == "initial":  # the kernel leaves this initial instant to Python
+                        initial_in_kernel = False
+                        initial_instant()
+                        continue
                     initial_in_kernel = False
-                    initial_instant()
-                    continue
-                initial_in_kernel = False
-                if stop:
-                    stopped = "zeno"
-                    break
-            else:
-                cm = model.compiled_mode(current)
-                event, t, x, steps = _flow_python(model, cm, current, flow_method, x, t, t_end, options, recorder)
-        except _FlowFailure as failure:
-            t, x = failure.t, failure.x
-            current = failure.mode or current
-            n_steps += failure.steps
-            raise fail(failure.cls, failure.message) from None
-        n_steps += steps
-        if event is None:
-            break
-        t, x = event
-        try:
-            instant = model.resolve(x, current, t)
-        except Exception as exc:
-            if hasattr(exc, "instant"):
-                recorder.sample(t, x, current, force=True)
-                exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
+                    if stop:
+                        return "zeno"
+                else:
+                    cm = model.compiled_mode(current)
+                    problem = nonfinite_at_start(model, cm, x, t)
+                    if problem:
+                        raise fail(NonFiniteStateError, problem)
+                    event, t, x, steps = _flow_python(model, cm, current, flow_method, x, t, t_end, options, recorder)
+            except _FlowFailure as failure:
+                t, x = failure.t, failure.x
+                current = failure.mode or current
+                n_steps += failure.steps
+                raise fail(failure.cls, failure.message) from None
+            n_steps += steps
+            if event is None:
+                break
+            t, x = event
+            try:
+                instant = model.resolve(x, current, t)
+            except Exception as exc:
+                if hasattr(exc, "instant"):
+                    recorder.sample(t, x, current, force=True)
+                    exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
+                raise
+            python_instants += 1
+            if not np.all(np.isfinite(instant.x_after)):
+                t, x, current = instant.t, instant.x_after, instant.mode_after
+                raise fail(NonFiniteStateError, _nonfinite_jump_message(model, instant))
+            if after_event(instant):
+                return "zeno"
+
+        return None
+
+    try:
+        stopped = run()
+    except KeyboardInterrupt as exc:
+        if isinstance(exc, SimulationInterrupted):
             raise
-        python_instants += 1
-        if after_event(instant):
-            stopped = "zeno"
-            break
+        if recorder.t:  # the latest state recorded, possibly inside a flow
+            t, x, current = recorder.t[-1], recorder.x[-1], recorder.modes[-1]
+        raise fail(SimulationInterrupted,
+                   f"interrupted at t = {t:.12g} s in mode {current.describe()} (of {t0:g} … {t_end:g} s); "
+                   "what was computed up to there is kept") from None
+    except HybridBondGraphError as exc:  # e.g. a mode first reached mid-run that cannot be derived
+        if getattr(exc, "trajectory", None) is None:
+            exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
+        raise
+    except Exception as exc:  # an input function, a callback, a library: still nothing computed is lost
+        raise fail(SimulationError,
+                   f"the run failed at t = {t:.12g} s in mode {current.describe()} with {type(exc).__name__}: {exc} "
+                   "(the trajectory up to there is attached; the original error and its traceback are its cause)"
+                   ) from exc
 
     stats = {"method": method, "steps": n_steps, "wall time [s]": round(_time.perf_counter() - started, 6)}
     if compiled is not None:
@@ -480,7 +559,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             raise _FlowFailure(
                 functools.partial(StiffnessError, h=exc.h, h_lambda=exc.h_lambda, limit=exc.limit),
                 _stiffness_message(model, cm, mode, exc), t, x, steps) from None
-        except RuntimeError as exc:
+        except StepFailed as exc:
             raise _FlowFailure(
                 StepSizeError,
                 f"{method} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
@@ -529,6 +608,25 @@ def _stiffness_message(model, cm, mode, exc) -> str:
             f"h = {exc.h:.3g} s gives |h·λ| ≈ {exc.h_lambda:.3g} (estimated; the limit is {exc.limit:g}{held}; "
             f"|λ| ≈ {exc.h_lambda / exc.h:.3g} /s{state}). The problem is stiff here for an explicit method: use "
             f"method='Radau', 'BDF' or 'LSODA'{advice}.")
+
+
+def _check_x0(model, x0) -> np.ndarray:
+    x = np.array(x0, dtype=float).ravel()
+    if len(x) != len(model.states):
+        raise SimulationError(f"x0 has {len(x)} value(s); the model has {len(model.states)} states "
+                              f"({', '.join(s.name for s in model.states)})")
+    bad = np.flatnonzero(~np.isfinite(x))
+    if len(bad):
+        raise SimulationError("x0 is not finite: " + ", ".join(f"{model.states[k].name} = {x[k]}" for k in bad))
+    return x
+
+
+def _nonfinite_jump_message(model, instant) -> str:
+    x = instant.x_after
+    bad = [f"{model.states[k].name} = {x[k]}" for k in np.flatnonzero(~np.isfinite(x))]
+    return (f"the jump at t = {instant.t:.12g} from mode {instant.mode_before.describe()} into "
+            f"{instant.mode_after.describe()} gives a non-finite state ({', '.join(bad)}); check the parameters "
+            "of the jump (restitution coefficients, masses and other storage parameters must be finite and nonzero).")
 
 
 def _nonfinite_message(model, mode, t, x) -> str:

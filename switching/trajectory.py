@@ -16,6 +16,8 @@ from collections import Counter
 
 import numpy as np
 
+from bondgraph.errors import HybridBondGraphError, UnknownNameError
+
 __all__ = ["Trajectory"]
 
 
@@ -31,10 +33,18 @@ class Trajectory:
     events : list[Instant]      every instant resolved, in order
     event_index : list[int]     the sample index just after each event
     stopped : str | None        why the run ended early (``"zeno"``) or None
+    stats : dict                method, steps, wall time, ``"instants"`` (the count, kept or not), …
+
+    A trajectory pickles (a sweep's worker sends it back) without its model:
+    an unpickled one has ``model = None`` and gives states, times, modes and
+    summaries, but :meth:`signal` needs the model attached again
+    (``trajectory.model = model``).
     """
 
-    def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None):
+    def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None, mode_time=None,
+                 instants_kept=True):
         self.model = model
+        self.model_name = model.name
         self.t = np.asarray(t, dtype=float)
         self.x = np.asarray(x, dtype=float).reshape(len(self.t), len(model.states))
         self.state_names = [s.name for s in model.states]
@@ -43,6 +53,13 @@ class Trajectory:
         self.event_index = list(event_index)
         self.stopped = stopped
         self.stats = dict(stats or {})
+        self._mode_time = None if mode_time is None else dict(mode_time)
+        self.instants_kept = instants_kept
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
 
     def __len__(self) -> int:
         return len(self.t)
@@ -55,8 +72,17 @@ class Trajectory:
     def event_times(self) -> np.ndarray:
         return np.array([e.t for e in self.events])
 
+    @property
+    def instant_count(self) -> int:
+        """Instants of the run (also when ``keep_instants=False`` kept none of them)."""
+        return int(self.stats.get("instants", len(self.events)))
+
     def state(self, name: str) -> np.ndarray:
         """The column of one state."""
+        if self.model is None or name in self.state_names:
+            if name not in self.state_names:
+                raise UnknownNameError(f"no state {name!r}; states are: {', '.join(self.state_names)}", name)
+            return self.x[:, self.state_names.index(name)]
         return self.x[:, self.state_names.index(self.model.state(name).name)]
 
     def signal(self, name: str) -> np.ndarray:
@@ -64,6 +90,10 @@ class Trajectory:
         sample's mode (generated code, one vectorized call per mode)."""
         if name in self.state_names:
             return self.state(name)
+        if self.model is None:
+            raise HybridBondGraphError(
+                f"this trajectory of {self.model_name!r} was unpickled without its model, which signals need: "
+                "attach the model first (trajectory.model = model)")
         out = np.empty(len(self.t))
         model = self.model
         labels = np.array(self.mode_labels)
@@ -80,7 +110,10 @@ class Trajectory:
     # ---------------------------------------------------------------- summaries
 
     def time_in_modes(self) -> dict:
-        """Total time spent flowing in each mode [s]."""
+        """Total time spent flowing in each mode [s], as the run counted it
+        (exact whatever samples were kept), else from the samples."""
+        if self._mode_time is not None:
+            return {mode: spent for mode, spent in self._mode_time.items() if spent > 0}
         spent: Counter = Counter()
         for k in range(len(self.t) - 1):
             if self.modes[k] == self.modes[k + 1]:
@@ -89,9 +122,12 @@ class Trajectory:
 
     def summary(self) -> str:
         """Modes visited, time in each, event count, mythical modes passed."""
+        if not len(self.t):
+            return f"trajectory of {self.model_name!r}: no samples"
         lines = [
-            f"trajectory of {self.model.name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
-            f"{len(self.t)} samples, {len(self.events)} instants"
+            f"trajectory of {self.model_name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
+            f"{len(self.t)} samples, {self.instant_count} instants"
+            + ("" if self.instants_kept else " (not kept: keep_instants=False)")
             + (f", stopped early ({self.stopped})" if self.stopped else "")
         ]
         spent = self.time_in_modes()
@@ -99,15 +135,16 @@ class Trajectory:
         for instant in self.events:
             for step in instant.steps:
                 kinds.setdefault(step.mode, Counter())[step.kind] += 1
-        modes = list(dict.fromkeys(self.modes + [s.mode for e in self.events for s in e.steps]))
+        modes = list(dict.fromkeys(self.modes + list(spent) + [s.mode for e in self.events for s in e.steps]))
         width = max([len("mode")] + [len(m.describe()) for m in modes])
         lines.append(f"  {'mode':<{width}}  {'time [s]':>9}  passed as")
         for mode in modes:
             passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
             lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>9.4g}  {passed}")
-        mythical = sum(len(e.mythical) for e in self.events)
-        pinnacles = sum(len(e.pinnacles) for e in self.events)
-        lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
+        if self.instants_kept:
+            mythical = sum(len(e.mythical) for e in self.events)
+            pinnacles = sum(len(e.pinnacles) for e in self.events)
+            lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
         for key, value in self.stats.items():
             lines.append(f"  {key}: {value}")
         return "\n".join(lines)
