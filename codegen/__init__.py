@@ -7,3 +7,4 @@ array ``x`` (shape ``(n,)``), time ``t`` and the parameter array ``p``.
 """
 
 from .functions import vector_function as vector_function
+from .cache import CacheWarning as CacheWarning

@@ -5,22 +5,80 @@ key and the SHA-256 of the rest; an entry that does not match (corrupted,
 truncated, from another version) is ignored and rebuilt.  Files are written
 to a temporary file in the same directory and moved into place with
 ``os.replace``, so several processes may share the directory: a reader sees
-either the old file, the new one, or none.
+either the old file, the new one, or none (a miss).
 
 The directory is ``$HBG_CACHE_DIR``, else ``$XDG_CACHE_HOME/hbg``, else
-``~/.cache/hbg``; ``HBG_CACHE_DIR=off`` disables the disk cache.
+``~/.cache/hbg``; ``HBG_CACHE_DIR=off`` disables the disk cache.  A
+directory that cannot be written costs speed only: a :class:`CacheWarning`
+names it once per process, and the compiled methods then build their kernels
+in a private temporary directory (see :func:`codegen.jit.load_module`).
+
+Size cap.  The directory holds at most ``$HBG_CACHE_MAX_MB`` megabytes
+(default 500; ``inf`` for no cap).  An entry is everything filed under one
+key: ``<key>.py``, and for a compiled model its module
+``jit/hbg_model_<key>.py`` with numba's machine code
+``jit/__pycache__/hbg_model_<key>.*`` (``.nbi``/``.nbc``).  Whenever an entry
+is stored and the directory is then over the cap, whole entries are deleted,
+least recently used first (a load from disk refreshes the entry's
+modification time), down to 90 % of the cap.  Entries used in the last
+:data:`GRACE_SECONDS` are never deleted (another process may be loading
+them), so the cap may be exceeded for a while.  Only files named like
+entries are counted or deleted: anything else in the directory is left alone.
+A file deleted under another process's feet is a miss there, not an error.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 import os
+import re
 import tempfile
+import time
+import warnings
 from pathlib import Path
 
-__all__ = ["SourceCache", "default_cache", "fingerprint"]
+__all__ = ["CacheWarning", "SourceCache", "cache_entries", "default_cache", "default_max_bytes", "fingerprint",
+           "warn_not_writable"]
 
 _HEADER = "# hbg-codegen key={key} sha256={digest}\n"
+
+DEFAULT_MAX_MB = 500.0
+GRACE_SECONDS = 60.0  # entries used more recently than this are not evicted
+LOW_WATER = 0.9  # an eviction frees space down to this fraction of the cap
+
+# the files of one entry, by sub-directory of the cache directory (group 1: the key)
+_ENTRY_FILES = {
+    "": re.compile(r"^\.?([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
+    "jit": re.compile(r"^\.?hbg_model_([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
+    os.path.join("jit", "__pycache__"): re.compile(r"^hbg_model_([0-9a-f]{32})\."),
+}
+
+
+class CacheWarning(UserWarning):
+    """The disk cache could not be used as intended (not writable, or a file
+    in it unreadable): only speed is lost."""
+
+
+_warned_directories: set[Path] = set()
+
+
+def warn_not_writable(directory: str | os.PathLike, error: BaseException, stacklevel: int = 3) -> None:
+    """A :class:`CacheWarning` that ``directory`` cannot be written, once per
+    process for it and everything below it."""
+    path = Path(directory).absolute()
+    if any(path == seen or seen in path.parents for seen in _warned_directories):
+        return
+    _warned_directories.add(path)
+    reason = getattr(error, "strerror", None) or str(error) or type(error).__name__
+    warnings.warn(
+        f"the hbg cache directory {path} is not writable ({reason}): nothing generated now is kept for later runs "
+        f"(the compiled *-jit methods build the kernels it does not hold yet in a private temporary directory, again "
+        f"in every process). Set HBG_CACHE_DIR to a writable directory, or HBG_CACHE_DIR=off to run without a disk "
+        f"cache.",
+        CacheWarning,
+        stacklevel=stacklevel,
+    )
 
 
 def fingerprint(*parts: str) -> str:
@@ -32,13 +90,61 @@ def fingerprint(*parts: str) -> str:
     return h.hexdigest()[:32]
 
 
-class SourceCache:
-    """Generated sources by key, in memory and (optionally) in ``directory``."""
+def default_max_bytes() -> float:
+    """The size cap from ``$HBG_CACHE_MAX_MB`` (megabytes, default 500; ``inf``: none)."""
+    setting = os.environ.get("HBG_CACHE_MAX_MB", "").strip()
+    if not setting:
+        return DEFAULT_MAX_MB * 1e6
+    try:
+        value = float(setting)
+    except ValueError:
+        value = math.nan
+    if not value >= 0:  # also NaN
+        warnings.warn(f"HBG_CACHE_MAX_MB={setting!r} is not a size in megabytes; using {DEFAULT_MAX_MB:g}",
+                      CacheWarning, stacklevel=3)
+        return DEFAULT_MAX_MB * 1e6
+    return value * 1e6
 
-    def __init__(self, directory: str | os.PathLike | None):
+
+def cache_entries(directory: str | os.PathLike) -> dict[str, list]:
+    """The entries in a cache directory: ``{key: [bytes, newest mtime, [(path, bytes), …]]}``.
+    Files that vanish while they are listed are left out."""
+    root = Path(directory)
+    entries: dict[str, list] = {}
+    for sub, pattern in _ENTRY_FILES.items():
+        try:
+            listing = os.scandir(root / sub)
+        except OSError:
+            continue
+        with listing:
+            for item in listing:
+                match = pattern.match(item.name)
+                if match is None:
+                    continue
+                try:
+                    st = item.stat(follow_symlinks=False)
+                except OSError:
+                    continue
+                if not item.is_file(follow_symlinks=False):
+                    continue
+                entry = entries.setdefault(match.group(1), [0, 0.0, []])
+                entry[0] += st.st_size
+                entry[1] = max(entry[1], st.st_mtime)
+                entry[2].append((item.path, st.st_size))
+    return entries
+
+
+class SourceCache:
+    """Generated sources by key, in memory and (optionally) in ``directory``,
+    which is kept under ``max_bytes`` (default :func:`default_max_bytes`) by
+    evicting the least recently used entries."""
+
+    def __init__(self, directory: str | os.PathLike | None, max_bytes: float | None = None):
         self.directory = Path(directory) if directory else None
+        self.max_bytes = default_max_bytes() if max_bytes is None else float(max_bytes)
         self.memory: dict[str, str] = {}
         self.hits = {"memory": 0, "disk": 0, "built": 0, "rejected": 0}
+        self.evicted = 0  # entries this cache deleted to keep under max_bytes
 
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.py"
@@ -49,8 +155,9 @@ class SourceCache:
             return self.memory[key]
         if self.directory is None:
             return None
+        path = self._path(key)
         try:
-            text = self._path(key).read_text()
+            text = path.read_text()
         except (OSError, UnicodeDecodeError):
             return None
         first, _, body = text.partition("\n")
@@ -59,12 +166,16 @@ class SourceCache:
             self.hits["rejected"] += 1
             return None
         try:
-            compile(body, str(self._path(key)), "exec")
+            compile(body, str(path), "exec")
         except SyntaxError:
             self.hits["rejected"] += 1
             return None
         self.hits["disk"] += 1
         self.memory[key] = body
+        try:
+            os.utime(path)  # recently used: the last to be evicted
+        except OSError:
+            pass
         return body
 
     def store(self, key: str, source: str) -> None:
@@ -81,11 +192,46 @@ class SourceCache:
                 handle.write(header + source)
             os.replace(tmp, self._path(key))
             tmp = None
-        except OSError:
-            pass  # a read-only or full cache directory only costs speed
+        except OSError as exc:  # a read-only or full cache directory only costs speed
+            warn_not_writable(self.directory, exc)
+            return
         finally:
-            if tmp is not None and os.path.exists(tmp):
-                os.unlink(tmp)
+            if tmp is not None:
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
+        self.evict(keep=key)
+
+    def evict(self, keep: str | None = None) -> int:
+        """Delete least recently used entries while the directory is over the
+        cap (down to 90 % of it); never ``keep`` nor entries used in the last
+        :data:`GRACE_SECONDS`.  Returns the number of entries deleted."""
+        if self.directory is None or not math.isfinite(self.max_bytes):
+            return 0
+        entries = cache_entries(self.directory)
+        total = sum(size for size, _, _ in entries.values())
+        if total <= self.max_bytes:
+            return 0
+        target = LOW_WATER * self.max_bytes
+        now = time.time()
+        deleted = 0
+        for key, (_, newest, files) in sorted(entries.items(), key=lambda item: item[1][1]):
+            if total <= target:
+                break
+            if key == keep or now - newest < GRACE_SECONDS:
+                continue
+            for path, size in files:
+                try:
+                    os.unlink(path)
+                except FileNotFoundError:
+                    pass  # another process evicted it first
+                except OSError:
+                    continue  # not ours to delete after all: still counts
+                total -= size
+            deleted += 1
+        self.evicted += deleted
+        return deleted
 
 
 def default_cache() -> SourceCache:

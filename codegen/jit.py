@@ -52,19 +52,29 @@ workspaces ``wf, wi, wb`` are smaller than ``workspace_sizes`` says (nothing ran
 instant at ``t0`` is resolved before the first flow (recorded as an event if
 it passed more than one mode; ``info[2] = 1`` then).
 
-The module is written to the cache directory and imported from there, so
-numba's own on-disk cache applies: a second process loads machine code
-instead of compiling it.
+The module is written to the cache directory (``jit/`` in it) and imported
+from there, so numba's own on-disk cache applies: a second process loads
+machine code instead of compiling it (:func:`load_module`).  That cache
+cannot fail a run: unreadable ``.nbi``/``.nbc`` files are deleted and the
+functions compiled again, and a cache directory that cannot be written sends
+the module to a private temporary directory (compiled in every process),
+each with a :class:`codegen.cache.CacheWarning`.  The size cap and
+least-recently-used eviction of :mod:`codegen.cache` cover these files too.
 """
 
 from __future__ import annotations
 
+import atexit
 import functools
 import importlib.util
 import os
+import shutil
 import sys
 import tempfile
+import warnings
 from pathlib import Path
+
+from .cache import CacheWarning, warn_not_writable
 
 __all__ = [
     "COMPARE_SOURCE",
@@ -1292,24 +1302,179 @@ def _stop(info, x, status, n_saved, n_ev, t, m, steps):
 '''.replace("@ENTRY", ENTRY).replace("@JIT", JIT).replace("@INLINE", INLINE).replace("@DISPATCH", DISPATCH)
 
 
+_private: Path | None = None  # this process's own directory for kernels (no usable cache directory)
+_rebuilt: set = set()  # modules whose unreadable numba cache files were deleted (warned once each)
+
+
+def _private_directory() -> Path:
+    """A directory of this process alone (mode 0700), removed at exit: compiled
+    kernels live there when there is no usable cache directory, so nothing of
+    another user's (a planted module or pickle) is ever loaded."""
+    global _private
+    if _private is None:
+        _private = Path(tempfile.mkdtemp(prefix="hbg-jit-"))
+        atexit.register(shutil.rmtree, _private, ignore_errors=True)
+    return _private
+
+
+def _unwritable(directory: Path) -> OSError | None:
+    """Why ``directory`` or its ``__pycache__`` (numba's cache files) cannot
+    be written, or ``None``."""
+    try:
+        for where in (directory, directory / "__pycache__"):
+            where.mkdir(parents=True, exist_ok=True)
+            fd, probe = tempfile.mkstemp(dir=where, prefix=".probe.", suffix=".tmp")
+            os.close(fd)
+            os.unlink(probe)
+    except OSError as exc:
+        return exc
+    return None
+
+
+def _cache_files(cache) -> list:
+    """The index and data files of one function in numba's disk cache."""
+    try:
+        folder = cache._cache_path
+        base = cache._cache_file._index_name[: -len(".nbi")]
+    except AttributeError:  # another numba version: all files of the function's module
+        folder = getattr(cache, "_cache_path", None)
+        base = getattr(cache._py_func, "__module__", None) if hasattr(cache, "_py_func") else None
+        if not folder or not base:
+            return []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    return [os.path.join(folder, n) for n in names if n.startswith(base + ".") and n.endswith((".nbi", ".nbc"))]
+
+
+def _guard_cache(module_name: str, dispatcher) -> None:
+    """Make numba's disk cache of ``dispatcher`` unable to fail a run: a cache
+    entry that cannot be read (corrupted or truncated ``.nbi``/``.nbc``
+    files: ``UnpicklingError``, ``EOFError``, …) is deleted and the function
+    compiled again; a cache entry that cannot be written is skipped.  Either
+    gives one :class:`codegen.cache.CacheWarning` per module."""
+    cache = getattr(dispatcher, "_cache", None)
+    if cache is None or not hasattr(cache, "load_overload") or not hasattr(cache, "save_overload"):
+        return
+    load, save = cache.load_overload, cache.save_overload
+
+    def load_overload(sig, target_context):
+        try:
+            return load(sig, target_context)
+        except Exception as exc:
+            files = _cache_files(cache)
+            for path in files:
+                try:
+                    os.unlink(path)
+                except OSError:
+                    pass
+            if module_name not in _rebuilt:
+                _rebuilt.add(module_name)
+                where = os.path.dirname(files[0]) if files else getattr(cache, "_cache_path", "numba's cache")
+                warnings.warn(f"numba's cache files of compiled kernel {module_name} in {where} could not be read "
+                              f"({type(exc).__name__}: {exc}); deleted them and compiling again",
+                              CacheWarning, stacklevel=2)
+            return None
+
+    def save_overload(sig, data):
+        try:
+            save(sig, data)
+        except Exception as exc:
+            key = (module_name, "save")
+            if key not in _rebuilt:
+                _rebuilt.add(key)
+                warnings.warn(f"numba's cache of compiled kernel {module_name} could not be written "
+                              f"({type(exc).__name__}: {exc}); it is compiled again in the next process",
+                              CacheWarning, stacklevel=2)
+
+    cache.load_overload = load_overload
+    cache.save_overload = save_overload
+
+
+def _import(name: str, source: str, directory: Path):
+    """Write ``source`` to ``directory/name.py`` (unless it is there already)
+    and execute it as module ``name``, its numba caches guarded.  The code
+    is compiled from ``source`` itself, so no ``.pyc`` is written or read."""
+    from numba.core.dispatcher import Dispatcher
+
+    path = directory / f"{name}.py"
+    for attempt in range(3):
+        try:
+            current = path.read_text() if path.exists() else None
+        except (OSError, UnicodeDecodeError):
+            current = None
+        if current != source:
+            fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.", suffix=".tmp")
+            try:
+                with os.fdopen(fd, "w") as handle:
+                    handle.write(source)
+                os.replace(tmp, path)
+            finally:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            exec(compile(source, str(path), "exec"), module.__dict__)  # our own generated code
+        except (OSError, RuntimeError):
+            # the file vanished (another process evicted it) before numba saw it: write it again
+            del sys.modules[name]
+            if attempt == 2:
+                raise
+            continue
+        except BaseException:
+            del sys.modules[name]
+            raise
+        for value in list(vars(module).values()):
+            if isinstance(value, Dispatcher):
+                _guard_cache(name, value)
+        return module
+
+
 def load_module(name: str, source: str, directory: str | os.PathLike | None):
-    """Write ``source`` as module ``name`` under ``directory`` (a private
-    temporary directory if ``None``) and import it; numba's ``cache=True``
-    then keeps the machine code next to it."""
+    """Write ``source`` as module ``name`` under ``directory`` and import it;
+    numba's ``cache=True`` then keeps the machine code in
+    ``directory/__pycache__`` (``name.*.nbi``/``.nbc``), which later processes
+    load instead of compiling.  Unreadable cache files are deleted and the
+    functions compiled again (see :func:`_guard_cache`).
+
+    With ``directory`` ``None`` (``HBG_CACHE_DIR=off``), or not writable (a
+    :class:`codegen.cache.CacheWarning` names it), the module goes to a
+    private temporary directory of this process, removed at exit: it works,
+    but is compiled again by every process — unless the read-only directory
+    holds its machine code already, which is then copied and loaded."""
     if not available():
         raise ImportError("the compiled methods need numba: pip install '.[fast]' (or pip install numba)")
-    directory = Path(directory) if directory else Path(tempfile.gettempdir()) / "hbg-jit"
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / f"{name}.py"
-    if not path.exists() or path.read_text() != source:
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.", suffix=".tmp")
-        with os.fdopen(fd, "w") as handle:
-            handle.write(source)
-        os.replace(tmp, path)
     if name in sys.modules:
         return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    if directory is not None:
+        directory = Path(directory)
+        error = _unwritable(directory)
+        if error is None:
+            try:
+                return _import(name, source, directory)
+            except OSError as exc:  # e.g. the disk is full
+                error = exc
+        warn_not_writable(directory, error)
+        return _import(name, source, _adopt(name, source, directory, _private_directory()))
+    return _import(name, source, _private_directory())
+
+
+def _adopt(name: str, source: str, directory: Path, private: Path) -> Path:
+    """Copy module ``name`` and numba's cache files of it from the read-only
+    ``directory`` into ``private`` (times kept, so numba's source stamp still
+    matches): a read-only cache still spares the compilation."""
+    try:
+        if (directory / f"{name}.py").read_text() != source:
+            return private
+        (private / "__pycache__").mkdir(exist_ok=True)
+        shutil.copy2(directory / f"{name}.py", private / f"{name}.py")
+        with os.scandir(directory / "__pycache__") as listing:
+            for item in listing:
+                if item.name.startswith(name + ".") and item.name.endswith((".nbi", ".nbc")):
+                    shutil.copy2(item.path, private / "__pycache__" / item.name)
+    except (OSError, UnicodeDecodeError):
+        pass  # nothing (more) to adopt: compiled again
+    return private

@@ -43,7 +43,12 @@ Python (:func:`switching.resolution.resolve_instant`).
 
 The source is cached like the per-mode sources (key: the model's fingerprint
 and the mode labels), so a second process neither derives nor regenerates
-anything, and numba's disk cache spares it the compilation.
+anything, and numba's disk cache spares it the compilation.  The module
+``jit/hbg_model_<key>.py`` and numba's files of it belong to the same cache
+entry as the source ``<key>.py``: the size cap of :mod:`codegen.cache` evicts
+them together.  Unreadable numba files are deleted and compiled again, and an
+unwritable cache directory sends the module to a private temporary directory
+(both with a :class:`codegen.cache.CacheWarning`; :func:`codegen.jit.load_module`).
 """
 
 from __future__ import annotations
@@ -53,6 +58,7 @@ import re
 import numpy as np
 import sympy as sp
 
+from bondgraph.errors import HybridBondGraphError
 from codegen.cache import fingerprint
 from codegen.jit import (
     COMPARE_SOURCE,
@@ -391,6 +397,10 @@ class CompiledInstant(Instant):
     @property
     def steps(self) -> list:
         if self._steps is None:
+            if self.model is None:
+                raise HybridBondGraphError(
+                    f"the steps of the instant at t = {self.t!r} (resolved in compiled code) are replayed with the "
+                    "model, and this record was unpickled without it; its time, modes and states are at hand")
             mode, x = self._before
             self._steps = resolve_instant(self.model, x, mode, self.t, self.model.max_steps_per_instant).steps
         return self._steps
