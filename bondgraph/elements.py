@@ -28,6 +28,7 @@ variables of other elements (modulated sources).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import ClassVar
@@ -147,10 +148,17 @@ def _law_from(law, placeholder: sp.Symbol, what: str) -> sp.Expr:
     return as_expr(law, what)
 
 
+@functools.lru_cache(maxsize=4096)
+def _inverse(expr: sp.Expr, var: sp.Symbol) -> tuple:
+    """``(y, solutions)``: every ``var`` with ``expr(var) = y`` (``y`` a dummy).
+    Cached: each mode with the element in derivative causality asks again."""
+    y = sp.Dummy("y")
+    return y, tuple(sp.solve(sp.Eq(expr, y), var, dict=False))
+
+
 def _invert(expr: sp.Expr, var: sp.Symbol, value: sp.Expr, element: str, what: str) -> sp.Expr:
     """Solve ``expr(var) = value`` for ``var``; it must have one solution."""
-    y = sp.Dummy("y")
-    solutions = sp.solve(sp.Eq(expr, y), var, dict=False)
+    y, solutions = _inverse(expr, var)
     if len(solutions) != 1:
         shown = expr.xreplace({var: sp.Symbol(var.name)})
         raise DerivationError(

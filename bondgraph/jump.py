@@ -237,14 +237,20 @@ def _tidy(expr):
 
 
 def _lambdified(states, expressions):
+    """``apply(x, t, parameters)`` evaluating the symbolic map; lambdified on
+    first use (the generated mode code evaluates ``g`` itself, so most maps
+    never need it)."""
     symbols = sorted({s for e in expressions.values() for s in e.free_symbols} - set(states), key=str)
     from .symbols import t as time
 
     params = [s for s in symbols if s != time]
-    fn = sp.lambdify([list(states), time, params], [expressions[x] for x in states], "numpy", cse=True)
+    compiled = []
 
     def apply(x, t, parameters):
-        return np.array(fn(x, t, [parameters[s] for s in params]), dtype=float)
+        if not compiled:
+            compiled.append(sp.lambdify([list(states), time, params], [expressions[x] for x in states], "numpy",
+                                        cse=True))
+        return np.array(compiled[0](x, t, [parameters[s] for s in params]), dtype=float)
 
     return apply
 

@@ -18,7 +18,7 @@ Rules (``a, b`` subexpressions, ``n`` a number)::
     R(c · a)             = |c|·R(a) + |c·a|  (c a number; R(−a) = R(a): a sign is exact)
     R(a**n)              = |n|·|a|**(n−1)·R(a) + |a**n|
     R(f(a₁, …))          = Σ_i |∂f/∂a_i|·R(a_i) + |f|   (elementary functions)
-    R(|a|)               = R(a);   R(min/max(a, b, …)) = max(R(a), R(b), …)
+    R(|a|)               = R(a);   R(min/max(a, b, …)) = max(R(a), R(b), …)   (:class:`larger`)
     anything else        = |e|
 
 Units: ``R(e)`` has the units of ``e``.  Because every rule is homogeneous
@@ -30,10 +30,46 @@ from __future__ import annotations
 
 import sympy as sp
 
-__all__ = ["roundoff_scale"]
+__all__ = ["roundoff_scale", "larger"]
 
 _PASS_THROUGH = (sp.Abs,)
 _EXTREMA = (sp.Min, sp.Max)
+
+
+class larger(sp.Function):
+    """``max(a, b, …)`` of round-off scales, left unevaluated.
+
+    sympy's own ``Max`` compares its arguments symbolically whenever it is
+    rebuilt (common-subexpression elimination rebuilds every node), which
+    costs more than the rest of a large mode's code generation; scales only
+    need the number.  Prints as ``max(...)`` in Python code, evaluates with
+    ``evalf``, rewrites as ``Max``."""
+
+    @classmethod
+    def eval(cls, *args):
+        if len(args) == 1:
+            return args[0]
+        return None
+
+    def _eval_evalf(self, prec):
+        values = [a.evalf(prec) for a in self.args]
+        if all(v.is_Number for v in values):
+            return max(values)
+        return None
+
+    def _eval_rewrite_as_Max(self, *args, **kwargs):
+        return sp.Max(*args)
+
+    def _pythoncode(self, printer):
+        return "max(" + ", ".join(printer._print(a) for a in self.args) + ")"
+
+    def _numpycode(self, printer):
+        text = printer._print(self.args[0])
+        for a in self.args[1:]:
+            text = f"{printer._module_format('numpy.maximum')}({text}, {printer._print(a)})"
+        return text
+
+    _lambdacode = _pythoncode
 
 
 def _abs(e: sp.Basic) -> sp.Expr:
@@ -46,10 +82,12 @@ def _abs(e: sp.Basic) -> sp.Expr:
     return sp.Abs(e, evaluate=False)
 
 
-def roundoff_scale(expr) -> sp.Expr:
+def roundoff_scale(expr, memo: dict | None = None) -> sp.Expr:
     """``R(expr)`` by the rules of the module docstring (a sympy expression
-    in the same symbols, ``≥ |expr|`` wherever both are finite)."""
-    return _scale(sp.sympify(expr), {})
+    in the same symbols, ``≥ |expr|`` wherever both are finite).  ``memo``
+    (subexpression → scale) may be shared between calls: ``R`` depends on the
+    expression alone, so the modes of one model share their guards' scales."""
+    return _scale(sp.sympify(expr), {} if memo is None else memo)
 
 
 def _scale(e: sp.Basic, memo: dict) -> sp.Expr:
@@ -87,8 +125,8 @@ def _rule(e: sp.Basic, memo: dict) -> sp.Expr:
         return _function_rule(e, (base, exponent), memo)
     if isinstance(e, _PASS_THROUGH):
         return _scale(e.args[0], memo)
-    if isinstance(e, _EXTREMA):
-        return sp.Max(*[_scale(a, memo) for a in e.args])
+    if isinstance(e, _EXTREMA) or isinstance(e, larger):
+        return larger(*[_scale(a, memo) for a in e.args])
     if isinstance(e, sp.Function) and not isinstance(e, sp.Piecewise) and all(a.is_commutative for a in e.args):
         return _function_rule(e, e.args, memo)
     return _abs(e)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
+from sympy.simplify.cse_main import tree_cse
 
 __all__ = ["Argument", "FunctionSpec", "function_source", "sanitize", "module_namespace"]
 
@@ -63,9 +64,14 @@ class _Printer(PythonCodePrinter):
     """Prints known functions as bare names (numeric namespace) or ``H.name`` (raw)."""
 
     def __init__(self, raw: bool, names: dict):
-        super().__init__({"fully_qualified_modules": False, "standard": "python3"})
+        # order="none": terms in sympy's own (deterministic) argument order; sorting them for
+        # print costs more than everything else in a large mode's code generation
+        super().__init__({"fully_qualified_modules": False, "standard": "python3", "order": "none"})
         self._raw = raw
         self._names = names
+
+    def _handle_UnevaluatedExpr(self, expr):  # none are generated: skip the whole-tree replace per output
+        return expr
 
     def _module_format(self, fqn, register=True):
         leaf = fqn.split(".")[-1]
@@ -79,6 +85,16 @@ class _Printer(PythonCodePrinter):
 
     def _print_NegativeInfinity(self, expr):
         return "-H.inf" if self._raw else "-inf"
+
+
+def _common_subexpressions(outputs: list, temporaries) -> tuple[list, list]:
+    """``(replacements, reduced)`` as ``sympy.cse`` gives them, for repeated
+    subtrees only: sympy's own ``tree_cse`` without the search for common
+    arguments of sums and products (``opt_cse``) and in the expressions' own
+    argument order.  The bond graph's expressions share whole subtrees (an
+    effort met on several bonds), and that search costs more than the rest of
+    a large mode's code generation while finding little more."""
+    return tree_cse(outputs, temporaries, opt_subs={}, order="none")
 
 
 def function_source(spec: FunctionSpec) -> str:
@@ -100,7 +116,7 @@ def function_source(spec: FunctionSpec) -> str:
 
     outputs = [sp.sympify(o) for o in spec.outputs]
     temporaries = sp.numbered_symbols("_c")
-    replacements, reduced = sp.cse(outputs, symbols=temporaries, optimizations="basic") if outputs else ([], [])
+    replacements, reduced = _common_subexpressions(outputs, temporaries) if outputs else ([], [])
     for sym, _ in replacements:
         names[sym] = sym.name
     printer = _Printer(spec.raw, names)

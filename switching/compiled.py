@@ -34,14 +34,14 @@ import sympy as sp
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
-from codegen.roundoff import roundoff_scale
+from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "5"
+MODE_SOURCE_VERSION = "6"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -67,8 +67,24 @@ def _tree(condition, relations: list):
         return ("not", _tree(condition.args[0], relations))
     if isinstance(condition, Relational):
         relations.append(condition)
-        return ("rel", len(relations) - 1, _op(condition), str(condition))
+        # the terms in sympy's own order: sorting them costs more than the rest of a large mode's source
+        return ("rel", len(relations) - 1, _op(condition), sp.sstr(condition, order="none"))
     raise TypeError(f"cannot compile {condition} as a guard")
+
+
+def _leaf_texts(trees, count: int) -> list:
+    """The text of every comparison, by index, from the leaves of guard trees."""
+    texts = [""] * count
+    todo = list(trees)
+    while todo:
+        tree = todo.pop()
+        if tree[0] in ("and", "or"):
+            todo.extend(tree[1])
+        elif tree[0] == "not":
+            todo.append(tree[1])
+        elif tree[0] == "rel":
+            texts[tree[1]] = tree[3]
+    return texts
 
 
 def decide_tree(tree, sides, rtol, atol, record=None) -> bool:
@@ -98,9 +114,10 @@ def comparison_triples(me, relations) -> list:
     """``[left, right, max(R(left), R(right))]`` of every comparison, finite
     parts (``ẋ = f(x)`` substituted), concatenated: the outputs of ``sides``."""
     triples = []
+    memo = me.model._roundoff_memo
     for rel in relations:
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
-        triples += [left, right, sp.Max(roundoff_scale(left), roundoff_scale(right), evaluate=False)]
+        triples += [left, right, larger(roundoff_scale(left, memo), roundoff_scale(right, memo))]
     return triples
 
 
@@ -139,8 +156,9 @@ def generate_mode_source(model, me) -> str:
     finite_sides, raw_sides = comparison_triples(me, relations), []
     for rel in relations:
         raw_sides += [rel.lhs, rel.rhs]
-    side_names = tuple(f"{side} of {rel}" for rel in relations for side in ("left", "right"))
-    triple_names = tuple(f"{side} of {rel}" for rel in relations for side in ("left", "right", "round-off scale"))
+    texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by _tree
+    side_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right"))
+    triple_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right", "round-off scale"))
 
     g = me.g
     jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")

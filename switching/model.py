@@ -192,6 +192,7 @@ class HybridModel:
         self._mode_cache: dict[Mode, ModeEquations] = {}
         self._compiled: dict = {}
         self._jit: dict = {}
+        self._roundoff_memo: dict = {}  # subexpression → round-off scale, shared by the modes (codegen.roundoff)
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0

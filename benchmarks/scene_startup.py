@@ -1,0 +1,66 @@
+"""Time from model to result on an empty cache: what a user meets first.
+
+    python benchmarks/scene_startup.py [N ...]
+
+Each row runs in a new process with an empty disk cache (``HBG_CACHE_DIR``
+set to a fresh temporary directory), so nothing derived earlier helps:
+
+* ``ball_chain.build(N=N, e=1.0).simulate(1.0, "RK45", rtol=1e-9)`` — the
+  ideal chain derives one mode per pinnacle (N modes); printed: the whole
+  run, the CPU time of the child, and the time per derived mode (which should
+  not grow faster than linearly in N: each mode holds N − 1 contact guards).
+* the falling rod's default run (``models.falling_rod.RUN``), as
+  ``hbg run falling-rod`` does it.
+
+Issue 15's targets: N = 50 in ≤ 3 s, N = 200 in ≤ 30 s, the falling rod in
+≤ 2 s.  The machine's load matters: compare CPU seconds when it is busy.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_CHILD = r"""
+import json, sys, time
+start = time.perf_counter()
+sys.path.insert(0, {root!r})
+from models import ball_chain, falling_rod
+imported = time.perf_counter()
+if {n} > 0:
+    model = ball_chain.build(N={n}, e=1.0)
+    model.simulate(1.0, "RK45", rtol=1e-9)
+else:
+    model = falling_rod.build()
+    run = dict(falling_rod.RUN)
+    model.simulate(run.pop("t_end"), run.pop("method"), **run)
+done = time.perf_counter()
+print(json.dumps({{"import": imported - start, "run": done - imported, "cpu": time.process_time(),
+                  "modes": model.derivation_count}}))
+"""
+
+
+def measure(n: int) -> dict:
+    with tempfile.TemporaryDirectory() as cache:
+        out = subprocess.run([sys.executable, "-c", _CHILD.format(root=str(ROOT), n=n)], capture_output=True,
+                             text=True, check=True, env={"HBG_CACHE_DIR": cache, "PATH": "/usr/bin:/bin"})
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(sizes) -> None:
+    print(f"{'scene':<18} {'import [s]':>10} {'run [s]':>9} {'cpu [s]':>8} {'modes':>6} {'per mode [ms]':>14}")
+    for n in sizes:
+        row = measure(n)
+        name = f"ball chain N={n}" if n else "falling rod"
+        per_mode = 1e3 * row["run"] / max(row["modes"], 1)
+        print(f"{name:<18} {row['import']:>10.2f} {row['run']:>9.2f} {row['cpu']:>8.2f} {row['modes']:>6d} "
+              f"{per_mode:>14.0f}")
+
+
+if __name__ == "__main__":
+    main([int(a) for a in sys.argv[1:]] or [0, 10, 20, 50])
