@@ -2,7 +2,7 @@
 
 A :class:`FunctionSpec` names a function, its array arguments (each an
 ordered list of symbols) and its outputs; :func:`function_source` prints it
-with common subexpressions eliminated, every used array entry unpacked into a
+with repeated subexpressions computed once (:func:`common_subexpressions`), every used array entry unpacked into a
 sanitized local name, a docstring listing the order of every array, and the
 outputs written in place into ``out`` (or returned as a list for *raw*
 functions, which run on :class:`codegen.runtime.Hyper` values).
@@ -20,9 +20,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
-from sympy.simplify.cse_main import tree_cse
 
-__all__ = ["Argument", "FunctionSpec", "function_source", "sanitize", "module_namespace"]
+__all__ = ["Argument", "FunctionSpec", "common_subexpressions", "function_source", "sanitize", "module_namespace"]
 
 
 @dataclass(frozen=True)
@@ -63,12 +62,34 @@ def sanitize(name: str) -> str:
 class _Printer(PythonCodePrinter):
     """Prints known functions as bare names (numeric namespace) or ``H.name`` (raw)."""
 
-    def __init__(self, raw: bool, names: dict):
+    def __init__(self, raw: bool, names: dict, temporaries: dict | None = None):
         # order="none": terms in sympy's own (deterministic) argument order; sorting them for
         # print costs more than everything else in a large mode's code generation
         super().__init__({"fully_qualified_modules": False, "standard": "python3", "order": "none"})
         self._raw = raw
         self._names = names
+        self._temporaries = temporaries or {}
+        self._defining = None
+
+    def _print(self, expr, **kwargs):
+        name = self._temporaries.get(expr) if self._temporaries and isinstance(expr, sp.Basic) else None
+        if name is not None and expr != self._defining:
+            return name
+        return super()._print(expr, **kwargs)
+
+    def parenthesize(self, item, level, strict=False):
+        name = self._temporaries.get(item) if self._temporaries and isinstance(item, sp.Basic) else None
+        if name is not None and item != self._defining:
+            return name  # a temporary is a name: no parentheses
+        return super().parenthesize(item, level, strict)
+
+    def definition(self, expr) -> str:
+        """``expr`` printed as the value of its own temporary (its repeated parts by theirs)."""
+        self._defining = expr
+        try:
+            return self.doprint(expr)
+        finally:
+            self._defining = None
 
     def _handle_UnevaluatedExpr(self, expr):  # none are generated: skip the whole-tree replace per output
         return expr
@@ -87,14 +108,53 @@ class _Printer(PythonCodePrinter):
         return "-H.inf" if self._raw else "-inf"
 
 
-def _common_subexpressions(outputs: list, temporaries) -> tuple[list, list]:
-    """``(replacements, reduced)`` as ``sympy.cse`` gives them, for repeated
-    subtrees only: sympy's own ``tree_cse`` without the search for common
-    arguments of sums and products (``opt_cse``) and in the expressions' own
-    argument order.  The bond graph's expressions share whole subtrees (an
-    effort met on several bonds), and that search costs more than the rest of
-    a large mode's code generation while finding little more."""
-    return tree_cse(outputs, temporaries, opt_subs={}, order="none")
+def _is_cheap(expr) -> bool:
+    """A node not worth a temporary: ``1/a`` and ``-a`` of an atom (``b/a``
+    stays one correctly rounded division instead of ``b*(1/a)``)."""
+    if expr.is_Pow:
+        return expr.base.is_Atom and expr.exp == -1
+    if expr.is_Mul and len(expr.args) == 2:
+        return expr.args[0] == -1 and expr.args[1].is_Atom
+    return False
+
+
+def common_subexpressions(outputs: list) -> list:
+    """The subtrees met more than once in ``outputs``, each after the
+    subtrees it contains (the order temporaries must be assigned in).
+
+    Only whole repeated subtrees count, found by one walk of the expression
+    DAG (a subtree seen again is not walked again): the bond graph's
+    expressions share whole subtrees (an effort met on several bonds).
+    Unlike ``sympy.cse`` nothing is rebuilt — the printer substitutes the
+    temporaries — so an expression is printed exactly as derived, and the
+    cost stays linear in the size of the DAG."""
+    seen, repeated = set(), set()
+    stack = list(reversed(outputs))
+    while stack:
+        expr = stack.pop()
+        if not isinstance(expr, sp.Basic) or expr.is_Atom:
+            continue
+        if expr in seen:
+            if not _is_cheap(expr):
+                repeated.add(expr)
+            continue
+        seen.add(expr)
+        stack.extend(reversed(expr.args))
+    ordered, placed = [], set()
+    for output in outputs:  # post-order: a temporary after those it uses
+        stack = [(output, False)]
+        while stack:
+            expr, expanded = stack.pop()
+            if not isinstance(expr, sp.Basic) or expr.is_Atom or expr in placed:
+                continue
+            if expanded:
+                placed.add(expr)
+                if expr in repeated:
+                    ordered.append(expr)
+                continue
+            stack.append((expr, True))
+            stack.extend((arg, False) for arg in reversed(expr.args))
+    return ordered
 
 
 def function_source(spec: FunctionSpec) -> str:
@@ -115,14 +175,12 @@ def function_source(spec: FunctionSpec) -> str:
             used_names.add(ident)
 
     outputs = [sp.sympify(o) for o in spec.outputs]
-    temporaries = sp.numbered_symbols("_c")
-    replacements, reduced = _common_subexpressions(outputs, temporaries) if outputs else ([], [])
-    for sym, _ in replacements:
-        names[sym] = sym.name
-    printer = _Printer(spec.raw, names)
+    shared = common_subexpressions(outputs)
+    temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
+    printer = _Printer(spec.raw, names, temporaries)
 
     needed = set()
-    for expr in [e for _, e in replacements] + list(reduced):
+    for expr in outputs:
         needed |= expr.free_symbols
 
     signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
@@ -144,12 +202,12 @@ def function_source(spec: FunctionSpec) -> str:
         for k, sym in enumerate(arg.symbols):
             if sym in needed:
                 lines.append(f"    {names[sym]} = {arg.name}[{k}]")
-    for sym, expr in replacements:
-        lines.append(f"    {names[sym]} = {printer.doprint(expr)}")
+    for expr in shared:
+        lines.append(f"    {temporaries[expr]} = {printer.definition(expr)}")
     if spec.raw:
-        lines.append("    return [" + ", ".join(printer.doprint(e) for e in reduced) + "]")
+        lines.append("    return [" + ", ".join(printer.doprint(e) for e in outputs) + "]")
     else:
-        for k, expr in enumerate(reduced):
+        for k, expr in enumerate(outputs):
             lines.append(f"    out[{k}] = {printer.doprint(expr)}")
         lines.append("    return out")
     return "\n".join(lines) + "\n"

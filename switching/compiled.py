@@ -41,7 +41,7 @@ from codegen.source import Argument, FunctionSpec, function_source, module_names
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "6"
+MODE_SOURCE_VERSION = "7"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -210,9 +210,22 @@ class CompiledMode:
         self._sides = namespace["sides"]
         self._sides_raw = namespace["sides_raw"]
         self._jump = namespace.get("jump")
+        self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
         self.n = meta["n_states"]
         self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
         self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
+
+    def on_numpy(self, name: str):
+        """Generated function ``name`` run with numpy's math functions, whose
+        results are numpy scalars: where the ``math`` version raises (a
+        division by ``sqrt(0.0)``, an overflow) this one gives ``inf`` or
+        ``NaN`` (under ``np.errstate``) — the values the guard band and the
+        non-finite checks know how to handle."""
+        if self._on_numpy is None:
+            namespace = module_namespace(vectorized=True)
+            exec(compile(self.source, f"<hbg mode {self.mode.label} (numpy)>", "exec"), namespace)  # our own code
+            self._on_numpy = namespace
+        return self._on_numpy[name]
 
     # ----------------------------------------------------------- evaluation
 
@@ -257,7 +270,11 @@ class CompiledMode:
         to the sides' own size, :func:`codegen.runtime.decide`)."""
         model = self.model
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
+            try:
+                return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
+            except ArithmeticError:
+                return self.on_numpy("sides")(np.asarray(x, dtype=float), np.float64(t), model.parameter_array,
+                                              model.input_values(t), np.empty(self.n_sides))
 
     def sides_impulsive(self, x, x_plus, t, pulses: bool = True) -> list:
         """Comparison triples a posteriori: the sides on ``x_plus`` with the

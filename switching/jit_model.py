@@ -79,7 +79,7 @@ __all__ = ["KINDS", "CompiledInstant", "CompiledModel", "KernelResult"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 _MAX_CODE = 2**62
-GENERATOR_VERSION = "12"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "13"  # part of the cache key: change it when the generated functions change
 
 
 

@@ -19,6 +19,7 @@ fixes the configuration of every controlled junction.  Its
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -154,9 +155,14 @@ class ModeEquations:
 
     def finite(self, raw: sp.Expr) -> sp.Expr:
         """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
-        rates = {self.equations.rate_symbols[x]: self.f[x] for x in self.states}
+        rates = self._rates_by_symbol
         subs = {s: rates[s] for s in raw.free_symbols if s in rates}
         return raw.xreplace(subs) if subs else raw
+
+    @functools.cached_property
+    def _rates_by_symbol(self) -> dict:
+        """``ẋ`` symbol → ``f(x)``, built once per mode."""
+        return {self.equations.rate_symbols[x]: self.f[x] for x in self.states}
 
     def signal(self, name: str) -> SignalForm:
         """The form of a named signal in this mode (derived on first request)."""

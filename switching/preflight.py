@@ -48,15 +48,17 @@ def nonfinite_at_start(model, cm, x, t) -> str | None:
     the mode of ``cm`` at the state ``x`` (n,) and time ``t`` [s], or ``None``
     when all are finite.  Round-off scales of the sides are not checked (they
     may be infinite where a derivative is, e.g. ``acos`` at ±1)."""
-    with np.errstate(all="ignore"):
+    x = np.asarray(x, dtype=float)
+    with np.errstate(all="ignore"):  # numpy's math: inf or NaN where Python floats would raise
         try:
-            rates = np.asarray(cm.rates(np.asarray(x, dtype=float), t), dtype=float)
-        except (ArithmeticError, ValueError) as exc:  # e.g. a Python float division by zero
+            rates = np.asarray(cm.on_numpy("rates")(x, np.float64(t), model.parameter_array, model.input_values(t),
+                                                    np.empty(cm.n)), dtype=float)
+        except (ArithmeticError, ValueError) as exc:
             rates = np.full(cm.n, np.nan)
             rates_error = str(exc)
         else:
             rates_error = ""
-        sides = np.asarray(cm.sides(np.asarray(x, dtype=float), t), dtype=float) if cm.n_sides else np.zeros(0)
+        sides = np.asarray(cm.sides(x, t), dtype=float) if cm.n_sides else np.zeros(0)
     bad_rates = np.flatnonzero(~np.isfinite(rates))
     leaves = [(guard, leaf) for guard in cm.guards for leaf in _comparisons(guard["tree"], [])]
     bad_sides = [(guard, leaf, side, sides[3 * leaf[1] + j])

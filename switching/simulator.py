@@ -456,14 +456,17 @@ def _flow_functions(model, cm, x):
     work = np.empty(n)
     dep_out = np.empty(len(dep_l))
 
-    def on_arrays(tau, y, u):
-        if whole:
-            return rates(y, tau, p, u, np.empty(n))
-        z = template.copy()
-        z[ind] = y
-        if dep_l:
-            z[dep] = phi(z, tau, p, u, np.empty(len(dep_l)))
-        return rates(z, tau, p, u, work)[ind]
+    def on_arrays(tau, y, u):  # numpy's math: inf or NaN where Python floats raise
+        rates_np, phi_np = cm.on_numpy("rates"), cm.on_numpy("phi")
+        tau = np.float64(tau)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if whole:
+                return rates_np(np.asarray(y, dtype=float), tau, p, u, np.empty(n))
+            z = template.copy()
+            z[ind] = y
+            if dep_l:
+                z[dep] = phi_np(z, tau, p, u, np.empty(len(dep_l)))
+            return rates_np(z, tau, p, u, work)[ind]
 
     def fun(tau, y):
         u = u0 if inputs is None else inputs(tau)
@@ -531,7 +534,8 @@ def _sides_function(model, cm):
             return generated(x.tolist(), float(tau), floats, u, np.empty(count)).tolist()
         except _NUMERIC_ERRORS:
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a side or scale may be inf
-                return generated(x, tau, p, u, np.empty(count)).tolist()
+                return cm.on_numpy("sides")(np.asarray(x, dtype=float), np.float64(tau), p, u,
+                                            np.empty(count)).tolist()
 
     return sides
 

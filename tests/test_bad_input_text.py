@@ -36,6 +36,12 @@ def bounded(function, *args, seconds=SECONDS):
         try:
             outcome = ("returned", function(*args))
         except BaseException as error:  # noqa: BLE001 - everything goes back to the parent
+            # tracebacks stay here: once distributed is imported (tblib), errors pickle with them,
+            # and the traceback of a deeply nested parse is too deep to pickle
+            chained = error
+            while chained is not None:
+                chained.__traceback__ = None
+                chained = chained.__cause__ or chained.__context__
             outcome = ("raised", error)
         try:
             send.send(outcome)
