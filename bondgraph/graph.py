@@ -19,6 +19,7 @@ Example — a series RLC circuit driven by a voltage source::
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -52,11 +53,11 @@ class Bond:
     tail: str
     head: str
 
-    @property
+    @functools.cached_property  # built once: derivations ask for them thousands of times
     def effort(self) -> sp.Symbol:
         return sp.Symbol(f"e_{self.name}")
 
-    @property
+    @functools.cached_property
     def flow(self) -> sp.Symbol:
         return sp.Symbol(f"f_{self.name}")
 
@@ -492,8 +493,8 @@ class BondGraph:
         groups = [
             ("state", self.states),
             ("input", self.inputs.values()),
-            ("bond variable", sorted(self.bond_symbols(), key=str)),
-            ("parameter", sorted(self.parameters, key=str)),
+            ("bond variable", sorted(self.bond_symbols(), key=lambda s: s.name)),
+            ("parameter", sorted(self.parameters, key=lambda s: s.name)),
         ]
         for what, symbols in groups:
             for s in symbols:

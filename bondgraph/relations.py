@@ -132,6 +132,11 @@ def causal_relations(graph, effort_by: dict, dead: frozenset, config: dict) -> C
     return CausalRelations(rels, rates, constraints, rate_symbols)
 
 
+def _signed(sign: int, expr: sp.Expr) -> sp.Expr:
+    """``sign·expr`` for ``sign = ±1`` (no product built for +1)."""
+    return expr if sign > 0 else -expr
+
+
 def _junction(el, name, bonds, effort_by, config, put) -> None:
     is_zero = isinstance(el, Zero)
     if el.controlled and not config[name]:
@@ -143,12 +148,12 @@ def _junction(el, name, bonds, effort_by, config, put) -> None:
         for b in bonds:
             if b is not strong:
                 put(b.effort, strong.effort, name)
-        total = sp.Add(*(b.sign_at(name) * b.flow for b in bonds if b is not strong))
-        put(strong.flow, -strong.sign_at(name) * total, name)
+        total = sp.Add(*(_signed(b.sign_at(name), b.flow) for b in bonds if b is not strong))
+        put(strong.flow, _signed(-strong.sign_at(name), total), name)
     else:
         (strong,) = [b for b in bonds if effort_by[b.name] == name]
         for b in bonds:
             if b is not strong:
                 put(b.flow, strong.flow, name)
-        total = sp.Add(*(b.sign_at(name) * b.effort for b in bonds if b is not strong))
-        put(strong.effort, -strong.sign_at(name) * total, name)
+        total = sp.Add(*(_signed(b.sign_at(name), b.effort) for b in bonds if b is not strong))
+        put(strong.effort, _signed(-strong.sign_at(name), total), name)
