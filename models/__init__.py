@@ -11,12 +11,20 @@ Every model is a module ``models.<name>`` with
 * ``SIGNALS`` — the named signals worth plotting.
 
 Also: :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
-(plain bond graphs), :mod:`models.cli` (the ``hbg`` command).
+(plain bond graphs), :mod:`models.cli` (the ``hbg`` command), ``models/examples``
+(model files written by hand; see :mod:`switching.modelfile` for the format).
+
+A model file is loaded with :func:`load` (``models.load("relay.toml")``), its
+sub-model instances may place the components of :mod:`models.components` by
+name (``component = "msd_cell"``).
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import types
+from pathlib import Path
 
 #: name → module of every shipped hybrid model
 MODELS = (
@@ -31,11 +39,44 @@ MODELS = (
 )
 
 
-def load(name: str):
-    """The module of a shipped model (``-`` and ``_`` are interchangeable)."""
-    key = name.replace("-", "_")
+#: the directory of the model files written by hand (``relay.toml``, …)
+EXAMPLES = Path(__file__).resolve().parent / "examples"
+
+
+def component_library() -> dict:
+    """name → function of :mod:`models.components` returning a sub-model bond
+    graph: the components a model file places with ``component = "name"``."""
+    library = importlib.import_module("models.components")
+    return {name: getattr(library, name) for name in library.__all__}
+
+
+def resolve(reference: str | os.PathLike):
+    """What ``hbg`` runs for ``reference``: the module of a shipped model
+    (by name), or a :class:`switching.modelfile.ModelFile` for a path to a
+    model file.  Both have ``DEFAULTS``, ``RUN``, ``SIGNALS`` and ``build(**parameters)``."""
+    from switching.modelfile import ModelFile, is_model_path
+
+    if is_model_path(reference):
+        return ModelFile(reference, component_library())
+    key = str(reference).replace("-", "_")
     if key not in MODELS:
         from bondgraph.errors import UnknownNameError
 
-        raise UnknownNameError(f"unknown model {name!r}; shipped models: {', '.join(MODELS)}", name)
+        raise UnknownNameError(
+            f"unknown model {reference!r}; shipped models: {', '.join(MODELS)} (a model file is a path ending "
+            "in .toml)", str(reference))
     return importlib.import_module(f"models.{key}")
+
+
+def load(name: str | os.PathLike, **parameters):
+    """The module of a shipped model by name (``-`` and ``_`` are
+    interchangeable), or — for a path to a model file (``.toml``) — the
+    :class:`~switching.model.HybridModel` it holds, with its parameter values
+    overridden by ``parameters``.  A bad file raises
+    :class:`switching.modelfile.ModelFileError` naming the file, line and culprit."""
+    source = resolve(name)
+    if not isinstance(source, types.ModuleType):  # a model file
+        return source.build(**parameters)
+    if parameters:
+        raise TypeError(f"parameters are given to a shipped model by models.load({str(name)!r}).build(**parameters)")
+    return source

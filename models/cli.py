@@ -8,9 +8,17 @@
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
     hbg draw MODEL [--mode LABEL] -o FILE.png the bond graph with causal strokes
+    hbg save MODEL [--set name=value ...] -o FILE.toml   the model as a model file
+    hbg sweep MODEL --grid name=start:stop:count --grid name=v1,v2 [--set ...] [--method M] [--t-end T]
+                  [--scheduler ADDRESS | --workers N] --csv FILE [--plot FILE.png] [--metric NAME ...]
+                  [--on-zeno {raise,stop}]
+                                              one run per grid point on Dask, a CSV row each, a plot
     hbg graphs | hbg equations NAME           plain bond graphs and their equations
 
-Model names accept ``-`` or ``_`` (``falling-rod``).
+Model names accept ``-`` or ``_`` (``falling-rod``).  Wherever a command
+takes a MODEL it also takes the path of a model file (``hbg run my.toml``;
+see :mod:`switching.modelfile`); ``--set`` then overrides the file's
+parameters, and the file's ``[run]`` table gives the default run.
 
 Output of ``hbg run``: ``--samples N`` (default 500, at least 2) writes at
 most ``N`` rows to the CSV/NPZ/plot, at ``N`` equally spaced times from 0 to
@@ -72,10 +80,19 @@ def _summary(obj) -> str:
 
 
 def _module(name):
+    """The shipped model's module, or for a path the :class:`switching.modelfile.ModelFile`
+    (same interface); a bad file raises its ModelFileError (file, line, culprit)."""
+    from switching.modelfile import is_model_path
+
+    from . import resolve
+
+    if is_model_path(name) or (name.replace("-", "_") not in MODELS and os.path.isfile(name)):
+        return resolve(name)
     try:
         return load(name)
     except HybridBondGraphError:
-        raise _UsageError(f"unknown model {name!r}; shipped models: {', '.join(m.replace('_', '-') for m in MODELS)}")
+        raise _UsageError(f"unknown model {name!r}; shipped models: {', '.join(m.replace('_', '-') for m in MODELS)} "
+                          "(or a model file: a path ending in .toml)")
 
 
 def _finite(value: str) -> str:
@@ -434,6 +451,18 @@ def _cmd_codegen(args) -> int:
     return 0
 
 
+def _cmd_save(args) -> int:
+    """``hbg save``: write a model (with its --set values) and its default run to a model file."""
+    _check_output("-o/--output", args.output)
+    module, model = _build(args)
+    run = dict(module.RUN)
+    run["signals"] = list(module.SIGNALS)
+    model.save(args.output, run=run, description=_summary(module) or None)
+    print(f"wrote {args.output} (model {model.name}: {len(model.graph.elements)} elements, "
+          f"{len(model.automata)} automata, {len(model.parameter_symbols)} parameters)")
+    return 0
+
+
 def _cmd_draw(args) -> int:
     import matplotlib
 
@@ -475,6 +504,143 @@ def _cmd_equations(args) -> int:
     eq = graph.equations({name: False for name in args.off})
     print(eq.latex() if args.latex else eq.pretty(signals=args.signals))
     return 0
+
+
+def _grid_axis(item, defaults) -> tuple[str, list]:
+    """One ``--grid``: ``name=start:stop:count`` (``count`` equally spaced
+    numbers, both ends included) or ``name=v1,v2,...``; checked like ``--set``."""
+    if "=" not in item:
+        raise _UsageError(f"--grid expects name=start:stop:count or name=v1,v2,..., got {item!r}")
+    name, _, text = item.partition("=")
+    name, text = name.strip(), text.strip()
+    if name not in defaults:
+        raise _UsageError(f"--grid {item}: unknown parameter {name!r}; parameters: {', '.join(defaults)}")
+    if isinstance(defaults[name], (bool, str)):  # parsed and checked by the model
+        values = [v.strip() for v in text.split(",")]
+        if not all(values):
+            raise _UsageError(f"--grid {item}: an empty value in the list")
+        return name, values
+
+    def number(value):
+        try:
+            x = float(value)
+        except ValueError:
+            raise _UsageError(f"--grid {item}: parameter {name!r} needs numbers, got {value.strip()!r}") from None
+        problem = _finite(value)
+        if problem:
+            raise _UsageError(f"--grid {item}: {value.strip()!r} is not a finite number ({problem})")
+        return x
+
+    if text.count(":") == 2 and "," not in text:
+        start, stop, count = text.split(":")
+        try:
+            n = int(count)
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise _UsageError(f"--grid {item}: the count after the second ':' must be a whole number >= 1, "
+                              f"got {count.strip()!r}")
+        import numpy as np
+
+        return name, [float(v) for v in np.linspace(number(start), number(stop), n)]
+    if ":" in text:
+        raise _UsageError(f"--grid {item}: write name=start:stop:count (two ':') or name=v1,v2,...")
+    return name, [number(v) for v in text.split(",")]
+
+
+def _sweep_metrics(names, model):
+    """The ``--metric`` names split into signal specs (KIND:SIGNAL, computed
+    in the workers) and columns of the table; unknown names are usage errors."""
+    from switching.sweep_frame import FINAL, RUN_COLUMNS, SignalMetrics
+
+    columns = [c for c in RUN_COLUMNS if c not in ("status", "error")] + [FINAL + s.name for s in model.states]
+    specs = [name for name in names if ":" in name]
+    for name in names:
+        if ":" not in name and name not in columns:
+            raise _UsageError(f"--metric {name}: not a column of the sweep table; use one of {', '.join(columns)} "
+                              "or KIND:SIGNAL (KIND final, min or max; e.g. max:" + model.signal_names[0] + ")")
+    if not specs:
+        return None
+    metrics = SignalMetrics(*specs)
+    metrics.check(model)
+    return metrics
+
+
+def _cmd_sweep(args) -> int:
+    """``hbg sweep``: one run per point of the grid on Dask, a CSV row per run,
+    a plot of one metric over the grid."""
+    import contextlib
+
+    from switching import simulate_many
+    from switching.sweep_frame import _pandas, parameter_grid, plot_sweep, to_frame
+
+    module = _module(args.model)
+    base = _parse_sets(args.set or [], module.DEFAULTS)
+    axes = {}
+    for item in args.grid:
+        name, values = _grid_axis(item, module.DEFAULTS)
+        if name in axes or name in base:
+            raise _UsageError(f"--grid {item}: {name!r} is already given ({'--grid' if name in axes else '--set'})")
+        axes[name] = values
+    t_end, method, options = _run_options(args, module)
+    options["on_zeno"] = args.on_zeno
+    if args.workers is not None and args.workers < 1:
+        raise _UsageError(f"--workers must be at least 1, got {args.workers}")
+    varying = [name for name, values in axes.items() if len(set(values)) > 1]
+    if args.plot and len(varying) not in (1, 2):
+        raise _UsageError(f"--plot shows one or two parameters that vary over the grid; {len(varying)} vary"
+                          + (f" ({', '.join(varying)})" if varying else ""))
+    _check_output("--csv", args.csv)
+    if args.plot:
+        _check_output("--plot", args.plot, plot=True)
+    _pandas()  # a missing pandas is said before the sweep, not after
+    model = module.build(**base)  # checks --set, and names the states and signals metrics may use
+    names = args.metric or ["events"]
+    metrics = _sweep_metrics(names, model)
+    sets = [{**base, **point} for point in parameter_grid(axes)]
+    where = args.scheduler or f"{min(args.workers or os.cpu_count() or 1, len(sets))} local Dask worker(s)"
+    print(f"sweep of {model.name}: {len(sets)} runs over {' × '.join(f'{n} ({len(v)})' for n, v in axes.items())}, "
+          f"{method} to t = {t_end:g} s, on {where}")
+    start = time.perf_counter()
+    bar = sys.stderr.isatty()
+    with contextlib.redirect_stdout(sys.stderr) if bar else contextlib.nullcontext():  # Dask's bar: on stderr
+        results = simulate_many(module.build, sets, t_end, method, client=args.scheduler, workers=args.workers,
+                                metrics=metrics, trajectories=False, progress_bar=bar, **options)
+    frame = to_frame(results)
+    counts = frame["status"].value_counts()
+    print(f"  {counts.get('ok', 0)} ok, {counts.get('stopped', 0)} stopped early, {counts.get('failed', 0)} failed, "
+          f"in {time.perf_counter() - start:.1f} s")
+    failed = [r for r in results if not r.ok]
+    for kind in dict.fromkeys(r.error_type for r in failed):  # one example of each kind of failure
+        same = [r for r in failed if r.error_type == kind]
+        point = [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in same[0].parameters.items()
+                 if k in axes]
+        print(f"  {len(same)} failed with {kind}, e.g. {', '.join(point)}: {same[0].error.splitlines()[0]}",
+              file=sys.stderr)
+    status = EXIT_FAILED if failed else EXIT_OK
+    try:
+        frame.to_csv(args.csv, index=False)
+        print(f"  csv: {args.csv} ({len(frame)} rows)")
+    except OSError as exc:
+        print(f"hbg: error: could not write csv {args.csv}: {exc}", file=sys.stderr)
+        status = EXIT_FAILED
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from switching.plotting import _plt
+
+        ax = plot_sweep(frame, names[0], varying)
+        ax.set_title(f"{model.name}: {ax.get_title()}", fontsize=10)
+        try:
+            ax.figure.savefig(args.plot, dpi=110, bbox_inches="tight")
+            print(f"  plot: {_plot_target(args.plot)} ({names[0]}, {'line' if len(varying) == 1 else 'heat map'})")
+        except (OSError, ValueError) as exc:
+            print(f"hbg: error: could not write plot {args.plot}: {exc}", file=sys.stderr)
+            status = EXIT_FAILED
+        finally:
+            _plt().close(ax.figure)
+    return status
 
 
 class _Parser(argparse.ArgumentParser):
@@ -530,12 +696,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="DIR")
     p.set_defaults(run=_cmd_codegen)
 
+    p = sub.add_parser("save", help="write a model to a model file (TOML)")
+    p.add_argument("model")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.toml")
+    p.set_defaults(run=_cmd_save)
+
     p = sub.add_parser("draw", help="draw the bond graph with causal strokes")
     p.add_argument("model")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--mode")
     p.add_argument("-o", "--output", required=True, metavar="FILE.png")
     p.set_defaults(run=_cmd_draw)
+
+    p = sub.add_parser("sweep", help="one run per point of a parameter grid, on Dask: a CSV row per run, a plot")
+    p.add_argument("model")
+    p.add_argument("--grid", action="append", required=True, metavar="NAME=START:STOP:COUNT|NAME=V1,V2,...",
+                   help="a parameter's values (repeatable; the grid is every combination, the first varying slowest)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter fixed for every run (repeatable)")
+    p.add_argument("--t-end", type=float, dest="t_end")
+    p.add_argument("--method")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--dt", type=float, help="step of euler / rk4")
+    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
+    group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
+    p.add_argument("--csv", required=True, metavar="FILE", help="one row per run: parameters, status, events, "
+                   "final state, metrics")
+    p.add_argument("--plot", metavar="FILE.png", help="the first --metric over the grid (line or heat map)")
+    p.add_argument("--on-zeno", choices=("raise", "stop"), default="raise",
+                   help="a Zeno run fails (raise, default) or ends at the accumulation point (stop)")
+    p.add_argument("--metric", action="append", metavar="NAME",
+                   help="a column (events, first_event, t_final, wall_time, final_STATE) or KIND:SIGNAL with KIND "
+                        "final, min or max, computed in the workers (repeatable; the first is plotted; "
+                        "default: events)")
+    p.set_defaults(run=_cmd_sweep)
 
     sub.add_parser("graphs", help="list the shipped plain bond graphs").set_defaults(run=_cmd_graphs)
     p = sub.add_parser("equations", help="equations of a shipped plain bond graph")

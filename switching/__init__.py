@@ -30,7 +30,17 @@ from .parsing import parse_condition as parse_condition
 from .parsing import parse_expression as parse_expression
 from .resolution import Instant as Instant
 from .resolution import Step as Step
+from .batch import MissingDependencyError as MissingDependencyError
 from .batch import RunResult as RunResult
+from .batch import local_cluster as local_cluster
 from .batch import simulate_many as simulate_many
+from .sweep_frame import SignalMetrics as SignalMetrics
+from .sweep_frame import parameter_grid as parameter_grid
+from .sweep_frame import plot_sweep as plot_sweep
+from .sweep_frame import to_frame as to_frame
 from .simulator import METHODS as METHODS
+from .expression_input import ExpressionInput as ExpressionInput
+from .modelfile import ModelFileError as ModelFileError
+from .modelfile import load_model as load_model
+from .modelfile import save_model as save_model
 from .trajectory import Trajectory as Trajectory

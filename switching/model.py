@@ -642,6 +642,13 @@ class HybridModel:
         """The generated Python source of one mode's functions."""
         return self.compiled_mode(mode).source
 
+    def save(self, path, **options) -> None:
+        """Write the model to a model file (TOML); see :func:`switching.modelfile.save_model`
+        (``run=``, ``description=``).  ``models.load(path)`` reads it back."""
+        from .modelfile import save_model
+
+        save_model(self, path, **options)
+
     # ------------------------------------------------------------ initial state
 
     def initial_state(self) -> np.ndarray:

@@ -1,6 +1,9 @@
 """simulate_many shares one model per structure within a process: runs must
-equal runs of freshly built models bit for bit."""
+equal runs of freshly built models bit for bit, in this process
+(``client="serial"``) and on Dask workers.  Its options are checked before
+anything runs, and without Dask it says which extra to install."""
 
+import sys
 import warnings
 
 import numpy as np
@@ -8,16 +11,18 @@ import pytest
 from switching_models import parallel_capacitors as caps_closed_or_open
 
 from models import bouncing_ball, falling_rod, parallel_capacitors
-from switching import InitialStateProjected, simulate_many
-from switching.batch import shared_model
+from bondgraph import ParameterValueError
+from switching import InitialStateProjected, MissingDependencyError, simulate_many
+from switching.batch import batch_size_for, shared_model
 
 ROD = {"rtol": 1e-9, "atol": 1e-12}
 
 
-def assert_same_as_fresh(build, sets, t_end, method="RK45", workers=1, **options):
-    """Every run of the sweep equals ``build(**p).simulate(...)`` exactly:
+def assert_same_as_fresh(build, sets, t_end, method="RK45", sweep=None, **options):
+    """Every run of the sweep (``sweep``: options of simulate_many, default
+    ``client="serial"``) equals ``build(**p).simulate(...)`` exactly:
     samples, states, modes, instants."""
-    results = simulate_many(build, sets, t_end, method, workers=workers, **options)
+    results = simulate_many(build, sets, t_end, method, **(sweep or {"client": "serial"}), **options)
     for p, result in zip(sets, results):
         assert result.ok, result.error
         with warnings.catch_warnings():
@@ -82,6 +87,51 @@ def test_an_initial_state_projected_with_the_parameters_is_projected_anew_for_ea
         assert q1 / p["C1"] == pytest.approx(q2 / p["C2"], rel=1e-14)
 
 
-def test_forked_workers_give_the_same_runs_as_one_process():
-    sets = [{"mu": 0.002}, {"mu": 0.008}, {"mu": 0.004}, {"mu": 0.006}]
-    assert_same_as_fresh(falling_rod.build, sets, 0.5, workers=2, **ROD)
+@pytest.mark.timeout(120)
+def test_dask_workers_give_the_same_runs_as_one_process():
+    pytest.importorskip("distributed")
+    # R > 0 adds a resistor: two structures, each worker keeps a model of each it meets
+    sets = [{"C1": 1e-3, "V1": 5.0}, {"C1": 3e-3, "V1": 2.0, "R": 10.0}, {"C1": 2e-3, "V1": 7.0},
+            {"C1": 2e-3, "V1": 7.0, "R": 5.0}, {"C1": 1e-3, "V1": 3.0, "R": 5.0}]
+    results = assert_same_as_fresh(parallel_capacitors.build, sets, 0.05, sweep={"workers": 2, "batch_size": 2},
+                                   rtol=1e-9, atol=1e-12)
+    assert all(r.wall_time > 0 for r in results)
+
+
+def test_runs_travel_several_to_a_task_when_there_are_many():
+    assert batch_size_for(200, 2) == 13  # 16 tasks: 8 per worker thread
+    assert batch_size_for(5, 2) == 1
+    assert batch_size_for(100_000, 4) == 50  # a lost worker loses at most 50 runs' work
+
+
+@pytest.mark.parametrize("options, culprit", [
+    ({"workers": 0}, "workers"), ({"batch_size": 2.5}, "batch_size"), ({"retries": -1}, "retries"),
+    ({"workers": 2, "client": "tcp://127.0.0.1:1"}, "workers"), ({"progress": print}, "progress"),
+    ({"client": 4}, "client"),
+])
+def test_bad_options_are_named_before_anything_runs(options, culprit):
+    with pytest.raises(ParameterValueError, match=culprit) as info:
+        simulate_many(bouncing_ball.build, [{"e": 0.8}], 1.0, **options)
+    assert info.value.name == culprit
+
+
+def test_a_parameter_set_that_is_not_a_dict_is_named():
+    with pytest.raises(ParameterValueError, match="parameter set 1 is a float"):
+        simulate_many(bouncing_ball.build, [{"e": 0.8}, 0.5], 1.0, client="serial")
+
+
+def test_without_dask_the_error_names_the_extra_and_the_serial_path_still_runs(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed → ImportError
+    with pytest.raises(MissingDependencyError, match=r"pip install '\.\[dask\]'") as info:
+        simulate_many(bouncing_ball.build, [{"e": 0.8}, {"e": 0.9}], 1.0, workers=2)
+    assert isinstance(info.value, ImportError) and "client='serial'" in str(info.value)
+    (result,) = simulate_many(bouncing_ball.build, [{"e": 0.8}], 1.0, client="serial", rtol=1e-8)
+    assert result.ok and result.t[-1] == pytest.approx(1.0)
+
+
+def test_without_pandas_to_frame_names_the_extra(monkeypatch):
+    from switching import to_frame
+
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    with pytest.raises(MissingDependencyError, match=r"\.\[dask\]"):
+        to_frame([])

@@ -64,6 +64,9 @@ def test_zeno_is_detected_on_the_compiled_path_too(ball):
     assert info.value.accumulation_time == pytest.approx(0.451523640986 * 9, abs=1e-6)
 
 
+# Dask's workers are new processes: each compiles the kernels of the modes it reaches (~100 s) until
+# issue 14 remembers compiled modes across processes; tests/test_sweep.py covers the sweep itself
+@pytest.mark.slow
 def test_simulate_many_runs_a_sweep_on_all_cores_and_keeps_failures_apart():
     from switching import simulate_many
 

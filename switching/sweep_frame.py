@@ -1,0 +1,223 @@
+"""A sweep's parameter grid, its results as a table, and the table as a plot.
+
+* :func:`parameter_grid` — every combination of some parameters' values
+  (the parameter sets of :func:`switching.simulate_many`);
+* :class:`SignalMetrics` — a picklable ``metrics`` callable: the final,
+  smallest or largest value of named signals, computed in the worker;
+* :func:`to_frame` — one row per run (pandas): parameters, status, event
+  count, first event time, final state, metrics;
+* :func:`plot_sweep` — one column of that table over the grid: a line for one
+  parameter, a heat map for two.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from bondgraph.errors import DuplicateNameError, ParameterValueError, UnknownNameError
+
+from .batch import DASK_EXTRA, MissingDependencyError
+
+__all__ = ["parameter_grid", "SignalMetrics", "to_frame", "plot_sweep", "RUN_COLUMNS"]
+
+#: columns of :func:`to_frame` besides the parameters, final states and metrics
+RUN_COLUMNS = ("status", "error", "events", "first_event", "t_final", "wall_time")
+#: prefix of the final-state columns of :func:`to_frame`
+FINAL = "final_"
+
+
+def _plain(value):
+    """numpy scalars as Python numbers (they print and pickle plainly)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def parameter_grid(axes: Mapping[str, Iterable]) -> list[dict]:
+    """Every combination of the values in ``axes`` (name → values), the first
+    name varying slowest: ``parameter_grid({"mu": [1, 2], "e": [0.5, 0.8]})``
+    gives ``[{"mu": 1, "e": 0.5}, {"mu": 1, "e": 0.8}, {"mu": 2, "e": 0.5}, …]``."""
+    names = list(axes)
+    values = [[_plain(v) for v in axes[name]] for name in names]
+    for name, column in zip(names, values):
+        if not column:
+            raise ParameterValueError(f"parameter_grid: no values for {name!r}", name, column)
+    return [dict(zip(names, combination)) for combination in itertools.product(*values)]
+
+
+class SignalMetrics:
+    """A ``metrics`` callable for :func:`switching.simulate_many`: for each
+    spec ``"KIND:SIGNAL"`` (``KIND`` one of ``final``, ``min``, ``max``; the
+    signal a named signal or state of the model, in its own units), that
+    value of the signal's finite part over the run's samples, under the
+    spec as its name.  It pickles (plain data), so it travels to workers;
+    ``check(model)`` names unknown signals before a sweep starts."""
+
+    KINDS = ("final", "min", "max")
+
+    def __init__(self, *specs: str):
+        self.specs = []
+        for spec in specs:
+            kind, colon, signal = str(spec).partition(":")
+            if not colon or kind not in self.KINDS or not signal:
+                raise ParameterValueError(f"metric {spec!r}: write KIND:SIGNAL with KIND one of "
+                                          f"{', '.join(self.KINDS)} (e.g. 'final:{signal or 'theta'}')",
+                                          "metrics", spec)
+            self.specs.append((kind, signal))
+
+    @property
+    def names(self) -> list[str]:
+        return [f"{kind}:{signal}" for kind, signal in self.specs]
+
+    def check(self, model) -> None:
+        """Raise :class:`~bondgraph.errors.UnknownNameError` naming every signal
+        that ``model`` has neither as a signal nor as a state."""
+        known = set(model.signal_names) | {s.name for s in model.states}
+        unknown = [signal for _, signal in self.specs if signal not in known]
+        if unknown:
+            raise UnknownNameError(f"no signal {', '.join(map(repr, unknown))} in {model.name!r}; signals: "
+                                   f"{', '.join(model.signal_names)}", unknown[0])
+
+    def __call__(self, trajectory) -> dict:
+        out = {}
+        for (kind, signal), name in zip(self.specs, self.names):
+            values = trajectory.signal(signal) if len(trajectory.t) else np.zeros(0)
+            if not len(values):
+                out[name] = math.nan
+            else:
+                out[name] = float(values[-1] if kind == "final" else values.min() if kind == "min" else values.max())
+        return out
+
+    def __repr__(self) -> str:
+        return f"SignalMetrics({', '.join(map(repr, self.names))})"
+
+
+def _pandas():
+    try:
+        import pandas
+    except ImportError as exc:
+        raise MissingDependencyError(f"to_frame needs pandas, which is not installed here: {DASK_EXTRA} "
+                                     "(or pip install pandas)") from exc
+    return pandas
+
+
+def to_frame(results):
+    """The runs of :func:`switching.simulate_many` as a pandas DataFrame, one
+    row per run in their order.  Columns: each parameter (by name; empty
+    where a run did not set it), ``status`` (``ok``, ``stopped``,
+    ``failed``), ``error`` (the message of a failed run), ``events`` (the
+    number of instants), ``first_event`` (time of the first instant [s]),
+    ``t_final`` (the last time reached [s]), ``final_<state>`` (each state at
+    ``t_final``, in its own units), each metric (by name), ``wall_time`` [s].
+    A failed run's ``events``, ``t_final`` and final states are those of the
+    part computed; its metrics are empty."""
+    pd = _pandas()
+    results = list(results)
+    parameters = list(dict.fromkeys(name for r in results for name in r.parameters))
+    states = list(dict.fromkeys(name for r in results for name in r.state_names))
+    metrics = list(dict.fromkeys(name for r in results for name in r.metrics))
+    fixed = set(RUN_COLUMNS) | {FINAL + s for s in states}
+    clashes = [name for name in metrics if name in fixed or name in parameters]
+    clashes += [name for name in parameters if name in fixed]
+    if clashes:
+        raise DuplicateNameError(f"to_frame: column name(s) {', '.join(map(repr, clashes))} would be given twice "
+                                 f"(parameters: {', '.join(parameters)}; metrics: {', '.join(metrics)}; run columns: "
+                                 f"{', '.join(RUN_COLUMNS)}, {FINAL}<state>): rename the metric", clashes[0])
+    rows = []
+    for r in results:
+        row = {name: r.parameters.get(name, math.nan) for name in parameters}
+        row.update(status=r.status, error=r.error, events=r.instant_count or len(r.event_times),
+                   first_event=float(r.event_times[0]) if len(r.event_times) else math.nan,
+                   t_final=float(r.t[-1]) if len(r.t) else math.nan)
+        final = dict(zip(r.state_names, r.x[-1])) if len(r.t) else {}
+        row.update({FINAL + s: float(final[s]) if s in final else math.nan for s in states})
+        row.update({name: r.metrics.get(name, math.nan) for name in metrics})
+        row["wall_time"] = r.wall_time
+        rows.append(row)
+    columns = parameters + list(RUN_COLUMNS[:-1]) + [FINAL + s for s in states] + metrics + ["wall_time"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+# ------------------------------------------------------------ plot
+
+
+def _axis(values):
+    """Sorted distinct values of one grid parameter, their cell edges on the
+    plot axis and whether the axis is numeric (else categorical, by position)."""
+    distinct = list(dict.fromkeys(values))
+    numeric = all(isinstance(v, (int, float, np.number)) and not isinstance(v, bool) for v in distinct)
+    if not numeric:
+        return distinct, np.arange(len(distinct) + 1) - 0.5, False
+    distinct = sorted(distinct)
+    centres = np.asarray(distinct, dtype=float)
+    if len(centres) == 1:
+        half = 0.5 * (abs(centres[0]) or 1.0)
+        return distinct, np.array([centres[0] - half, centres[0] + half]), True
+    mid = 0.5 * (centres[1:] + centres[:-1])
+    return distinct, np.concatenate([[2 * centres[0] - mid[0]], mid, [2 * centres[-1] - mid[-1]]]), True
+
+
+def plot_sweep(frame, metric: str, parameters, ax=None):
+    """Plot column ``metric`` of a :func:`to_frame` table over the grid of
+    ``parameters`` (one name: a line against it; two: a heat map, the first
+    along x).  Failed runs are marked with a red ×, not plotted as values.
+    Returns the matplotlib Axes."""
+    from .plotting import _plt
+
+    parameters = [parameters] if isinstance(parameters, str) else list(parameters)
+    if len(parameters) not in (1, 2):
+        raise ParameterValueError(f"plot_sweep shows one or two parameters, got {len(parameters)}: "
+                                  f"{', '.join(parameters)}", "parameters", parameters)
+    for name in [metric, *parameters]:
+        if name not in frame.columns:
+            raise UnknownNameError(f"plot_sweep: no column {name!r}; columns: {', '.join(map(str, frame.columns))}",
+                                   name)
+    values = frame[metric].to_numpy()
+    try:
+        values = values.astype(float)
+    except (TypeError, ValueError):
+        raise ParameterValueError(f"plot_sweep: column {metric!r} does not hold numbers", "metric", metric) from None
+    failed = (frame["status"] == "failed").to_numpy() if "status" in frame.columns else np.zeros(len(frame), bool)
+    values = np.where(failed, np.nan, values)
+    if frame.duplicated(subset=parameters).any():
+        raise ParameterValueError(f"plot_sweep: several runs share values of {', '.join(parameters)}: "
+                                  "give every parameter that varies", "parameters", parameters)
+    plt = _plt()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.4, 4.4))
+    xs, x_edges, x_numeric = _axis(frame[parameters[0]])
+    xpos = {v: (v if x_numeric else k) for k, v in enumerate(xs)}
+    if len(parameters) == 1:
+        order = np.argsort([xs.index(v) for v in frame[parameters[0]]], kind="stable")
+        x = np.array([xpos[v] for v in frame[parameters[0]]], dtype=float)[order]
+        ax.plot(x, values[order], "o-", ms=3, lw=1.2, label=metric)
+        ax.set_ylabel(metric)
+        if failed.any():
+            ax.plot(x[failed[order]], np.zeros(int(failed.sum())), "x", color="tab:red", ms=7,
+                    transform=ax.get_xaxis_transform(), clip_on=False, label="failed")
+            ax.legend(loc="best", fontsize=8)
+        ax.set_title(f"{metric} over {parameters[0]}", fontsize=10)
+    else:
+        ys, y_edges, y_numeric = _axis(frame[parameters[1]])
+        ypos = {v: (v if y_numeric else k) for k, v in enumerate(ys)}
+        grid = np.full((len(ys), len(xs)), np.nan)
+        for xv, yv, value in zip(frame[parameters[0]], frame[parameters[1]], values):
+            grid[ys.index(yv), xs.index(xv)] = value
+        ax.set_facecolor("0.88")  # cells without a value (failed runs) stay grey
+        mesh = ax.pcolormesh(x_edges, y_edges, np.ma.masked_invalid(grid), shading="flat", cmap="viridis")
+        ax.figure.colorbar(mesh, ax=ax, label=metric)
+        if failed.any():
+            fx = [xpos[v] for v, bad in zip(frame[parameters[0]], failed) if bad]
+            fy = [ypos[v] for v, bad in zip(frame[parameters[1]], failed) if bad]
+            ax.plot(fx, fy, "x", color="tab:red", ms=7, label="failed")
+            ax.legend(loc="upper right", fontsize=8)
+        ax.set_ylabel(parameters[1])
+        if not y_numeric:
+            ax.set_yticks(range(len(ys)), [str(v) for v in ys])
+        ax.set_title(f"{metric} over {parameters[0]} × {parameters[1]}", fontsize=10)
+    ax.set_xlabel(parameters[0])
+    if not x_numeric:
+        ax.set_xticks(range(len(xs)), [str(v) for v in xs])
+    return ax
