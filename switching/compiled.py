@@ -87,21 +87,23 @@ def _leaf_texts(trees, count: int) -> list:
     return texts
 
 
-def decide_tree(tree, sides, rtol, atol, record=None) -> bool:
+def decide_tree(tree, sides, rtol, atol, record=None, fixed=None) -> bool:
     """Evaluate a guard tree on the comparison triples ``sides`` (left, right,
     round-off scale of comparison ``k`` at ``[3k], [3k + 1], [3k + 2]``).
     ``record`` collects a :class:`codegen.runtime.Comparison` per comparison
-    evaluated."""
+    evaluated; ``fixed`` (comparison index → truth) overrides comparisons."""
     kind = tree[0]
     if kind == "const":
         return tree[1]
     if kind == "and":
-        return all(decide_tree(t, sides, rtol, atol, record) for t in tree[1])
+        return all(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
     if kind == "or":
-        return any(decide_tree(t, sides, rtol, atol, record) for t in tree[1])
+        return any(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
     if kind == "not":
-        return not decide_tree(tree[1], sides, rtol, atol, record)
+        return not decide_tree(tree[1], sides, rtol, atol, record, fixed)
     _, k, op, text = tree
+    if fixed and k in fixed:
+        return fixed[k]
     left, right, scale = sides[3 * k], sides[3 * k + 1], sides[3 * k + 2]
     if record is None:
         return decide(op, left, right, rtol, atol, scale)

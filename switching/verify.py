@@ -424,23 +424,6 @@ def _tree_relations(tree) -> list:
     return [k for _, k, _, _ in _walk(tree)]
 
 
-def _decide_with(tree, sides, rtol, atol, fixed: dict) -> bool:
-    """:func:`decide_tree` with the comparisons in ``fixed`` (index → truth) given."""
-    kind = tree[0]
-    if kind == "const":
-        return tree[1]
-    if kind == "and":
-        return all(_decide_with(t, sides, rtol, atol, fixed) for t in tree[1])
-    if kind == "or":
-        return any(_decide_with(t, sides, rtol, atol, fixed) for t in tree[1])
-    if kind == "not":
-        return not _decide_with(tree[1], sides, rtol, atol, fixed)
-    _, k, op, _ = tree
-    if k in fixed:
-        return fixed[k]
-    return decide(op, sides[3 * k], sides[3 * k + 1], rtol, atol, sides[3 * k + 2])
-
-
 def _false_just_before(tree, sides, rtol, atol, at_boundary: set, before: dict) -> bool:
     """Could a guard have been false just before the flow reached ``sides``?
     Its comparisons in ``before`` (index → truth) take that truth, its other
@@ -452,7 +435,7 @@ def _false_just_before(tree, sides, rtol, atol, at_boundary: set, before: dict) 
     if len(free) > MAX_FREE_RELATIONS:
         return True
     for values in itertools.product((False, True), repeat=len(free)):
-        if not _decide_with(tree, sides, rtol, atol, {**fixed, **dict(zip(free, values))}):
+        if not decide_tree(tree, sides, rtol, atol, fixed={**fixed, **dict(zip(free, values))}):
             return True
     return False
 

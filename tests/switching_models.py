@@ -113,9 +113,8 @@ def independent_switches(n=20):
     return HybridModel(g, automata, {"V": 1.0, "R": 1.0, "C": 1.0})
 
 
-def rc_relay(R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
-    """A capacitor charged through R1 from V until v_C >= v_hi, then
-    discharged through R2 until v_C <= v_lo, and so on (closed form between events)."""
+def relay_graph():
+    """Source V through R1 (junction a) onto capacitor C, discharged through R2 (junction b)."""
     g = BondGraph("relay")
     n = g.add(Zero("n"))
     a, b = g.add(One("a", controlled=True)), g.add(One("b", controlled=True))
@@ -125,6 +124,13 @@ def rc_relay(R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
     g.connect(n, C("C", "C"))
     g.connect(n, b)
     g.connect(b, R("R2", "R2"))
+    return g
+
+
+def rc_relay(R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
+    """A capacitor charged through R1 from V until v_C >= v_hi, then
+    discharged through R2 until v_C <= v_lo, and so on (closed form between events)."""
+    g = relay_graph()
     relay = Automaton("relay", {"charge": {"a": True, "b": False}, "discharge": {"a": False, "b": True}}, "charge")
     relay.add_transition("charge", "discharge", "q_C/C >= v_hi")
     relay.add_transition("discharge", "charge", "q_C/C <= v_lo")

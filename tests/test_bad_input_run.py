@@ -16,7 +16,6 @@ import warnings
 import numpy as np
 import pytest
 
-from bondgraph import C, R, BondGraph, One, Se, Zero
 from bondgraph.errors import (
     HybridBondGraphError,
     MissingParameterError,
@@ -28,22 +27,9 @@ from models import boost_converter, bouncing_ball, diode_circuit
 from switching import Automaton, HybridModel, simulate_many
 from switching.errors import NonFiniteStateError, SimulationError, SimulationInterrupted
 
-from switching_models import rc_relay
+from switching_models import rc_relay, relay_graph
 
 pytestmark = pytest.mark.timeout(60)  # a bad input must never hang a run (pytest-timeout)
-
-
-def relay_graph():
-    g = BondGraph("relay")
-    n = g.add(Zero("n"))
-    a, b = g.add(One("a", controlled=True)), g.add(One("b", controlled=True))
-    g.connect(Se("V", "V"), a)
-    g.connect(a, R("R1", "R1"))
-    g.connect(a, n)
-    g.connect(n, C("C", "C"))
-    g.connect(n, b)
-    g.connect(b, R("R2", "R2"))
-    return g
 
 
 def relay(guard_up="v >= v_hi", parameters=None, **kwargs):
