@@ -44,9 +44,14 @@ from .errors import UnknownNameError as UnknownNameError
 from .errors import UnknownParameterError as UnknownParameterError
 from .errors import ParameterValueError as ParameterValueError
 from .errors import PhysicalRangeWarning as PhysicalRangeWarning
+from .errors import EnergyGainWarning as EnergyGainWarning
+from .energy import energy_function as energy_function
+from .energy import storage_energy as storage_energy
+from .energy import stored_energy as stored_energy
 from .jump import JumpMap as JumpMap
 from .jump import JumpMapError as JumpMapError
 from .jump import derive_jump_map as derive_jump_map
+from .state_space import StateSpace as StateSpace
 from .graph import Bond as Bond
 from .graph import BondGraph as BondGraph
 from .graph import Instance as Instance

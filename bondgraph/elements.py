@@ -132,7 +132,12 @@ class Se(Source):
 
 @dataclass(frozen=True)
 class Sf(Source):
-    """Flow source: ``f = value`` (current [A], velocity [m/s], volume flow [m³/s])."""
+    """Flow source: pushes the flow ``value`` out of itself (current [A],
+    velocity [m/s], volume flow [m³/s]) whatever the drawn direction of its
+    bond: drawn out of the source (``g.connect(Sf(...), j)``) the bond's flow
+    is ``value``; drawn into it (``g.connect(j, Sf(...))``) the bond's flow is
+    ``−value``.  Either way the junction receives ``value`` (a flow source
+    feeding a 0-junction with one C gives ``dq/dt = value``)."""
 
     kind: ClassVar[str] = "Sf"
 

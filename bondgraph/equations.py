@@ -65,6 +65,8 @@ class ConfigurationEquations:
     flows: dict
     causality: object = field(repr=False, compare=False)
     _dependent_rates: dict = field(repr=False, compare=False, default_factory=dict)
+    graph: object = field(repr=False, compare=False, default=None)
+    substitutions: dict = field(repr=False, compare=False, default_factory=dict)
 
     # ---------------------------------------------------------------- access
 
@@ -73,6 +75,7 @@ class ConfigurationEquations:
         constants set by an automaton state)."""
         if not values:
             return self
+        values = {k: sp.sympify(v) for k, v in values.items()}
 
         def sub(table):
             return {k: sp.sympify(v).xreplace(values) for k, v in table.items()}
@@ -85,7 +88,38 @@ class ConfigurationEquations:
             efforts=sub(self.efforts),
             flows=sub(self.flows),
             _dependent_rates=sub(self._dependent_rates),
+            substitutions={**{k: sp.sympify(v).xreplace(values) for k, v in self.substitutions.items()}, **values},
         )
+
+    def state_space(self, outputs=None, inputs=None):
+        """State-space matrices ``ẋ = A x + B u``, ``y = C x + D u`` of this
+        (linear) configuration, as a :class:`bondgraph.state_space.StateSpace`
+        (``A, B, C, D = eq.state_space()``; also ``.states``, ``.inputs``, ``.outputs``).
+
+        ``x`` is :attr:`states` in order (dependent states included: their
+        rows follow the chain rule through the constraints).  The inputs ``u``
+        are, by default, **every source element's value** — an ``Se``'s
+        effort, an ``Sf``'s flow out of itself — one input per source named by
+        its value when that is a bare parameter or declared input
+        (``Se("F", "F0")`` → ``F0``) and by the source's name otherwise
+        (constant sources such as gravity included, so nothing is left as an
+        offset), followed by the **declared inputs** (``g.input``) still in the
+        equations; a source whose value depends on states or bond variables
+        is feedback, not an input.  ``inputs=[...]`` (symbols or names) uses
+        exactly those symbols instead, sources keeping their values.
+
+        ``outputs``: ``None`` (the states: ``C = I``, ``D = 0``), a list of
+        expressions or names (states, inputs, bond variables ``e_<bond>`` /
+        ``f_<bond>``), or a dict name → expression.
+
+        Raises :class:`~bondgraph.errors.DerivationError` naming the state
+        rate or output and the offending term when one is nonlinear,
+        time-varying or a constant offset, or when an input fixes a
+        dependent state (its rate would need the input's derivative).
+        """
+        from .state_space import state_space
+
+        return state_space(self, outputs, inputs)
 
     @property
     def dependent_rate_symbols(self) -> tuple:
@@ -300,4 +334,5 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
         flows=flows,
         causality=causality,
         _dependent_rates=rate_values,
+        graph=graph,
     )

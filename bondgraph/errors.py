@@ -23,6 +23,7 @@ __all__ = [
     "DerivationError",
     "ParameterValueError",
     "PhysicalRangeWarning",
+    "EnergyGainWarning",
 ]
 
 
@@ -164,3 +165,10 @@ class PhysicalRangeWarning(UserWarning):
     """A value the toolkit can compute with but that lies outside the physical
     range the model states (a negative capacitance, a restitution coefficient
     above 1): the run goes on, the result may not be physical."""
+
+
+class EnergyGainWarning(UserWarning):
+    """An instant after which the stored energy is larger than before it (by
+    more than round-off): a jump of a passive model only loses energy, so a
+    gain points at a wrong jump map, restitution above 1 or a source that
+    acts through the jump.  The message names the instant's time and modes."""

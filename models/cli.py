@@ -4,7 +4,7 @@
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
-    hbg modes MODEL [--mode LABEL] [--latex]  f, g, h and guards of the visited modes (or one)
+    hbg modes MODEL [--mode LABEL] [--latex] [--state-space]  f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
     hbg draw MODEL [--mode LABEL] -o FILE.png the bond graph with causal strokes
@@ -423,7 +423,13 @@ def _cmd_modes(args) -> int:
     modes = [model.mode(args.mode)] if args.mode else _visited_modes(module, model)
     for mode in modes:
         me = model.mode_equations(mode)
-        if args.latex:
+        if getattr(args, "state_space", False):
+            print(f"mode {mode.describe()}: state space x' = A x + B u, y = C x + D u")
+            try:
+                print(me.state_space().pretty())
+            except HybridBondGraphError as error:
+                print(f"  no state-space matrices: {error}")
+        elif args.latex:
             print(f"% mode {mode.describe()}")
             print(me.equations.latex())
         else:
@@ -682,6 +688,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--mode", help="one mode, by label (states joined by |)")
     p.add_argument("--latex", action="store_true")
+    p.add_argument("--state-space", action="store_true",
+                   help="print the A, B, C, D matrices of each (linear) mode instead (inputs: the sources' values)")
     p.set_defaults(run=_cmd_modes)
 
     p = sub.add_parser("verify", help="static divergence-of-time check")

@@ -176,6 +176,17 @@ class ModeEquations:
             self._signals[name] = SignalForm(name, raw, self.finite(raw), impulse)
         return self._signals[name]
 
+    def state_space(self, outputs=None, inputs=None):
+        """``A, B, C, D`` of this mode (with its constants substituted), as
+        :meth:`bondgraph.ConfigurationEquations.state_space`; outputs may also
+        name the model's signals."""
+        if outputs is not None and not isinstance(outputs, dict):
+            outputs = [outputs] if isinstance(outputs, (str, sp.Basic)) else outputs
+            outputs = {str(o): self.model.signal_expression(o) if isinstance(o, str) else o for o in outputs}
+        elif isinstance(outputs, dict):
+            outputs = {k: self.model.signal_expression(v) if isinstance(v, str) else v for k, v in outputs.items()}
+        return self.equations.state_space(outputs, inputs)
+
     @property
     def h(self) -> dict:
         """Every named signal of the model in this mode."""

@@ -12,13 +12,42 @@ from __future__ import annotations
 
 import csv
 import io
+import warnings
+import weakref
 from collections import Counter
+from typing import NamedTuple
 
 import numpy as np
 
-from bondgraph.errors import HybridBondGraphError, UnknownNameError
+from bondgraph.energy import energy_function
+from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
 
-__all__ = ["Trajectory"]
+__all__ = ["Trajectory", "EnergyRecord"]
+
+#: relative round-off band of the energy ledger: a gain below this fraction of
+#: the run's stored energy at its instants is not reported
+ENERGY_ROUNDOFF = 1e-9
+
+_energy_functions: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+class EnergyRecord(NamedTuple):
+    """The energy ledger of one instant [s, J]: ``lost = before - after``."""
+
+    t: float
+    before: float
+    after: float
+    lost: float
+
+
+def _energy_evaluator(model):
+    """``bondgraph.energy_function`` for a model's graph and parameter values, cached per model."""
+    key = tuple(model.parameter_array)
+    cached = _energy_functions.get(model)
+    if cached is None or cached[0] != key:
+        cached = key, energy_function(model.graph, model.states, model.parameter_values, model.input_symbols)
+        _energy_functions[model] = cached
+    return cached[1]
 
 
 class Trajectory:
@@ -90,12 +119,8 @@ class Trajectory:
         sample's mode (generated code, one vectorized call per mode)."""
         if name in self.state_names:
             return self.state(name)
-        if self.model is None:
-            raise HybridBondGraphError(
-                f"this trajectory of {self.model_name!r} was unpickled without its model, which signals need: "
-                "attach the model first (trajectory.model = model)")
+        model = self._needs_model()
         out = np.empty(len(self.t))
-        model = self.model
         labels = np.array(self.mode_labels)
         for mode in dict.fromkeys(self.modes):
             mask = labels == mode.label
@@ -106,6 +131,49 @@ class Trajectory:
             fn(self.x[mask].T, times, model.parameter_array, inputs, values)
             out[mask] = values[0]
         return out
+
+    def _needs_model(self):
+        if self.model is None:
+            raise HybridBondGraphError(
+                f"this trajectory of {self.model_name!r} was unpickled without its model, which signals need: "
+                "attach the model first (trajectory.model = model)")
+        return self.model
+
+    # ---------------------------------------------------------------- energy
+
+    def _stored_energy(self, x, times) -> np.ndarray:
+        model = self._needs_model()
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
+        return _energy_evaluator(model)(np.asarray(x, dtype=float).reshape(len(times), -1), times, inputs)
+
+    def energy(self) -> np.ndarray:
+        """The energy stored in the C and I elements at every sample [J]
+        (``bondgraph.stored_energy``: each law integrated from 0)."""
+        return self._stored_energy(self.x, self.t)
+
+    def energy_ledger(self, warn: bool = True) -> list:
+        """One :class:`EnergyRecord` ``(t, before, after, lost)`` per kept
+        instant: the stored energy just before it (a priori state) and after
+        its last jump, and ``lost = before - after``.  An instant that gains
+        energy by more than round-off (``ENERGY_ROUNDOFF`` of the run's
+        energy at its instants) warns with :class:`~bondgraph.EnergyGainWarning`."""
+        if not self.events:
+            self._needs_model()
+            return []
+        times = [e.t for e in self.events]
+        before = self._stored_energy([e.x_before for e in self.events], times)
+        after = self._stored_energy([e.x_after for e in self.events], times)
+        scale = max(float(np.max(np.abs(before))), float(np.max(np.abs(after))))
+        records = []
+        for instant, b, a in zip(self.events, before, after):
+            if warn and a - b > ENERGY_ROUNDOFF * scale:
+                modes = " → ".join(f"{s.mode.describe()} [{s.kind}]" for s in instant.steps)
+                warnings.warn(f"the instant at t = {instant.t:.12g} ({modes}) creates {a - b:.6g} J of stored "
+                              f"energy ({b:.6g} J before, {a:.6g} J after): a jump of a passive model only loses "
+                              "energy", EnergyGainWarning, stacklevel=2)
+            records.append(EnergyRecord(float(instant.t), float(b), float(a), float(b - a)))
+        return records
 
     # ---------------------------------------------------------------- summaries
 
@@ -145,6 +213,14 @@ class Trajectory:
             mythical = sum(len(e.mythical) for e in self.events)
             pinnacles = sum(len(e.pinnacles) for e in self.events)
             lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
+            if self.events and self.model is not None:
+                try:
+                    ledger = self.energy_ledger(warn=False)
+                except HybridBondGraphError:  # a law sympy cannot integrate: no ledger
+                    ledger = None
+                if ledger is not None:
+                    lost = sum(r.lost for r in ledger)
+                    lines.append(f"  energy lost at instants: {lost:.6g} J")
         for key, value in self.stats.items():
             lines.append(f"  {key}: {value}")
         return "\n".join(lines)
