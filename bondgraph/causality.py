@@ -14,7 +14,9 @@ effort.  Rules enforced:
 * TF passes the causality through (one of its bonds has its effort imposed by
   the TF), GY flips it (both or neither);
 * storage prefers integral causality (C imposes effort, I imposes flow); one
-  forced into derivative causality is *dependent*.
+  forced into derivative causality is *dependent*;
+* an open port (:meth:`bondgraph.BondGraph.open_view`) takes the causality the
+  rest of the graph imposes, unless the user fixed it (then it acts as a source).
 
 Procedure: off junctions and sources first, propagating after each; then each
 storage element in integral causality, falling back to derivative causality if
@@ -33,6 +35,7 @@ import sympy as sp
 
 from .elements import GY, TF, Junction, R, Se, Sf, Storage, Zero
 from .errors import CausalityConflictError
+from .graph import OpenPort
 
 __all__ = ["Causality", "assign_causality", "causality_violations"]
 
@@ -255,6 +258,12 @@ class _SCAP:
                 if isinstance(el, (Se, Sf)):
                     b = self.bonds_of[name][0]
                     self.assign(b, name if isinstance(el, Se) else g.bonds[b].other(name), name)
+                    self.propagate()
+                elif isinstance(el, OpenPort) and el.imposes is not None:
+                    # an open port whose causality the user fixed acts as a source;
+                    # an unfixed one takes what the rest imposes (bonds still open, last)
+                    b = self.bonds_of[name][0]
+                    self.assign(b, name if el.imposes == "effort" else g.bonds[b].other(name), name)
                     self.propagate()
         except _Conflict as c:
             raise CausalityConflictError(

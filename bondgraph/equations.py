@@ -50,6 +50,10 @@ class ConfigurationEquations:
     implicit_rates : dict independent state → ``F(x_i, t, u, dx_d/dt)``
     rates : dict          every state → ``f(x, t, u)``
     efforts, flows : dict bond name → expression (may contain ``dx_d/dt``)
+    port_inputs : dict    open port → the symbol the outside imposes (``e_A`` or
+                          ``f_A``), when a graph with ports is derived on its own
+    port_outputs : dict   open port → ``(symbol, expression)`` of its other variable
+                          (``f_A`` or ``e_A``; may contain ``dx_d/dt``)
     """
 
     graph_name: str
@@ -67,6 +71,8 @@ class ConfigurationEquations:
     _dependent_rates: dict = field(repr=False, compare=False, default_factory=dict)
     graph: object = field(repr=False, compare=False, default=None)
     substitutions: dict = field(repr=False, compare=False, default_factory=dict)
+    port_inputs: dict = field(default_factory=dict)
+    port_outputs: dict = field(default_factory=dict)
 
     # ---------------------------------------------------------------- access
 
@@ -88,6 +94,7 @@ class ConfigurationEquations:
             efforts=sub(self.efforts),
             flows=sub(self.flows),
             _dependent_rates=sub(self._dependent_rates),
+            port_outputs={p: (v, sp.sympify(e).xreplace(values)) for p, (v, e) in self.port_outputs.items()},
             substitutions={**{k: sp.sympify(v).xreplace(values) for k, v in self.substitutions.items()}, **values},
         )
 
@@ -317,8 +324,17 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
 
     efforts, flows = {}, {}
     for name, bond in graph.bonds.items():
-        efforts[name] = bond_values[bond.effort]
-        flows[name] = bond_values[bond.flow]
+        # an open port's input has no relation: it stands for itself
+        efforts[name] = bond_values.get(bond.effort, bond.effort)
+        flows[name] = bond_values.get(bond.flow, bond.flow)
+
+    port_inputs, port_outputs = {}, {}
+    for port, (outside, bond_name) in getattr(graph, "open_ports", {}).items():
+        bond = graph.bonds[bond_name]
+        if causality.effort_by.get(bond_name) == outside:
+            port_inputs[port], port_outputs[port] = bond.effort, (bond.flow, flows[bond_name])
+        else:
+            port_inputs[port], port_outputs[port] = bond.flow, (bond.effort, efforts[bond_name])
 
     return ConfigurationEquations(
         graph_name=graph.name,
@@ -335,4 +351,6 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
         causality=causality,
         _dependent_rates=rate_values,
         graph=graph,
+        port_inputs=port_inputs,
+        port_outputs=port_outputs,
     )

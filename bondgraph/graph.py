@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import sympy as sp
 
@@ -35,7 +36,7 @@ from .errors import (
 )
 from .symbols import check_name, t
 
-__all__ = ["Bond", "BondGraph", "Instance", "Configuration"]
+__all__ = ["Bond", "BondGraph", "Instance", "Configuration", "OpenPort"]
 
 #: A configuration: controlled junction name → on (True) / off (False).
 Configuration = Mapping[str, bool]
@@ -80,6 +81,23 @@ class Displacement:
     symbol: sp.Symbol
     bond: str
     sign: int = 1
+
+
+@dataclass(frozen=True)
+class OpenPort(OnePort):
+    """The outside world at an open port, seen when a graph with ports is
+    derived on its own (never part of a user's graph).
+
+    It contributes no equation: whichever of its bond's variables the rest of
+    the graph does not fix stays a free symbol, an *input* of the equations,
+    and the other is an *output*.  ``imposes`` fixes which variable the
+    outside imposes (``"effort"`` or ``"flow"``); ``None`` lets the causality
+    of the rest of the graph decide.
+    """
+
+    port: str = ""
+    imposes: str | None = None
+    kind: ClassVar[str] = "port"
 
 
 class Instance:
@@ -152,6 +170,9 @@ class BondGraph:
         self.displacements: dict[sp.Symbol, Displacement] = {}
         self.inputs: dict[str, sp.Symbol] = {}
         self.ports: dict[str, str] = {}
+        #: only in the derivation-time view of a graph with open ports:
+        #: port name → (name of its :class:`OpenPort` element, its bond's name)
+        self.open_ports: dict[str, tuple[str, str]] = {}
         self._bonds_of: dict[str, list[str]] = {}
         self._version = 0
         self._cache: dict = {}
@@ -490,10 +511,12 @@ class BondGraph:
 
     def _check_symbol_names(self) -> None:
         seen: dict[str, str] = {"t": "time"}
+        # an open port's bond variables are also its inputs (see open_view)
+        port_symbols = {s for _, b in self.open_ports.values() for s in (self.bonds[b].effort, self.bonds[b].flow)}
         groups = [
             ("state", self.states),
             ("input", self.inputs.values()),
-            ("bond variable", sorted(self.bond_symbols(), key=lambda s: s.name)),
+            ("bond variable", sorted(self.bond_symbols() - port_symbols, key=lambda s: s.name)),
             ("parameter", sorted(self.parameters, key=lambda s: s.name)),
         ]
         for what, symbols in groups:
@@ -538,23 +561,120 @@ class BondGraph:
             self._cache[key] = compute(self.configuration(config))
         return self._cache[key]
 
-    def causality(self, config: Configuration | None = None):
-        """The causal assignment for a configuration (cached); see :func:`bondgraph.causality.assign_causality`."""
+    def open_view(self, port_causality: Mapping[str, str] | None = None) -> "BondGraph":
+        """The graph as derived on its own: every declared port left **open**.
+
+        Returns ``self`` when the graph has no ports.  Otherwise a copy (the
+        user's graph is not changed) in which each port ``A`` on element ``X``
+        gets a bond named ``A`` from an :class:`OpenPort` element (the outside
+        world) to ``X``: positive power flows *into* the graph through the
+        port, and the port's variables are ``e_A`` and ``f_A``.  The one the
+        outside imposes is an input of the equations (listed, with the other,
+        in the copy's :attr:`inputs`); the other is an output.
+        ``port_causality`` maps port names to ``"effort"`` (the outside
+        imposes the effort) or ``"flow"``; ports not named follow the
+        causality the rest of the graph imposes.
+
+        Ports of sub-model instances are not ports of the graph they are
+        placed in, so composition through ports is unaffected.
+        """
+        port_causality = dict(port_causality or {})
+        unknown = set(port_causality) - set(self.ports)
+        if unknown:
+            name = sorted(unknown)[0]
+            raise UnknownNameError(
+                f"port_causality names {name!r}, which is not a port of {self.name!r}; "
+                f"its ports are: {', '.join(self.ports) or '(none)'}",
+                name,
+            )
+        for name, how in port_causality.items():
+            if how not in ("effort", "flow", None):
+                raise InvalidGraphError(
+                    f"port_causality of port {name!r} must be 'effort' (the outside imposes the effort) "
+                    f"or 'flow', not {how!r}",
+                    [self.ports[name]],
+                )
+        if not self.ports:
+            return self
+        view = BondGraph(self.name)
+        view.elements = dict(self.elements)
+        view.bonds = dict(self.bonds)
+        view.displacements = dict(self.displacements)
+        view.inputs = dict(self.inputs)
+        view.ports = dict(self.ports)
+        view._bonds_of = {k: list(v) for k, v in self._bonds_of.items()}
+        for port, element in self.ports.items():
+            if port in view.bonds:
+                raise DuplicateNameError(
+                    f"open port {port!r} of {self.name!r} needs a bond named {port!r} (variables e_{port}, "
+                    f"f_{port}), but {view.bonds[port]} already has that name; rename the port or the bond, "
+                    "or derive with open_ports=False",
+                    port,
+                )
+            outside = f"port/{port}"
+            while outside in view.elements:
+                outside = "_" + outside
+            view.add(OpenPort(outside, port=port, imposes=port_causality.get(port)))
+            bond = view.connect(outside, element, name=port)
+            for sym in (bond.effort, bond.flow):
+                if sym.name in view.inputs:
+                    raise DuplicateNameError(
+                        f"open port {port!r} of {self.name!r}: its variable {sym.name!r} is already a declared "
+                        "input; rename the port or the input, or derive with open_ports=False",
+                        sym.name,
+                    )
+                view.inputs[sym.name] = sym
+            view.open_ports[port] = (outside, bond.name)
+        return view
+
+    @staticmethod
+    def _port_key(kind: str, port_causality, open_ports: bool) -> str:
+        if not open_ports:
+            return f"{kind} closed"
+        return f"{kind} {sorted((port_causality or {}).items())}" if port_causality else kind
+
+    def causality(self, config: Configuration | None = None, port_causality: Mapping[str, str] | None = None,
+                  open_ports: bool = True):
+        """The causal assignment for a configuration (cached); see :func:`bondgraph.causality.assign_causality`.
+
+        A graph with ports is assigned with its ports open (see
+        :meth:`open_view`, ``port_causality``); ``open_ports=False`` ignores them.
+        """
         from .causality import assign_causality
 
-        return self._cached("causality", config, lambda c: assign_causality(self, c))
+        graph = self.open_view(port_causality) if open_ports else self
+        return self._cached(self._port_key("causality", port_causality, open_ports), config,
+                            lambda c: assign_causality(graph, c))
 
-    def equations(self, config: Configuration | None = None):
-        """The symbolic equations of a configuration (cached); see :class:`bondgraph.equations.ConfigurationEquations`."""
+    def equations(self, config: Configuration | None = None, port_causality: Mapping[str, str] | None = None,
+                  open_ports: bool = True):
+        """The symbolic equations of a configuration (cached); see :class:`bondgraph.equations.ConfigurationEquations`.
+
+        A graph with declared ports, derived on its own, has its ports
+        **open** (see :meth:`open_view`): for port ``A`` the variable the
+        outside imposes (``e_A`` or ``f_A``, by the causality of the rest of
+        the graph, or as ``port_causality={"A": "effort" | "flow"}`` fixes
+        it) is an input of the equations and the other an output, listed in
+        ``eq.port_inputs`` / ``eq.port_outputs`` and in ``eq.efforts["A"]``,
+        ``eq.flows["A"]``.  ``open_ports=False`` derives as if the ports were
+        not there.
+        """
         from .equations import derive_equations
 
-        return self._cached("equations", config, lambda c: derive_equations(self, c, self.causality(c)))
+        graph = self.open_view(port_causality) if open_ports else self
+        return self._cached(
+            self._port_key("equations", port_causality, open_ports),
+            config,
+            lambda c: derive_equations(graph, c, self.causality(c, port_causality, open_ports)),
+        )
 
     def jump_map(self, config: Configuration | None = None, law: str = "conservation"):
         """The jump map into a configuration by a jump ``law`` (cached); see :mod:`bondgraph.jump`."""
         from .jump import derive_jump_map
 
-        return self._cached(f"jump {law}", config, lambda c: derive_jump_map(self, self.equations(c), law))
+        # derived on this graph itself: its declared ports closed, as the jump needs the whole graph
+        return self._cached(f"jump {law}", config,
+                            lambda c: derive_jump_map(self, self.equations(c, open_ports=False), law))
 
     @property
     def version(self) -> int:

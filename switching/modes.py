@@ -93,7 +93,8 @@ class ModeEquations:
         self.configuration = model.configuration_of(mode)
         graph = model.graph
         self.values = model.mode_values(mode)
-        self.equations = graph.equations(self.configuration).substituted(self.values)
+        # a hybrid model is closed: declared ports are for composing it, not inputs of its modes
+        self.equations = graph.equations(self.configuration, open_ports=False).substituted(self.values)
         self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
         self.restitution = model.restitution_of(mode)
         self.states = self.equations.states

@@ -160,7 +160,7 @@ def draw_bond_graph(graph, config=None, ax=None):
     import networkx as nx
 
     plt = _plt()
-    causality = graph.causality(config)
+    causality = graph.causality(config, open_ports=False)  # the graph as drawn: no open-port bonds
     g = nx.Graph()
     g.add_nodes_from(graph.elements)
     g.add_edges_from((b.tail, b.head) for b in graph.bonds.values())
