@@ -627,8 +627,10 @@ class BondGraph:
             view.open_ports[port] = (outside, bond.name)
         return view
 
-    @staticmethod
-    def _port_key(kind: str, port_causality, open_ports: bool) -> str:
+    def _port_key(self, kind: str, port_causality, open_ports: bool) -> str:
+        """The cache key of a derivation: one per port setting (all alike without ports)."""
+        if not self.ports:
+            return kind
         if not open_ports:
             return f"{kind} closed"
         return f"{kind} {sorted((port_causality or {}).items())}" if port_causality else kind
