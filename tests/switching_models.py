@@ -113,6 +113,16 @@ def independent_switches(n=20):
     return HybridModel(g, automata, {"V": 1.0, "R": 1.0, "C": 1.0})
 
 
+def rc_graph():
+    """Source V0 through a controlled 1-junction 'sw' onto R and C."""
+    g = BondGraph("rc")
+    sw = g.add(One("sw", controlled=True))
+    g.connect(Se("V", "V0"), sw)
+    g.connect(sw, R("R", "R"))
+    g.connect(sw, C("C", "C"))
+    return g
+
+
 def relay_graph():
     """Source V through R1 (junction a) onto capacitor C, discharged through R2 (junction b)."""
     g = BondGraph("relay")

@@ -18,9 +18,9 @@ import sys
 import pytest
 import sympy as sp
 
-from bondgraph import BondGraph, C, One, R, Se
 from switching import Automaton, GuardSyntaxError, HybridModel, parse_condition, parse_expression
 from switching.parsing import MAX_MINMAX_ARGUMENTS, MAX_NESTING, MAX_NUMBER_LENGTH, MAX_TOKENS
+from switching_models import rc_graph
 
 SECONDS = 5.0
 x, y, r, a, v = sp.symbols("x y r a v")
@@ -95,15 +95,6 @@ def test_exponent_tower_is_refused_at_once():
     assert error.position == 8  # 9**(9**9), the first power beyond the largest double
     refused(parse_expression, "9**9**9**9", "9**9**9**9", "'9**9**9'", "not a finite number")
     refused(parse_expression, "2**-(9**9**9)", "9**9**9", "not a finite number")
-
-
-def rc_graph():
-    g = BondGraph("rc")
-    sw = g.add(One("sw", controlled=True))
-    g.connect(Se("V", "V0"), sw)
-    g.connect(sw, R("R", "R"))
-    g.connect(sw, C("C", "C"))
-    return g
 
 
 def model_with_guard(guard):

@@ -2,9 +2,9 @@
 
 import pytest
 import sympy as sp
-from switching_models import ball_row, diode_circuit
+from switching_models import ball_row, diode_circuit, rc_graph
 
-from bondgraph import BondGraph, C, MissingParameterError, One, R, Se, UnknownParameterError
+from bondgraph import MissingParameterError, UnknownParameterError
 from codegen.runtime import H, Hyper, PulseError, decide
 from switching import Automaton, GuardSyntaxError, HybridModel, ModelDefinitionError, parse_condition, parse_expression
 
@@ -85,15 +85,6 @@ def test_tolerance_band_separates_le_from_lt():
     assert decide("<=", at, one, rtol, atol) and not decide("<", at, one, rtol, atol)
     assert decide(">=", one, at, rtol, atol) and not decide(">", one, at, rtol, atol)
     assert decide("==", at, one, rtol, atol) and not decide("!=", at, one, rtol, atol)
-
-
-def rc_graph():
-    g = BondGraph("rc")
-    sw = g.add(One("sw", controlled=True))
-    g.connect(Se("V", "V0"), sw)
-    g.connect(sw, R("R", "R"))
-    g.connect(sw, C("C", "C"))
-    return g
 
 
 def switch_automaton(**kwargs):
