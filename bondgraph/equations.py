@@ -9,8 +9,12 @@ equations are
   functions of the independent ones (the system stays on them, no drift);
 * **implicit rates** ``dx_i/dt = F(x_i, t, u, dx_d/dt)`` — straight from the
   junction structure, with the rates of dependent states still symbolic;
-* **dependent rates** ``dx_d/dt = (∂φ/∂x_i) dx_i/dt + ∂φ/∂t`` (the chain rule
-  through modulated moduli);
+* **dependent rates** ``dx_d/dt = (∂φ/∂x_i) dx_i/dt + (∂φ/∂u) du/dt + ∂φ/∂t``
+  (the chain rule through modulated moduli, and through declared inputs ``u``
+  that fix dependent storage — a mass driven by a prescribed velocity: the
+  input's derivative enters as the symbol ``du/dt``, listed in
+  :attr:`ConfigurationEquations.input_rates`, whose value the simulator
+  supplies);
 * **rates** ``dx/dt = f(x, t, u)`` for every state — the two above solved
   together (a linear system in ``dx_d/dt``, solved by its sparse structure);
 * **efforts / flows** of every bond as expressions of states, inputs,
@@ -31,7 +35,7 @@ import sympy as sp
 
 from .algebra import solve_explicit
 from .errors import DerivationError
-from .symbols import t
+from .symbols import rate_symbol, t
 
 __all__ = ["ConfigurationEquations", "derive_equations"]
 
@@ -54,6 +58,9 @@ class ConfigurationEquations:
                           ``f_A``), when a graph with ports is derived on its own
     port_outputs : dict   open port → ``(symbol, expression)`` of its other variable
                           (``f_A`` or ``e_A``; may contain ``dx_d/dt``)
+    input_rates : dict    declared input (or open port input) ``u`` → the symbol
+                          ``du/dt`` standing for its time derivative, for every
+                          input that fixes a dependent state (empty otherwise)
     """
 
     graph_name: str
@@ -73,6 +80,7 @@ class ConfigurationEquations:
     substitutions: dict = field(repr=False, compare=False, default_factory=dict)
     port_inputs: dict = field(default_factory=dict)
     port_outputs: dict = field(default_factory=dict)
+    input_rates: dict = field(default_factory=dict)
 
     # ---------------------------------------------------------------- access
 
@@ -173,7 +181,7 @@ class ConfigurationEquations:
         used = set()
         for expr in (*self.rates.values(), *self.efforts.values(), *self.flows.values()):
             used |= expr.free_symbols
-        return used - set(self.states) - set(self.rate_symbols.values()) - {t}
+        return used - set(self.states) - set(self.rate_symbols.values()) - set(self.input_rates.values()) - {t}
 
     # ---------------------------------------------------------------- display
 
@@ -281,14 +289,9 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
                 f"({phi}); the configuration {config} has a higher-index constraint. Add a small compliance or mass.",
                 [storage_of[x]],
             )
-        if phi.free_symbols & inputs:
-            bad = sorted(str(s) for s in phi.free_symbols & inputs)
-            raise DerivationError(
-                f"dependent state {x} of {storage_of[x]!r} is fixed by input(s) {', '.join(bad)}, whose time "
-                "derivative the toolkit does not know; give the source as an expression of t instead.",
-                [storage_of[x]],
-            )
         constraints[x] = phi
+    input_rates = {u: rate_symbol(u) for u in sorted(set().union(*(phi.free_symbols for phi in constraints.values()))
+                                                       & inputs, key=lambda s: s.name)}
 
     implicit = {x: bonds_in(rel.rates[x]) for x in causality.independent}
 
@@ -302,6 +305,8 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
                 total += sp.diff(phi, s) * implicit[s]
             elif s in dependent_set:
                 total += sp.diff(phi, s) * rel.rate_symbols[s]
+            elif s in input_rates:
+                total += sp.diff(phi, s) * input_rates[s]
         rate_equations[rel.rate_symbols[x]] = total
     rate_values = solve_explicit(
         rate_equations,
@@ -353,4 +358,5 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
         graph=graph,
         port_inputs=port_inputs,
         port_outputs=port_outputs,
+        input_rates=input_rates,
     )

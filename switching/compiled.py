@@ -41,7 +41,7 @@ from codegen.source import Argument, FunctionSpec, function_source, module_names
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "7"
+MODE_SOURCE_VERSION = "8"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 

@@ -85,6 +85,11 @@ class ExpressionInput:
             self._compile()
         return self._function(float(t))
 
+    @property
+    def derivative(self) -> "ExpressionInput":
+        """``du/dt`` as an input of its own (exact: the expression differentiated)."""
+        return ExpressionInput(sp.diff(self.expression, TIME), self.parameters)
+
     def __getstate__(self):
         return {"expression": self.expression, "parameters": self.parameters}
 

@@ -90,10 +90,10 @@ class _Stepper:
 class _FixedStiffness:
     """The consecutive-steps rule of the fixed-step methods."""
 
-    def __init__(self, method, limit, autonomous):
+    def __init__(self, method, limit, autonomous, enabled=True):
         self.method = method
-        self.limit = limit
-        self.at_once = _FIXED_AT_ONCE * limit if autonomous else math.inf
+        self.limit = limit if enabled else math.inf
+        self.at_once = _FIXED_AT_ONCE * limit if autonomous and enabled else math.inf
         self.streak = 0
 
     def check(self, t, h, power4, component):
@@ -114,10 +114,10 @@ class Euler(_Stepper):
     step runs on Python floats — faster for a few states, with the same IEEE
     results as on arrays; ``y`` is an array after every step either way."""
 
-    def __init__(self, fun, t0, y0, t_bound, dt, autonomous=True, fun_list=None):
+    def __init__(self, fun, t0, y0, t_bound, dt, autonomous=True, fun_list=None, stiffness_check=True):
         super().__init__(fun, t0, y0, t_bound)
         self.dt = float(dt)
-        self._stiff = _FixedStiffness("euler", STABILITY_LIMITS["euler"], autonomous)
+        self._stiff = _FixedStiffness("euler", STABILITY_LIMITS["euler"], autonomous, stiffness_check)
         self._fun_list = fun_list
         self._y_list = self.y.tolist()
         self._history = []  # f at the starts of the last two steps (all of length dt)
@@ -176,10 +176,10 @@ class Euler(_Stepper):
 class RK4(_Stepper):
     """The classical Runge–Kutta method; ``fun_list`` as for :class:`Euler`."""
 
-    def __init__(self, fun, t0, y0, t_bound, dt, autonomous=True, fun_list=None):
+    def __init__(self, fun, t0, y0, t_bound, dt, autonomous=True, fun_list=None, stiffness_check=True):
         super().__init__(fun, t0, y0, t_bound)
         self.dt = float(dt)
-        self._stiff = _FixedStiffness("rk4", STABILITY_LIMITS["rk4"], autonomous)
+        self._stiff = _FixedStiffness("rk4", STABILITY_LIMITS["rk4"], autonomous, stiffness_check)
         self._fun_list = fun_list
         if fun_list is not None:
             self._y_list = self.y.tolist()
@@ -268,7 +268,7 @@ _HAIRER_STAGE = {"RK45": 5, "DOP853": 11, "RK23": None}
 class Adaptive(_Stepper):
     """A scipy ``OdeSolver`` driven step by step."""
 
-    def __init__(self, fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step):
+    def __init__(self, fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step, stiffness_check=True):
         import scipy.integrate as si
 
         super().__init__(fun, t0, y0, t_bound)
@@ -279,7 +279,7 @@ class Adaptive(_Stepper):
         self.solver = cls(fun, t0, self.y, t_bound, **options)
         self.method = method
         self._dense = None
-        self._stiffness_test = method in _HAIRER_STAGE
+        self._stiffness_test = stiffness_check and method in _HAIRER_STAGE
         self._stage = _HAIRER_STAGE.get(method)
         self._stiff_steps = self._calm_steps = 0
 
@@ -333,13 +333,15 @@ class Adaptive(_Stepper):
 
 
 def make_stepper(method, fun, t0, y0, t_bound, dt=None, rtol=1e-6, atol=1e-9, max_step=np.inf, first_step=None,
-                 autonomous=True, fun_list=None):
+                 autonomous=True, fun_list=None, stiffness_check=True):
     """An integrator for ``y' = fun(t, y)`` from ``(t0, y0)`` up to ``t_bound``
     (``autonomous``: ``fun`` has no explicit dependence on ``t`` through
     inputs, which lets the fixed-step stiffness test act on one estimate;
-    ``fun_list``: the same rates on lists of floats, for euler and rk4)."""
+    ``fun_list``: the same rates on lists of floats, for euler and rk4;
+    ``stiffness_check=False``: no stiffness test, the run goes on whatever
+    the step size's stability)."""
     if method == "euler":
-        return Euler(fun, t0, y0, t_bound, dt, autonomous, fun_list)
+        return Euler(fun, t0, y0, t_bound, dt, autonomous, fun_list, stiffness_check)
     if method == "rk4":
-        return RK4(fun, t0, y0, t_bound, dt, autonomous, fun_list)
-    return Adaptive(fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step)
+        return RK4(fun, t0, y0, t_bound, dt, autonomous, fun_list, stiffness_check)
+    return Adaptive(fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step, stiffness_check)

@@ -31,7 +31,8 @@ from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 from bondgraph import BondGraph, t as TIME
 from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
 from bondgraph.jump import JUMP_LAWS
-from bondgraph.symbols import check_name
+from bondgraph.law_switches import law_switches
+from bondgraph.symbols import check_name, rate_symbol
 
 from .automaton import Automaton
 from .errors import ModelDefinitionError
@@ -41,6 +42,7 @@ from .compiled import MODE_SOURCE_VERSION, CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 from .jit_model import CompiledModel
+from .law_automata import branches_at, law_automaton
 from .simulator import simulate
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
@@ -170,7 +172,14 @@ class HybridModel:
         graph.validate()
         self.graph = graph
         self.name = name or graph.name
-        self.automata = tuple(automata)
+        #: the graph the modes are derived from: ``graph`` with each discontinuity of an element
+        #: law replaced by a branch symbol (:mod:`bondgraph.law_switches`)
+        self.derivation_graph, switches = law_switches(graph)
+        #: law switch name → :class:`bondgraph.law_switches.LawSwitch`; each drives the automaton of that name
+        self.law_switches = {sw.name: sw for sw in switches}
+        self._check_law_switch_names(automata)
+        self.automata = tuple(automata) + tuple(law_automaton(sw) for sw in switches)
+        self._initial_branches_set = not switches
         self._initial_mode = Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
         self.tolerance = tolerance or Tolerance()
         self.max_steps_per_instant = int(max_steps_per_instant)
@@ -184,6 +193,7 @@ class HybridModel:
         self._signals = self._parse_signals(signals or {})
         self._guards = self._parse_guards()
         self._inputs = self._check_inputs(inputs or {})
+        self._input_derivatives: dict = {}
         self.parameter_symbols = self._collect_parameters()
         self.allow_infinite = frozenset(allow_infinite)
         self.parameter_values = self._check_parameter_values(parameters or {})
@@ -233,6 +243,23 @@ class HybridModel:
                 f"controlled junction(s) {', '.join(map(repr, free))} are driven by no automaton; add one or make them plain",
                 free,
             )
+
+    def _check_law_switch_names(self, automata) -> None:
+        taken = {a.name for a in automata}
+        parameters = {p.name for p in self.graph.parameters}
+        for sw in self.law_switches.values():
+            if sw.name in taken:
+                raise ModelDefinitionError(
+                    f"the law of {sw.element!r} has a discontinuity ({sw.written}) whose automaton is named "
+                    f"{sw.name!r}, the name of one of the model's automata; rename that automaton",
+                    [sw.name],
+                )
+            if sw.sigma.name in parameters:
+                raise ModelDefinitionError(
+                    f"parameter {sw.sigma.name!r} has the name of the branch of law switch {sw.name!r} "
+                    f"({sw.written} in the law of {sw.element!r}); rename the parameter",
+                    [sw.sigma.name],
+                )
 
     def _base_names(self) -> dict:
         names = {"t": TIME}
@@ -308,6 +335,7 @@ class HybridModel:
             for e in automaton.restitution.values():
                 used |= e.free_symbols
         reserved = {TIME} | set(self.states) | set(self.rate_symbols.values()) | set(self.graph.inputs.values())
+        reserved |= {rate_symbol(u) for u in self.graph.inputs.values()}
         reserved |= {sp.Symbol(name) for name in self._cross}
         for automaton in self.automata:
             for table in automaton.values.values():
@@ -391,15 +419,40 @@ class HybridModel:
 
     @property
     def input_symbols(self) -> tuple:
-        return tuple(self.graph.inputs.values())
+        """The declared inputs ``u``, then their rates ``du/dt`` (an input
+        that fixes dependent storage — a prescribed velocity driving a mass —
+        enters the equations with its derivative; see :meth:`input_values`)."""
+        inputs = tuple(self.graph.inputs.values())
+        return inputs + tuple(rate_symbol(u) for u in inputs)
 
     def input_values(self, t: float) -> list:
-        return [float(self._inputs[name](t)) for name in self.graph.inputs]
+        """Values of :attr:`input_symbols` at ``t``: each input, then its
+        derivative — exact for an :class:`~switching.ExpressionInput` (the
+        expression differentiated), else a central difference of the input
+        function with step ``h = 6e-6·max(1, |t|)`` (relative error about
+        ``1e-10`` for a smooth input; one-sided where the function is not
+        defined before ``t``)."""
+        values = [float(self._inputs[name](t)) for name in self.graph.inputs]
+        if values:
+            values += [self._input_rate(name, t) for name in self.graph.inputs]
+        return values
+
+    def _input_rate(self, name: str, t: float) -> float:
+        fn = self._inputs[name]
+        rate = self._input_derivatives.get(name)
+        if rate is None and name not in self._input_derivatives:
+            rate = self._input_derivatives[name] = getattr(fn, "derivative", None)
+        if rate is not None:
+            return float(rate(t))
+        h = 6.0e-6 * max(1.0, abs(t))
+        try:
+            return (float(fn(t + h)) - float(fn(t - h))) / (2.0 * h)
+        except (ValueError, ArithmeticError):
+            return (float(fn(t + h)) - float(fn(t))) / h
 
     def parameter_values_with_inputs(self, t: float) -> dict:
         values = dict(self.parameter_values)
-        for name, sym in self.graph.inputs.items():
-            values[sym] = float(self._inputs[name](t))
+        values.update(zip(self.input_symbols, self.input_values(t)))
         return values
 
     def state(self, name: str) -> sp.Symbol:
@@ -426,7 +479,34 @@ class HybridModel:
 
     @property
     def initial_mode(self) -> Mode:
+        """The automata's initial states; law switches (:mod:`switching.law_automata`)
+        on the side of their surface where the given initial state lies."""
+        if not self._initial_branches_set:
+            self._initial_branches_set = True
+            self._initial_mode = branches_at(self, self._initial_mode, self._initial_given, 0.0)
         return self._initial_mode
+
+    def starting_mode(self, x, t: float, mode=None) -> Mode:
+        """The mode a run from ``(x, t)`` starts in: ``mode`` (default: the
+        initial mode) with every law switch set by the sign of its surface at
+        ``(x, t)`` (DESIGN: a law discontinuity is decided by the state, not
+        chosen); a mode given as a mapping or label that names a law switch
+        keeps that switch's state."""
+        named = set()
+        if mode is None:
+            base = self.initial_mode
+        else:
+            base = self.mode(mode)
+            if isinstance(mode, Mapping):
+                named = set(mode)
+            elif isinstance(mode, (str, tuple, Mode)):
+                named = set(self.law_switches)
+        if not self.law_switches or named >= set(self.law_switches):
+            return base
+        decided = branches_at(self, base, np.asarray(x, dtype=float), float(t))
+        keep = dict(zip(decided.automata, decided.states))
+        keep.update({name: base.state_of(name) for name in named if name in self.law_switches})
+        return self.mode(keep)
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
@@ -717,6 +797,12 @@ class HybridModel:
         two comparisons of one guard changing truth), so a guard holding only
         briefly inside a step is still found — by the Python methods and the
         ``*-jit`` kernels alike.
+        ``stiffness_check=False`` turns off the stiffness tests of the
+        explicit methods (the run then goes on whatever the stability of the
+        step; Python methods only).
+        Discontinuous element laws (``sign``, ``Heaviside``, ``Piecewise``)
+        are law switches (:mod:`switching.law_automata`): their crossings are
+        located as events and a state held on a surface slides on it.
         See :func:`switching.simulator.simulate`.
         """
         return simulate(self, t_end, method, **options)

@@ -256,6 +256,8 @@ class _Writer:
     def _automata(self) -> None:
         model = self.model
         for automaton in model.automata:
+            if automaton.name in model.law_switches:
+                continue  # made from a discontinuous element law, again when the file is read
             prefix = f"automata.{_key(automaton.name)}"
             self.section(f"[{prefix}]")
             self.lines.append(f"initial = {_string(automaton.initial)}")

@@ -27,6 +27,8 @@ import sympy as sp
 
 from bondgraph.elements import C, I
 
+from .law_automata import SLIDING, expand_rates, sliding_values
+
 __all__ = ["Mode", "ModeEquations", "SignalForm", "GuardForm"]
 
 
@@ -91,14 +93,27 @@ class ModeEquations:
         self.model = model
         self.mode = mode
         self.configuration = model.configuration_of(mode)
-        graph = model.graph
+        graph = model.derivation_graph
         self.values = model.mode_values(mode)
         # a hybrid model is closed: declared ports are for composing it, not inputs of its modes
-        self.equations = graph.equations(self.configuration, open_ports=False).substituted(self.values)
+        equations = graph.equations(self.configuration, open_ports=False)
         self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
         self.restitution = model.restitution_of(mode)
+        sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]
+        if sliding:  # σ of each sliding law switch from ṡ = 0 (switching.law_automata)
+            free = {sw.sigma for sw in sliding}
+            self.equations = equations.substituted({k: v for k, v in self.values.items() if k not in free})
+            self.states = self.equations.states
+            self._bond_values = self._raw_bond_values(graph)
+            self.free_rates = self.equations.rates
+            self.values.update(sliding_values(self, sliding, self.to_raw))
+        else:
+            self.free_rates = None
+        self.equations = equations.substituted(self.values)
         self.states = self.equations.states
         self._bond_values = self._raw_bond_values(graph)
+        #: ``dx/dt`` with the branches of sliding law switches still free (``f`` in other modes)
+        self.free_rates = self.free_rates or self.equations.rates
         self.guards = [
             GuardForm(auto, tr, self.to_raw(cond), text)
             for auto, tr, cond, text in model.guards_from(mode)
@@ -122,9 +137,9 @@ class ModeEquations:
             (bond,) = graph.bonds_of(el.name)
             s = bond.sign_at(el.name)
             if isinstance(el, I):
-                values[bond.flow] = s * el.output(el.state)
+                values[bond.flow] = s * el.output(el.state).xreplace(self.values)
             elif isinstance(el, C):
-                values[bond.effort] = el.output(el.state)
+                values[bond.effort] = el.output(el.state).xreplace(self.values)
         return values
 
     def to_raw(self, expr: sp.Basic) -> sp.Basic:
@@ -135,7 +150,11 @@ class ModeEquations:
         if cross:
             expr = expr.xreplace(cross)
         subs = {s: self._bond_values[s] for s in expr.free_symbols if s in self._bond_values}
-        return expr.xreplace(subs) if subs else expr
+        if subs:
+            expr = expr.xreplace(subs)
+        expr = expand_rates(expr, self, self.to_raw)  # branch symbols still free in the rates it forms
+        values = {s: self.values[s] for s in expr.free_symbols if s in self.values}
+        return expr.xreplace(values) if values else expr
 
     @property
     def f(self) -> dict:

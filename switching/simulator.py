@@ -222,11 +222,17 @@ def simulate(
     max_events: int = 1_000_000,
     progress=None,
     event_samples: int = 3,
+    stiffness_check: bool = True,
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
     _check_options(method, dt, rtol, atol)
     if on_zeno not in ("raise", "stop"):
         raise SimulationError("on_zeno must be 'raise' or 'stop'")
+    if not isinstance(stiffness_check, bool):
+        raise SimulationError(f"stiffness_check must be True or False, not {stiffness_check!r}")
+    if not stiffness_check and method in COMPILED:
+        raise SimulationError(f"stiffness_check=False is not available on the compiled method {method!r} yet; "
+                              f"use {method[:-4]!r}")
     if output not in ("steps", "events"):
         raise SimulationError("output must be 'steps' or 'events' (give t_eval=… for chosen times)")
     t_eval = _check_times(t0, t_end, t_eval, max_step, first_step)
@@ -234,7 +240,7 @@ def simulate(
         output = "events"
     started = _time.perf_counter()
     x = model.initial_state() if x0 is None else _check_x0(model, x0)
-    current = model.initial_mode if mode is None else model.mode(mode)
+    current = model.starting_mode(x, t0, mode)
     recorder = _Recorder(model, output, t_eval, keep_instants)
     recorder.start(t0)
     zeno = _ZenoWatch(zeno_window, t_end, 1e-9 * (t_end - t0) if zeno_min_gap is None else zeno_min_gap)
@@ -297,7 +303,8 @@ def simulate(
             recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
 
         options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
-                       save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g)
+                       save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g,
+                       stiffness_check=stiffness_check)
 
         def after_event(instant) -> bool:
             """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
@@ -439,8 +446,8 @@ def _flow_functions(model, cm, x):
     n = cm.n
     template = x.copy()
     if not len(ind):  # nothing flows: step a dummy variable so time guards are still found
-        def state_at(tau, y):
-            return template.copy()
+        def state_at(tau, y):  # the dependent states follow their constraints (which may hold t or inputs)
+            return cm.complete(template.copy(), tau) if len(dep) else template.copy()
 
         return (lambda tau, y: np.zeros(1)), state_at, np.zeros(1)
     rates, phi, p = cm._rates, cm._phi, model.parameter_array  # the mode's generated functions
@@ -547,7 +554,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= _LIST_STATES else None
     stepper = make_stepper(method, fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
                            max_step=o["max_step"], first_step=o["first_step"], autonomous=not model.input_symbols,
-                           fun_list=on_lists)
+                           fun_list=on_lists, stiffness_check=o["stiffness_check"])
     scan = (_GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o["rtol_g"], o["atol_g"], o["samples"])
             if cm.guards else None)
     save = recorder.output == "steps"
@@ -602,7 +609,11 @@ def _stiffness_message(model, cm, mode, exc) -> str:
         state = f", fastest in {model.states[cm.independent[exc.component]].name}"
     if exc.method.removesuffix("-jit") in FIXED_STEP:
         held = ""
-        advice = f", or a step dt < {exc.limit:g}/|λ| ≈ {exc.limit * exc.h / exc.h_lambda:.3g} s (or smaller)"
+        advice = (f", or a step dt < {exc.limit:g}/|λ| ≈ {exc.limit * exc.h / exc.h_lambda:.3g} s (or smaller). "
+                  "If instead the rates jump here (a discontinuity the model does not show: inside an input "
+                  "function, say), this is no stiffness and a smaller dt will not help: write the discontinuity "
+                  "into an element law (sign, Heaviside, Piecewise) or an automaton, or run with "
+                  "stiffness_check=False")
     else:
         held = ", the step held there by the step-size control"
         if exc.steps_left is not None:

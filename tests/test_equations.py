@@ -269,15 +269,18 @@ def test_dependent_storage_driven_by_time_uses_the_time_derivative():
     assert same(eq.rate(q), C_ * V0 * w * sp.cos(w * t))
 
 
-def test_dependent_storage_driven_by_an_input_is_a_clear_error():
+def test_dependent_storage_driven_by_an_input_takes_the_inputs_derivative():
+    """A capacitor across a voltage input u: q = C·u and dq/dt = C·du/dt (issue 19, item 2)."""
     g = BondGraph("cap_on_input")
     n = g.add(Zero("n"))
     u = g.input("u")
     g.connect(Se("V", u), n)
     g.connect(n, C("C", "C"))
-    with pytest.raises(DerivationError) as info:
-        g.equations()
-    assert "'C'" in str(info.value) and "u" in str(info.value) and "expression of t" in str(info.value)
+    eq = g.equations()
+    cap, q = sp.symbols("C q_C")
+    du = eq.input_rates[u]
+    assert same(eq.constraints[q], cap * u) and same(eq.rate(q), cap * du)
+    assert same(eq.flow("V", resolved=True), cap * du)  # the source delivers the charging current
 
 
 def test_input_symbol_reaches_the_rates():

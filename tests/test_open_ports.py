@@ -11,7 +11,6 @@ from bondgraph import (
     C,
     I,
     BondGraph,
-    DerivationError,
     DuplicateNameError,
     InvalidGraphError,
     One,
@@ -68,11 +67,16 @@ def test_parallel_rc_flow_fixed_by_user_gives_the_same():
 
 
 def test_parallel_rc_effort_imposed_fixes_the_capacitor():
-    # e_A imposed on a C in parallel fixes its charge: q = C e_A (derivative causality)
+    # e_A imposed on a C in parallel fixes its charge: q = C e_A (derivative causality), and the
+    # port's flow takes the input's derivative: f_A = e_A/R + C de_A/dt (issue 19, item 2)
     g = parallel_rc()
-    with pytest.raises(DerivationError, match="e_A"):
-        g.equations(port_causality={"A": "effort"})
     assert g.causality(port_causality={"A": "effort"}).dependent == (q,)
+    eq = g.equations(port_causality={"A": "effort"})
+    de_A = eq.input_rates[e_A]
+    assert de_A == sp.Symbol("de_A/dt")
+    assert same(eq.constraints[q], Cs * e_A) and same(eq.rate(q), Cs * de_A)
+    symbol, output = eq.port_outputs["A"]
+    assert symbol == f_A and same(eq.resolve(output), e_A / Rs + Cs * de_A)
 
 
 def test_series_resistor_port_effort_imposed():

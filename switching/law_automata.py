@@ -1,0 +1,182 @@
+"""Law switches as local automata: crossings located as events, and sliding modes.
+
+Every discontinuity of an element law (:mod:`bondgraph.law_switches`) with
+surface ``s`` and branch symbol ``σ`` becomes a local automaton named after
+the switch (``fr_law`` for the friction law of element ``fr``) with three
+states that set ``σ``:
+
+==========  =========================  ===================================
+state       ``σ``                      leaves, a priori, to
+==========  =========================  ===================================
+positive    ``+1``                     sliding when ``s ≤ 0`` and ``ṡ < 0``
+negative    ``−1``                     sliding when ``s ≥ 0`` and ``ṡ > 0``
+sliding     ``σ*`` (below)             positive when ``ṡ₊ > 0``;
+                                       negative when ``ṡ₋ < 0``
+==========  =========================  ===================================
+
+``ṡ = Σₖ ∂s/∂xₖ·fₖ(x) + ∂s/∂t`` is the rate of ``s`` along the current
+mode's flow (:class:`Rate`), ``ṡ₊``/``ṡ₋`` along the flow of the same
+configuration with ``σ = +1``/``−1`` (:class:`RateWith`).  Between crossings
+the flow therefore sees a smooth right-hand side (the branch is fixed), and a
+crossing is an event located like any other.  At a crossing the instant
+passes through ``sliding`` (a mythical mode) to the other side when the flow
+there leaves the surface too (``ṡ₋ < 0`` coming from ``positive``); when
+both sides' flows point into the surface the run *slides* on it (Filippov).
+
+**Sliding dynamics.**  In ``sliding``, ``σ`` takes the value ``σ*(x)`` that
+keeps the state on the surface: ``ṡ(x, σ*) = 0``.  With ``ṡ = a(x) + b(x)σ``
+affine in ``σ`` (every law that is linear in ``sign``, ``Heaviside`` or a
+``Piecewise`` selection), ``σ* = −a/b``, and the flow ``f(x, σ*)`` is exactly
+Filippov's convex combination ``α f₊ + (1 − α) f₋`` with
+``α = ṡ₋ / (ṡ₋ − ṡ₊)``, ``σ* = 2α − 1``; the laws' outputs (a friction
+force) take their equivalent value ``φ(σ*)`` — the static friction force,
+bounded by ``μN`` while the block sticks.  Several surfaces sliding at once
+solve ``ṡⱼ(x, σ*) = 0`` together (a linear system).  A surface that ``σ``
+does not reach (``b ≡ 0``: a sign of a position in a force law) has
+``σ* = 0``: its ``sliding`` state is always left at once, except at an
+equilibrium on the surface.
+
+**Initial branch.**  A run starts in ``positive`` where ``s > 0``,
+``negative`` where ``s < 0`` and ``sliding`` where ``s = 0``
+(:func:`branches_at`); the instant at the start then moves it on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from bondgraph.errors import DerivationError
+
+from .automaton import Automaton
+
+__all__ = ["Rate", "RateWith", "law_automaton", "POSITIVE", "NEGATIVE", "SLIDING", "sliding_values",
+           "expand_rates", "branches_at"]
+
+POSITIVE, NEGATIVE, SLIDING = "positive", "negative", "sliding"
+
+
+class Rate(sp.Function):
+    """``Rate(s)``: the time derivative of ``s`` along the flow of the mode
+    in which it is evaluated (expanded by :func:`expand_rates`)."""
+
+    nargs = 1
+
+
+class RateWith(sp.Function):
+    """``RateWith(s, σ, v)``: the time derivative of ``s`` along the flow of
+    the mode's configuration with the branch symbol ``σ`` set to ``v``."""
+
+    nargs = 3
+
+
+def law_automaton(switch) -> Automaton:
+    """The local automaton of a :class:`bondgraph.law_switches.LawSwitch`
+    (module docstring); its initial state is set per run from the state."""
+    sigma, s = switch.sigma.name, switch.surface
+    automaton = Automaton(
+        switch.name,
+        {POSITIVE: {}, NEGATIVE: {}, SLIDING: {}},
+        POSITIVE,
+        values={POSITIVE: {sigma: 1}, NEGATIVE: {sigma: -1}, SLIDING: {sigma: 0}},
+    )
+    automaton.add_transition(POSITIVE, SLIDING, sp.And(sp.Le(s, 0), sp.Lt(Rate(s), 0)))
+    automaton.add_transition(NEGATIVE, SLIDING, sp.And(sp.Ge(s, 0), sp.Gt(Rate(s), 0)))
+    automaton.add_transition(SLIDING, POSITIVE, sp.Gt(RateWith(s, switch.sigma, 1), 0))
+    automaton.add_transition(SLIDING, NEGATIVE, sp.Lt(RateWith(s, switch.sigma, -1), 0))
+    return automaton
+
+
+def _rate(raw_s: sp.Expr, states, rates: dict, time) -> sp.Expr:
+    """``Σ ∂s/∂x·f + ∂s/∂t`` of a raw signal ``s`` (no ``ẋ`` allowed in it)."""
+    total = sp.diff(raw_s, time)
+    for x in states:
+        d = sp.diff(raw_s, x)
+        if d != 0:
+            total += d * rates[x]
+    return total
+
+
+def expand_rates(expr: sp.Basic, me, raw) -> sp.Basic:
+    """``expr`` with every :class:`Rate` and :class:`RateWith` replaced by
+    its expression in mode ``me`` (``raw``: signal expression → raw form)."""
+    if not expr.has(Rate, RateWith):
+        return expr
+
+    def rate(s, sigma=None, value=None):
+        raw_s = raw(s)
+        if set(me.equations.rate_symbols.values()) & raw_s.free_symbols:
+            raise DerivationError(
+                f"the surface {s} of a law switch depends on a state derivative in mode {me.mode.describe()}; "
+                "its rate cannot be formed: write the law in terms of states and bond variables that do not, "
+                "or model the switch with an automaton"
+            )
+        if sigma is None:
+            rates = me.f
+        else:
+            rates = {x: r.xreplace({sigma: value}) for x, r in me.free_rates.items()}
+        return _rate(raw_s, me.states, rates, me.model.time)
+
+    expr = expr.replace(RateWith, lambda s, sigma, value: rate(s, sigma, value))
+    return expr.replace(Rate, lambda s: rate(s))
+
+
+def sliding_values(me, sliding: list, raw) -> dict:
+    """``{σⱼ: σⱼ*(x)}`` of the law switches ``sliding`` (sliding in mode
+    ``me``), solving ``ṡⱼ(x, σ*) = 0`` with the rates ``me.free_rates`` in
+    which their ``σ`` are still free."""
+    sigmas = [sw.sigma for sw in sliding]
+    rows = []
+    for sw in sliding:
+        raw_s = raw(sw.surface)
+        rows.append(sp.expand(_rate(raw_s, me.states, me.free_rates, me.model.time)))
+    for sw, row in zip(sliding, rows):
+        for sigma in sigmas:
+            if sp.diff(row, sigma, 2) != 0:
+                raise DerivationError(
+                    f"law switch {sw.name!r} ({sw.written} in the law of {sw.element!r}) enters the rate of its "
+                    f"surface {sw.surface} nonlinearly in mode {me.mode.describe()}; a sliding motion needs it "
+                    "affine in sign/Heaviside (as Coulomb friction, relays and bang-bang sources are): "
+                    "rewrite the law, or model the switch with an automaton"
+                )
+    active = [k for k, row in enumerate(rows) if any(sp.diff(row, sigmas[j]) != 0 for j in range(len(sigmas)))]
+    values = {sigmas[k]: sp.S.Zero for k in range(len(sigmas)) if k not in active}
+    if active:
+        unknowns = [sigmas[k] for k in active]
+        system = [rows[k].xreplace(values) for k in active]
+        A, b = sp.linear_eq_to_matrix(system, unknowns)
+        if A.shape[0] == 1:
+            solution = [b[0] / A[0, 0]]
+        else:
+            try:
+                solution = list(A.LUsolve(b))
+            except (ValueError, ZeroDivisionError, sp.matrices.common.NonInvertibleMatrixError) as exc:
+                names = ", ".join(sliding[k].name for k in active)
+                raise DerivationError(
+                    f"the law switches {names} slide together in mode {me.mode.describe()}, but their surfaces "
+                    f"do not fix their branches ({exc}); model these switches with automata"
+                ) from None
+        values.update({sigma: value for sigma, value in zip(unknowns, solution)})
+    return values
+
+
+def branches_at(model, mode, x: np.ndarray, t: float):
+    """``mode`` with each law automaton set by the sign of its surface at
+    ``(x, t)``: positive, negative, or sliding where ``s = 0``."""
+    if not model.law_switches:
+        return mode
+    me = model.mode_equations(mode)
+    values = {**model.parameter_values_with_inputs(t), model.time: t}
+    values.update({s: float(v) for s, v in zip(model.states, x)})
+    states = dict(zip(mode.automata, mode.states))
+    for switch in model.law_switches.values():
+        surface = me.finite(me.to_raw(switch.surface)).xreplace(values)
+        try:
+            s = float(surface)
+        except TypeError:
+            raise DerivationError(
+                f"the surface {switch.surface} of law switch {switch.name!r} is not a number at t = {t} "
+                f"({surface}); it may use only states, bond variables, inputs, parameters and t"
+            ) from None
+        states[switch.name] = POSITIVE if s > 0 else NEGATIVE if s < 0 else SLIDING
+    return model.mode(states)
