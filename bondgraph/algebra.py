@@ -13,12 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-import networkx as nx
 import sympy as sp
 
 from .errors import AlgebraicLoopError
 
-__all__ = ["solve_explicit"]
+__all__ = ["dependency_components", "solve_explicit"]
 
 
 def _substitute(expr: sp.Expr, solved: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr:
@@ -36,22 +35,61 @@ def solve_explicit(
     for error messages.  Raises :class:`AlgebraicLoopError` for a loop that is
     singular or nonlinear without a unique solution."""
     unknowns = set(equations)
-    deps = nx.DiGraph()
-    deps.add_nodes_from(unknowns)
-    for v, expr in equations.items():
-        deps.add_edges_from((v, s) for s in expr.free_symbols if s in unknowns)
-
-    condensed = nx.condensation(deps)
+    deps = {v: [s for s in expr.free_symbols if s in unknowns] for v, expr in equations.items()}
     solved: dict[sp.Symbol, sp.Expr] = {}
-    for comp_id in reversed(list(nx.topological_sort(condensed))):
-        members = condensed.nodes[comp_id]["members"]
+    for members in dependency_components(deps):
         if len(members) == 1:
             (v,) = members
-            if not deps.has_edge(v, v):
+            if v not in deps[v]:
                 solved[v] = _substitute(equations[v], solved)
                 continue
         solved.update(_solve_loop(sorted(members, key=str), equations, solved, owner, what))
     return solved
+
+
+def dependency_components(successors: dict) -> list[list]:
+    """The strongly connected components of the graph ``{v: [w, …]}`` (edge
+    ``v → w``: ``v`` depends on ``w``), each listed after every component it
+    reaches — the order to solve them in (Tarjan's algorithm, iterative:
+    linear in the size of the graph, no recursion limit for long chains)."""
+    index: dict = {}
+    low: dict = {}
+    on_stack: set = set()
+    stack: list = []
+    out: list = []
+    for root in successors:
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        work = [(root, iter(successors[root]))]
+        while work:
+            v, edges = work[-1]
+            for w in edges:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(successors[w])))
+                    break
+                if w in on_stack:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    parent = work[-1][0]
+                    low[parent] = min(low[parent], low[v])
+                if low[v] == index[v]:
+                    component = []
+                    while True:
+                        w = stack.pop()
+                        on_stack.discard(w)
+                        component.append(w)
+                        if w == v:
+                            break
+                    out.append(component)
+    return out
 
 
 def _solve_loop(members, equations, solved, owner, what) -> dict:

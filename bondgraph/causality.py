@@ -30,9 +30,9 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field
 
-import networkx as nx
 import sympy as sp
 
+from .algebra import dependency_components
 from .elements import GY, TF, Junction, R, Se, Sf, Storage, Zero
 from .errors import CausalityConflictError
 from .graph import OpenPort
@@ -351,11 +351,12 @@ def assign_causality(graph, config) -> Causality:
 
 def _algebraic_loops(relations) -> tuple:
     """Elements of each cycle among the bond-variable relations."""
-    graph = relations.dependency_graph()
+    known = relations.relations
+    uses = {var: [s for s in rel.expr.free_symbols if s in known] for var, rel in known.items()}
     loops = []
-    for comp in nx.strongly_connected_components(graph):
-        if len(comp) > 1 or any(graph.has_edge(v, v) for v in comp):
-            elements = sorted({relations.relations[v].element for v in comp})
+    for comp in dependency_components(uses):
+        if len(comp) > 1 or comp[0] in uses[comp[0]]:
+            elements = sorted({known[v].element for v in comp})
             loops.append(tuple(elements))
     return tuple(sorted(loops))
 

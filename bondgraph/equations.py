@@ -257,8 +257,14 @@ SIMPLIFY_MAX_OPS = 400
 
 
 def _tidy(expr: sp.Expr) -> sp.Expr:
+    """A readable form of a derived expression: a rational function of its
+    symbols (a collision of point masses) as one cancelled fraction, which
+    ``cancel`` finds at a fraction of ``simplify``'s cost; anything else
+    (trigonometry of a rotating body) simplified, when small enough."""
     if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
         return expr
+    if expr.is_rational_function():
+        return sp.cancel(expr)
     return sp.simplify(expr)
 
 

@@ -229,11 +229,9 @@ def _solve_small(lhs: sp.Matrix, rhs: sp.Matrix) -> sp.Matrix:
 
 
 def _tidy(expr):
-    from .equations import SIMPLIFY_MAX_OPS
+    from .equations import _tidy as tidy
 
-    if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
-        return expr
-    return sp.simplify(expr)
+    return tidy(expr)
 
 
 def _lambdified(states, expressions):

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-__all__ = ["Argument", "FunctionSpec", "common_subexpressions", "function_source", "sanitize", "module_namespace"]
+__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "function_source", "sanitize",
+           "module_namespace"]
 
 
 @dataclass(frozen=True)
@@ -118,7 +119,7 @@ def _is_cheap(expr) -> bool:
     return False
 
 
-def common_subexpressions(outputs: list) -> list:
+def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
     """The subtrees met more than once in ``outputs``, each after the
     subtrees it contains (the order temporaries must be assigned in).
 
@@ -127,12 +128,15 @@ def common_subexpressions(outputs: list) -> list:
     expressions share whole subtrees (an effort met on several bonds).
     Unlike ``sympy.cse`` nothing is rebuilt — the printer substitutes the
     temporaries — so an expression is printed exactly as derived, and the
-    cost stays linear in the size of the DAG."""
+    cost stays linear in the size of the DAG.  ``symbols``, a set, receives
+    every symbol met (the free symbols of the outputs, from the same walk)."""
     seen, repeated = set(), set()
     stack = list(reversed(outputs))
     while stack:
         expr = stack.pop()
         if not isinstance(expr, sp.Basic) or expr.is_Atom:
+            if symbols is not None and isinstance(expr, sp.Symbol):
+                symbols.add(expr)
             continue
         if expr in seen:
             if not _is_cheap(expr):
@@ -157,8 +161,40 @@ def common_subexpressions(outputs: list) -> list:
     return ordered
 
 
-def function_source(spec: FunctionSpec) -> str:
-    """The source text of one function (see the module docstring)."""
+def _holds_any(expr, temporaries: dict, skip=None) -> bool:
+    """Whether a subtree of ``expr`` (other than ``skip``) is a temporary."""
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if node.is_Atom:
+            continue
+        if node in temporaries and node is not skip:
+            return True
+        stack.extend(node.args)
+    return False
+
+
+class PrintMemo:
+    """Printed text of expressions, shared by the functions of one model
+    (its modes repeat most expressions: a gap between two balls reads the
+    same in every mode).  The text of an expression depends only on it, on
+    the names of the symbols (the same for every function of one argument
+    list) and on the raw flag; an expression holding one of its function's
+    temporaries is printed afresh.  Text is memoized per argument list."""
+
+    def __init__(self):
+        self._tables: dict = {}
+        self.hits = self.misses = 0
+
+    def table(self, spec: "FunctionSpec") -> dict:
+        key = (spec.raw, tuple((a.name, a.symbols) for a in spec.arguments))
+        return self._tables.setdefault(key, {})
+
+
+def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
+    """The source text of one function (see the module docstring); ``memo``
+    (a :class:`PrintMemo`) reuses the text of expressions printed before for
+    functions of the same arguments."""
     names: dict[sp.Symbol, str] = {}
     used_names = {a.name for a in spec.arguments} | {"out"}
     for arg in spec.arguments:
@@ -175,13 +211,10 @@ def function_source(spec: FunctionSpec) -> str:
             used_names.add(ident)
 
     outputs = [sp.sympify(o) for o in spec.outputs]
-    shared = common_subexpressions(outputs)
+    needed: set = set()
+    shared = common_subexpressions(outputs, needed)
     temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
     printer = _Printer(spec.raw, names, temporaries)
-
-    needed = set()
-    for expr in outputs:
-        needed |= expr.free_symbols
 
     signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
     lines = [f"def {spec.name}({signature}):"]
@@ -202,13 +235,26 @@ def function_source(spec: FunctionSpec) -> str:
         for k, sym in enumerate(arg.symbols):
             if sym in needed:
                 lines.append(f"    {names[sym]} = {arg.name}[{k}]")
+    table = memo.table(spec) if memo is not None else None
+
+    def text(expr, definition=False):
+        if table is not None and (not temporaries or not _holds_any(expr, temporaries, expr if definition else None)):
+            printed = table.get(expr)
+            if printed is None:
+                memo.misses += 1
+                printed = table[expr] = printer.doprint(expr) if not definition else printer.definition(expr)
+            else:
+                memo.hits += 1
+            return printed
+        return printer.definition(expr) if definition else printer.doprint(expr)
+
     for expr in shared:
-        lines.append(f"    {temporaries[expr]} = {printer.definition(expr)}")
+        lines.append(f"    {temporaries[expr]} = {text(expr, definition=True)}")
     if spec.raw:
-        lines.append("    return [" + ", ".join(printer.doprint(e) for e in outputs) + "]")
+        lines.append("    return [" + ", ".join(text(e) for e in outputs) + "]")
     else:
         for k, expr in enumerate(outputs):
-            lines.append(f"    out[{k}] = {printer.doprint(expr)}")
+            lines.append(f"    out[{k}] = {text(expr)}")
         lines.append("    return out")
     return "\n".join(lines) + "\n"
 

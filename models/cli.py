@@ -7,7 +7,7 @@
     hbg modes MODEL [--mode LABEL] [--latex] [--state-space]  f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
-    hbg draw MODEL [--mode LABEL] -o FILE.png the bond graph with causal strokes
+    hbg draw MODEL [--mode LABEL] -o FILE.png|FILE.svg   the bond graph of a mode, drawn as textbooks do
     hbg save MODEL [--set name=value ...] -o FILE.toml   the model as a model file
     hbg sweep MODEL --grid name=start:stop:count --grid name=v1,v2 [--set ...] [--method M] [--t-end T]
                   [--scheduler ADDRESS | --workers N] --csv FILE [--plot FILE.png] [--metric NAME ...]
@@ -470,6 +470,8 @@ def _cmd_save(args) -> int:
 
 
 def _cmd_draw(args) -> int:
+    """``hbg draw``: the bond graph of one mode as textbooks draw it (see
+    :mod:`switching.drawing`), written as PNG, SVG, PDF, … by the extension."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -478,8 +480,11 @@ def _cmd_draw(args) -> int:
     _check_output("-o/--output", args.output, plot=True)
     _, model = _build(args)
     mode = model.mode(args.mode) if args.mode else model.initial_mode
-    ax = draw_bond_graph(model.graph, model.configuration_of(mode))
-    ax.set_title(f"{model.name} in mode {mode.describe()}", fontsize=9)
+    described = mode.describe()
+    if len(described) > 100:  # a model with many automata (ball-chain N=50): the label stays readable
+        described = described[:97].rsplit(", ", 1)[0] + ", …"
+    ax = draw_bond_graph(model.graph, model.configuration_of(mode), legend=not args.no_legend,
+                         title=f"{model.name} in mode {described}")
     try:
         ax.figure.savefig(args.output, dpi=110)
     finally:
@@ -710,11 +715,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="FILE.toml")
     p.set_defaults(run=_cmd_save)
 
-    p = sub.add_parser("draw", help="draw the bond graph with causal strokes")
+    p = sub.add_parser("draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
+                                    "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
     p.add_argument("model")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("--mode")
-    p.add_argument("-o", "--output", required=True, metavar="FILE.png")
+    p.add_argument("--mode", metavar="LABEL", help="the mode drawn (default: the initial mode)")
+    p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.png|FILE.svg",
+                   help="the picture; its extension picks the format (png, svg, pdf, ...)")
     p.set_defaults(run=_cmd_draw)
 
     p = sub.add_parser("sweep", help="one run per point of a parameter grid, on Dask: a CSV row per run, a plot")

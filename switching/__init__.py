@@ -17,6 +17,7 @@ from .errors import SimulationError as SimulationError
 from .errors import StepSizeError as StepSizeError
 from .errors import StiffnessError as StiffnessError
 from .errors import SimulationInterrupted as SimulationInterrupted
+from .errors import SweepInterrupted as SweepInterrupted
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper
@@ -44,3 +45,8 @@ from .modelfile import ModelFileError as ModelFileError
 from .modelfile import load_model as load_model
 from .modelfile import save_model as save_model
 from .trajectory import Trajectory as Trajectory
+from .sensitivity import Sensitivities as Sensitivities
+from .fitting import FitError as FitError
+from .fitting import FitResult as FitResult
+from .fitting import fit as fit
+from .fitting import sample_indices as sample_indices

@@ -45,6 +45,8 @@ import numpy as np
 
 from bondgraph.errors import HybridBondGraphError, ParameterValueError
 
+from .errors import SweepInterrupted
+
 __all__ = ["MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model", "simulate_many"]
 
 #: the extra that installs what sweeps on Dask need
@@ -129,7 +131,8 @@ def _nothing(parameters, error, error_type, wall=0.0) -> RunResult:
 SHARED_MODELS = 8
 #: attributes of a HybridModel that are derived from its structure alone and kept
 #: when a run's values are moved onto a shared model; all others are the run's
-_DERIVED = ("_mode_cache", "_compiled", "_jit", "_fingerprint", "derivation_count")
+_DERIVED = ("_mode_cache", "_compiled", "_jit", "_fingerprint", "derivation_count", "_roundoff_memo", "_print_memo",
+            "_guard_texts")
 _models: OrderedDict = OrderedDict()  # (model type, fingerprint) → model
 _busy: set = set()  # keys of the models a run is using now (one run per model at a time)
 _lock = threading.Lock()
@@ -328,7 +331,15 @@ def _on_dask(client, jobs, task, batch_size, retries, progress_bar) -> list[RunR
             distributed.wait(futures)
         finished = [f for f in futures if f.status == "finished"]
         done = dict(zip((f.key for f in finished), client.gather(finished)))
-    except BaseException:  # Ctrl-C included: leave nothing running on the cluster
+    except KeyboardInterrupt:  # Ctrl-C: keep what finished, leave nothing running on the cluster
+        unfinished = [f for f in futures if f.status != "finished"]
+        client.cancel(unfinished)
+        kept = {}
+        for k, (chunk, future) in enumerate(zip(chunks, futures)):
+            if future.status == "finished":
+                kept.update({k * size + j: r for j, r in enumerate(future.result())})
+        raise _interrupted(jobs, kept) from None
+    except BaseException:
         client.cancel(futures)
         raise
     results = []
@@ -345,6 +356,17 @@ def _on_dask(client, jobs, task, batch_size, retries, progress_bar) -> list[RunR
                    "its reruns (retries=, or the scheduler's allowed-failures when its workers died): " + why)
         results.extend(_nothing(p, message, type(exc).__name__) for p in chunk)
     return results
+
+
+def _interrupted(jobs, done: dict) -> SweepInterrupted:
+    """The :class:`SweepInterrupted` of a sweep stopped by Ctrl-C: ``done``
+    maps the positions of finished runs to their results."""
+    message = (f"simulate_many was interrupted: {len(done)} of {len(jobs)} runs had finished; they are in "
+               "error.results (the others as failed results marked interrupted)")
+    results = [done[k] if k in done else _nothing(p, "the sweep was interrupted (Ctrl-C) before this run finished",
+                                                   "SweepInterrupted")
+               for k, p in enumerate(jobs)]
+    return SweepInterrupted(message, results)
 
 
 def simulate_many(build, parameter_sets, t_end: float, method: str = "RK45", *, client=None,
@@ -416,7 +438,13 @@ def simulate_many(build, parameter_sets, t_end: float, method: str = "RK45", *, 
     task = partial(run_batch, build=build, t_end=t_end, method=method, options=dict(options), metrics=metrics,
                    trajectories=trajectories)
     if isinstance(client, str) and client == "serial":
-        return task(jobs)
+        done: list = []
+        try:
+            for p in jobs:
+                done += task([p])
+        except KeyboardInterrupt:
+            raise _interrupted(jobs, dict(enumerate(done))) from None
+        return done
     _distributed()  # a missing Dask is said before anything else
     if not jobs:
         return []

@@ -53,22 +53,28 @@ def _op(relation) -> str:
     raise TypeError(f"unsupported comparison {relation}")
 
 
-def _tree(condition, relations: list):
-    """A guard condition as nested plain tuples; comparisons are collected in ``relations``."""
+def _tree(condition, relations: list, texts: dict | None = None):
+    """A guard condition as nested plain tuples; comparisons are collected in
+    ``relations``; ``texts`` memoizes the text of each comparison."""
     if isinstance(condition, BooleanTrue):
         return ("const", True)
     if isinstance(condition, BooleanFalse):
         return ("const", False)
     if isinstance(condition, And):
-        return ("and", tuple(_tree(c, relations) for c in condition.args))
+        return ("and", tuple(_tree(c, relations, texts) for c in condition.args))
     if isinstance(condition, Or):
-        return ("or", tuple(_tree(c, relations) for c in condition.args))
+        return ("or", tuple(_tree(c, relations, texts) for c in condition.args))
     if isinstance(condition, Not):
-        return ("not", _tree(condition.args[0], relations))
+        return ("not", _tree(condition.args[0], relations, texts))
     if isinstance(condition, Relational):
         relations.append(condition)
-        # the terms in sympy's own order: sorting them costs more than the rest of a large mode's source
-        return ("rel", len(relations) - 1, _op(condition), sp.sstr(condition, order="none"))
+        text = texts.get(condition) if texts is not None else None
+        if text is None:
+            # the terms in sympy's own order: sorting them costs more than the rest of a large mode's source
+            text = sp.sstr(condition, order="none")
+            if texts is not None:
+                texts[condition] = text
+        return ("rel", len(relations) - 1, _op(condition), text)
     raise TypeError(f"cannot compile {condition} as a guard")
 
 
@@ -152,7 +158,7 @@ def generate_mode_source(model, me) -> str:
                 "when": tr.when,
                 "pulses": tr.pulses,
                 "text": guard.text,
-                "tree": _tree(guard.condition, relations),
+                "tree": _tree(guard.condition, relations, model._guard_texts),
             }
         )
     finite_sides, raw_sides = comparison_triples(me, relations), []
@@ -188,7 +194,7 @@ def generate_mode_source(model, me) -> str:
         "n_states": len(states),
     }
     header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
-    return header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s) for s in specs)
+    return header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s, model._print_memo) for s in specs)
 
 
 class CompiledMode:

@@ -17,6 +17,7 @@ __all__ = [
     "StepSizeError",
     "StiffnessError",
     "SimulationInterrupted",
+    "SweepInterrupted",
 ]
 
 
@@ -107,3 +108,17 @@ class SimulationInterrupted(SimulationError, KeyboardInterrupt):
     computed.  ``trajectory`` holds everything computed up to the interruption;
     ``t`` and ``mode`` say where it was.  Being a ``KeyboardInterrupt`` too,
     it still ends a script that does not catch it."""
+
+
+class SweepInterrupted(HybridBondGraphError, KeyboardInterrupt):
+    """A sweep (:func:`switching.simulate_many`) was interrupted (Ctrl-C)
+    before all its runs finished.  ``results`` holds one
+    :class:`~switching.batch.RunResult` per parameter set, in their order:
+    the runs that finished, and for the others a failed result whose error
+    says the sweep was interrupted (``error_type`` ``"SweepInterrupted"``).
+    Being a ``KeyboardInterrupt`` too, it still ends a script that does not
+    catch it."""
+
+    def __init__(self, message: str, results=()):
+        super().__init__(message)
+        self.results = list(results)

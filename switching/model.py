@@ -37,6 +37,7 @@ from bondgraph.symbols import check_name, rate_symbol
 from .automaton import Automaton
 from .errors import ModelDefinitionError
 from codegen.cache import default_cache, fingerprint
+from codegen.source import PrintMemo
 
 from .compiled import MODE_SOURCE_VERSION, CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
@@ -203,6 +204,8 @@ class HybridModel:
         self._compiled: dict = {}
         self._jit: dict = {}
         self._roundoff_memo: dict = {}  # subexpression → round-off scale, shared by the modes (codegen.roundoff)
+        self._print_memo = PrintMemo()  # printed text of expressions, shared by the modes' generated functions
+        self._guard_texts: dict = {}  # guard comparison → its text
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0
@@ -803,8 +806,23 @@ class HybridModel:
         Discontinuous element laws (``sign``, ``Heaviside``, ``Piecewise``)
         are law switches (:mod:`switching.law_automata`): their crossings are
         located as events and a state held on a surface slides on it.
+        ``sensitivities=["e", "x0:y"]``: also the forward sensitivities
+        ``∂x/∂p`` of the run through its instants, with respect to model
+        parameters and (``x0:<state>``) initial states
+        (:mod:`switching.sensitivity`; ``sensitivity_rtol=``,
+        ``sensitivity_atol=`` set the tolerances of their integration,
+        default 1e-10 and 1e-12): ``trajectory.sensitivity(name, p)``,
+        ``trajectory.event_time_sensitivity(k, p)``.  Python methods only.
         See :func:`switching.simulator.simulate`.
         """
+        sensitivities = options.pop("sensitivities", None)
+        rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
+        if sensitivities is not None:
+            from .sensitivity import simulate_with_sensitivities
+
+            return simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
+        if rtol is not None or atol is not None:
+            raise TypeError("sensitivity_rtol and sensitivity_atol need sensitivities=[...]")
         return simulate(self, t_end, method, **options)
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):

@@ -7,8 +7,8 @@
   segments (the paper's Figs. 19–20);
 * :func:`mode_graph` — the modes actually traversed and the transitions
   between them (networkx), edges labelled with how often they were taken;
-* :func:`draw_bond_graph` — the bond graph with the causal stroke of every
-  bond in one mode.
+* :func:`draw_bond_graph` — the bond graph as textbooks draw it, with the
+  causal stroke of every bond in one mode (:mod:`switching.drawing`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from __future__ import annotations
 from collections import Counter
 
 import numpy as np
+
+from .drawing import draw_bond_graph
 
 __all__ = ["plot_trajectory", "phase_portrait", "mode_graph", "draw_bond_graph", "mode_colors"]
 
@@ -148,103 +150,3 @@ def mode_graph(trajectory, ax=None):
     ax.set_axis_off()
     ax.set_title("modes traversed (red: only ever mythical)", fontsize=9)
     return graph, ax
-
-
-def draw_bond_graph(graph, config=None, ax=None):
-    """The bond graph with power half-arrows and causal strokes (one configuration).
-
-    The causal stroke is the short bar across the bond's end that receives
-    the effort.  The view limits are set so that every element's label (with
-    its box) lies inside the axis as it is sized now; each label's ``gid`` is
-    ``"element:<name>"``.  Returns the axis."""
-    import networkx as nx
-
-    plt = _plt()
-    causality = graph.causality(config, open_ports=False)  # the graph as drawn: no open-port bonds
-    g = nx.Graph()
-    g.add_nodes_from(graph.elements)
-    g.add_edges_from((b.tail, b.head) for b in graph.bonds.values())
-    pos = nx.kamada_kawai_layout(g) if len(g) > 2 else nx.spring_layout(g, seed=1)
-    if ax is None:
-        _, ax = plt.subplots(figsize=(7, 5.5))
-    for bond in graph.bonds.values():
-        (x0, y0), (x1, y1) = pos[bond.tail], pos[bond.head]
-        dead = bond.name in causality.dead
-        ax.annotate("", xy=(x1, y1), xytext=(x0, y0),
-                    arrowprops=dict(arrowstyle="-|>", color="0.6" if dead else "black", lw=1, shrinkA=12, shrinkB=12))
-        if dead:
-            continue
-        end = causality.stroke_at(graph, bond.name)
-        ex, ey = pos[end]
-        ox, oy = pos[bond.other(end)]
-        d = np.array([ex - ox, ey - oy])
-        length = np.hypot(*d) or 1.0
-        d /= length
-        near = np.array([ex, ey]) - d * 0.12 * min(1.0, length)
-        n = np.array([-d[1], d[0]]) * 0.035
-        ax.plot([near[0] - n[0], near[0] + n[0]], [near[1] - n[1], near[1] + n[1]], color="crimson", lw=2)
-    labels = []
-    for name, el in graph.elements.items():
-        off = getattr(el, "controlled", False) and not causality.configuration.get(name, True)
-        label = f"{el.kind}\n{name}" if el.kind in ("0", "1") else f"{el.kind}: {name}"
-        fill = "#dddddd" if off else ("#fff3c4" if el.kind in "01" else "white")
-        labels.append(ax.text(*pos[name], label, ha="center", va="center", fontsize=7, gid=f"element:{name}",
-                              bbox=dict(boxstyle="round", fc=fill, ec="0.4")))
-    _fit_labels(ax, [pos[name] for name in graph.elements], labels)
-    ax.set_axis_off()
-    ax.set_title(f"{graph.name}: causal strokes (red) {causality.configuration or ''}", fontsize=9)
-    return ax
-
-
-def _fit_limits(centers, below, above, size, margin):
-    """Axis limits ``(lo, hi)`` that keep every label inside the axis: label
-    ``i`` is centred (anchored) at data coordinate ``centers[i]`` and reaches
-    ``below[i]`` pixels below and ``above[i]`` pixels above it; the axis is
-    ``size`` pixels long, ``margin`` pixels are kept free at both ends.
-
-    With ``D = hi - lo`` data units on ``size - 2 margin`` pixels, every pair
-    ``(i, j)`` needs ``D ≥ c_i - c_j + (above_i + below_j) D / usable``; the
-    smallest such ``D`` is exact (no iteration)."""
-    usable = size - 2.0 * margin
-    span = max(centers) - min(centers)
-    extent = 0.0
-    for ci, ai in zip(centers, above):
-        for cj, bj in zip(centers, below):
-            room = 1.0 - (ai + bj) / usable
-            if room <= 0.05:  # labels wider than the axis: keep them as large as possible
-                room = 0.05
-            extent = max(extent, (ci - cj) / room)
-    if extent <= 0.0:  # every label at one place
-        extent = span or 1.0
-        extent = max(extent, extent * (max(above) + max(below)) / usable / 0.95)
-    scale = extent / usable  # data units per pixel
-    lo = min(c - b * scale for c, b in zip(centers, below)) - margin * scale
-    hi = max(c + a * scale for c, a in zip(centers, above)) + margin * scale
-    return lo, hi
-
-
-def _fit_labels(ax, anchors, labels, margin_px=6.0):
-    """Set the view limits so that every anchor and every label (with its
-    box) lies inside the axis.  Labels are sized in pixels, so the limits are
-    solved from the measured extents instead of left to autoscaling (which
-    ignores text)."""
-    from matplotlib.transforms import Bbox
-
-    if not labels:
-        return
-    fig = ax.figure
-    fig.draw_without_rendering()  # lays out the text boxes
-    box = ax.get_window_extent()
-    anchors = np.asarray(anchors, dtype=float)
-    shown = ax.transData.transform(anchors)
-    left, right, bottom, top = [], [], [], []
-    for (px, py), text in zip(shown, labels):
-        patch = text.get_bbox_patch()
-        extent = patch.get_window_extent() if patch is not None else text.get_window_extent()
-        extent = Bbox.union([extent, text.get_window_extent()])
-        left.append(max(0.0, px - extent.x0))
-        right.append(max(0.0, extent.x1 - px))
-        bottom.append(max(0.0, py - extent.y0))
-        top.append(max(0.0, extent.y1 - py))
-    ax.set_xlim(*_fit_limits(list(anchors[:, 0]), left, right, box.width, margin_px))
-    ax.set_ylim(*_fit_limits(list(anchors[:, 1]), bottom, top, box.height, margin_px))

@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from bondgraph.elements import R, OnePort, Source, Storage
 from bondgraph.energy import energy_function
 from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
 
@@ -29,6 +30,10 @@ __all__ = ["Trajectory", "EnergyRecord"]
 ENERGY_ROUNDOFF = 1e-9
 
 _energy_functions: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+#: signal names ``power:<element>`` (and the totals ``power:supplied``, …) give power flows
+POWER_PREFIX = "power:"
+_POWER_TOTALS = ("supplied", "dissipated", "stored")
 
 
 class EnergyRecord(NamedTuple):
@@ -63,6 +68,11 @@ class Trajectory:
     event_index : list[int]     the sample index just after each event
     stopped : str | None        why the run ended early (``"zeno"``) or None
     stats : dict                method, steps, wall time, ``"instants"`` (the count, kept or not), …
+    sensitivities : Sensitivities | None   ``∂x/∂p`` of a run with ``simulate(..., sensitivities=[...])``
+                                (:meth:`sensitivity`, :meth:`event_time_sensitivity`)
+
+    Power flows: :meth:`power` (into one element), :meth:`power_balance`
+    (supplied, dissipated, stored); energy: :meth:`energy`, :meth:`energy_ledger`.
 
     A trajectory pickles (a sweep's worker sends it back) without its model:
     an unpickled one has ``model = None`` and gives states, times, modes and
@@ -84,6 +94,8 @@ class Trajectory:
         self.stats = dict(stats or {})
         self._mode_time = None if mode_time is None else dict(mode_time)
         self.instants_kept = instants_kept
+        #: :class:`switching.sensitivity.Sensitivities` of a run with ``sensitivities=[...]``, else None
+        self.sensitivities = None
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -116,9 +128,18 @@ class Trajectory:
 
     def signal(self, name: str) -> np.ndarray:
         """A named signal's finite part at every sample, evaluated in each
-        sample's mode (generated code, one vectorized call per mode)."""
+        sample's mode (generated code, one vectorized call per mode).
+        ``"power:<element>"`` is the power into a one-port element
+        (:meth:`power`), ``"power:supplied"``, ``"power:dissipated"`` and
+        ``"power:stored"`` the totals of :meth:`power_balance` — usable
+        wherever signal names are (plots, CSV, sweep metrics)."""
         if name in self.state_names:
             return self.state(name)
+        if name.startswith(POWER_PREFIX):
+            which = name[len(POWER_PREFIX):]
+            if which in _POWER_TOTALS and which not in self._needs_model().graph.elements:
+                return self.power_balance()[which]
+            return self.power(which)
         model = self._needs_model()
         out = np.empty(len(self.t))
         labels = np.array(self.mode_labels)
@@ -131,6 +152,35 @@ class Trajectory:
             fn(self.x[mask].T, times, model.parameter_array, inputs, values)
             out[mask] = values[0]
         return out
+
+    # ---------------------------------------------------------------- sensitivities
+
+    def _sensitivities(self):
+        record = getattr(self, "sensitivities", None)
+        if record is None:
+            raise HybridBondGraphError(
+                "this run has no sensitivities: simulate with sensitivities=[...] naming the parameters "
+                "(and x0:<state> for initial states)")
+        return record
+
+    def sensitivity(self, name: str, p: str) -> np.ndarray:
+        """``∂s/∂p`` of a state or named signal ``s`` at every sample, for a
+        parameter ``p`` given in ``simulate(..., sensitivities=[...])``
+        (``"x0:<state>"`` for an initial state).  At fixed time: at an
+        instant's two samples, the sensitivity just before and just after it.
+        A signal's is its finite part's, by the chain rule
+        ``∂s/∂x·∂x/∂p + ∂s/∂p`` in each sample's mode (:mod:`switching.sensitivity`)."""
+        from .sensitivity import signal_sensitivity
+
+        self._sensitivities()
+        return signal_sensitivity(self, name, p)
+
+    def event_time_sensitivity(self, k: int, p: str) -> float:
+        """``∂t_k/∂p`` of instant ``k`` (``events[k]``) for a parameter ``p``
+        given in ``simulate(..., sensitivities=[...])`` (0 for an instant at
+        the start of the run)."""
+        record = self._sensitivities()
+        return float(record.event_times[k, record.column(p)])
 
     def _needs_model(self):
         if self.model is None:
@@ -151,6 +201,40 @@ class Trajectory:
         """The energy stored in the C and I elements at every sample [J]
         (``bondgraph.stored_energy``: each law integrated from 0)."""
         return self._stored_energy(self.x, self.t)
+
+    def power(self, element: str) -> np.ndarray:
+        """The power flowing into a one-port element [W] at every sample:
+        ``e·f`` of its bond, signed by the bond's power direction (finite
+        parts, in each sample's mode).  For an R element it is the power it
+        dissipates (``≥ 0`` for a passive law), for a C or I element the rate
+        of its stored energy, for a source minus the power it supplies (see
+        :meth:`power_balance`)."""
+        model = self._needs_model()
+        if not isinstance(model.graph.element(element), OnePort):
+            raise HybridBondGraphError(
+                f"{element!r} is a {type(model.graph.element(element)).__name__}, not a one-port element: "
+                "power() is for sources, R, C and I elements (junctions and TF/GY pass power on)")
+        (bond,) = model.graph.bonds_of(element)
+        return bond.sign_at(element) * self.signal(bond.effort.name) * self.signal(bond.flow.name)
+
+    def power_balance(self) -> dict:
+        """The model's power flows [W] at every sample: ``"supplied"`` (the
+        power the sources deliver, summed), ``"dissipated"`` (taken by the R
+        elements) and ``"stored"`` (into the C and I elements: the rate of
+        :meth:`energy`), with ``supplied = dissipated + stored`` during flow
+        (the junction structure, TF and GY conserve power).  A source
+        modulated to act as friction (a Coulomb force as an ``Se``) counts
+        among the sources: what it takes out is negative supply."""
+        model = self._needs_model()
+        out = {key: np.zeros(len(self.t)) for key in ("supplied", "dissipated", "stored")}
+        for name, element in model.graph.elements.items():
+            if isinstance(element, Source):
+                out["supplied"] -= self.power(name)
+            elif isinstance(element, R):
+                out["dissipated"] += self.power(name)
+            elif isinstance(element, Storage):
+                out["stored"] += self.power(name)
+        return out
 
     def energy_ledger(self, warn: bool = True) -> list:
         """One :class:`EnergyRecord` ``(t, before, after, lost)`` per kept

@@ -18,7 +18,7 @@ pd = pytest.importorskip("pandas")
 
 from models import bouncing_ball  # noqa: E402
 from models.cli import main  # noqa: E402
-from switching import SignalMetrics, parameter_grid, plot_sweep, simulate_many, to_frame  # noqa: E402
+from switching import SignalMetrics, SweepInterrupted, parameter_grid, plot_sweep, simulate_many, to_frame  # noqa: E402
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -105,6 +105,48 @@ def test_a_failing_run_keeps_its_error_and_partial_run_while_the_others_succeed(
     assert len(zeno.event_times) >= 8 and 1.3 < zeno.t[-1] < 1.4  # the partial run came back
     assert typo.error_type == "UnknownParameterError" and "did you mean 'v_rest'" in typo.error and not len(typo.t)
     assert results[0].t[-1] == pytest.approx(3.0) and results[3].t[-1] == pytest.approx(3.0)
+
+
+def interrupting_build(**parameters):
+    """Ctrl-C while the third parameter set is built (serial sweep)."""
+    if parameters["e"] == 0.7:
+        raise KeyboardInterrupt
+    return bouncing_ball.build(**parameters)
+
+
+def sleepy_build(delay=0.0, **parameters):
+    """The bouncing ball, built after ``delay`` seconds (a long run, for a Dask sweep to interrupt)."""
+    time.sleep(delay)
+    return bouncing_ball.build(**parameters)
+
+
+def test_ctrl_c_in_a_serial_sweep_keeps_the_runs_that_finished():
+    sets = [{"e": e} for e in (0.9, 0.8, 0.7, 0.6)]
+    with pytest.raises(SweepInterrupted) as info:
+        simulate_many(interrupting_build, sets, 1.0, "RK45", client="serial", **BALL)
+    assert isinstance(info.value, KeyboardInterrupt) and "2 of 4 runs had finished" in str(info.value)
+    results = info.value.results
+    assert [r.parameters for r in results] == sets
+    assert [r.status for r in results] == ["ok", "ok", "failed", "failed"]
+    assert {r.error_type for r in results[2:]} == {"SweepInterrupted"}
+    assert results[1].t[-1] == pytest.approx(1.0)
+
+
+def test_ctrl_c_in_a_dask_sweep_keeps_the_finished_tasks_and_cancels_the_rest(client, monkeypatch):
+    sets = [{"e": 1.0}, {"e": 1.0, "y0": 2.0}, {"delay": 30.0}, {"delay": 30.0}]
+
+    real_wait = distributed.wait
+
+    def interrupted_wait(futures, **kwargs):  # Ctrl-C once the two short runs are back
+        real_wait(futures[:2])
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(distributed, "wait", interrupted_wait)
+    with pytest.raises(SweepInterrupted) as info:
+        simulate_many(sleepy_build, sets, 5.0, "RK45", client=client, batch_size=1, **BALL)
+    results = info.value.results
+    assert [r.status for r in results[:2]] == ["ok", "ok"] and results[0].t[-1] == pytest.approx(5.0)
+    assert [r.error_type for r in results[2:]] == ["SweepInterrupted", "SweepInterrupted"]
 
 
 def worker_metrics(trajectory):
