@@ -204,6 +204,8 @@ class Storage(OnePort):
 
     def output(self, state_value: sp.Expr) -> sp.Expr:
         """The integral-causality output (C: effort, I: flow) for a state value."""
+        if state_value is self._placeholder:  # the element's own state: the law as it stands
+            return self.law
         return self.law.xreplace({self._placeholder: state_value})
 
     def state_for(self, input_value: sp.Expr) -> sp.Expr:

@@ -161,43 +161,56 @@ def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
     return ordered
 
 
-def _holds_any(expr, temporaries: dict, skip=None) -> bool:
-    """Whether a subtree of ``expr`` (other than ``skip``) is a temporary."""
+def _outer_temporaries(expr, temporaries: dict, skip=None) -> frozenset:
+    """The temporaries met in ``expr`` (other than ``skip``) before any
+    other: the printer writes their names and never looks inside them."""
+    found = []
     stack = [expr]
     while stack:
         node = stack.pop()
         if node.is_Atom:
             continue
         if node in temporaries and node is not skip:
-            return True
+            found.append(node)
+            continue
         stack.extend(node.args)
-    return False
+    return frozenset(found)
 
 
 class PrintMemo:
     """Printed text of expressions, shared by the functions of one model
     (its modes repeat most expressions: a gap between two balls reads the
-    same in every mode).  The text of an expression depends only on it, on
-    the names of the symbols (the same for every function of one argument
-    list) and on the raw flag; an expression holding one of its function's
-    temporaries is printed afresh.  Text is memoized per argument list."""
+    same in every mode).
+
+    The text of an expression depends only on it, on the names of the
+    symbols (the same for every function of one argument list), on the raw
+    flag, and on which of its subtrees are temporaries (printed as their
+    names).  So that the last repeats too, a temporary is named after its
+    expression, model-wide (``_c17`` is the same subtree in every mode's
+    functions); text is memoized per argument list and set of temporaries."""
 
     def __init__(self):
         self._tables: dict = {}
+        self._names: dict = {}
         self.hits = self.misses = 0
 
     def table(self, spec: "FunctionSpec") -> dict:
         key = (spec.raw, tuple((a.name, a.symbols) for a in spec.arguments))
         return self._tables.setdefault(key, {})
 
+    def temporary(self, expr) -> str:
+        """The model-wide name of the temporary holding ``expr``."""
+        name = self._names.get(expr)
+        if name is None:
+            name = self._names[expr] = f"_c{len(self._names)}"
+        return name
 
-def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
-    """The source text of one function (see the module docstring); ``memo``
-    (a :class:`PrintMemo`) reuses the text of expressions printed before for
-    functions of the same arguments."""
+
+def _local_names(arguments) -> dict:
+    """Symbol → the local name it is unpacked into (sanitized, unique)."""
     names: dict[sp.Symbol, str] = {}
-    used_names = {a.name for a in spec.arguments} | {"out"}
-    for arg in spec.arguments:
+    used_names = {a.name for a in arguments} | {"out"}
+    for arg in arguments:
         if arg.scalar:
             names[arg.symbols[0]] = arg.name
             continue
@@ -209,22 +222,45 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
                 ident += "_"
             names[sym] = ident
             used_names.add(ident)
+    return names
 
-    outputs = [sp.sympify(o) for o in spec.outputs]
-    needed: set = set()
-    shared = common_subexpressions(outputs, needed)
-    temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
-    printer = _Printer(spec.raw, names, temporaries)
 
-    signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
-    lines = [f"def {spec.name}({signature}):"]
-    doc = [spec.doc.strip() or spec.name, ""]
-    for arg in spec.arguments:
+def _argument_doc(arguments) -> list:
+    """The docstring lines listing every argument array's entries."""
+    doc = []
+    for arg in arguments:
         if arg.scalar:
             doc.append(f"{arg.name}: {arg.doc or arg.symbols[0]}")
         else:
             doc.append(f"{arg.name}[{len(arg.symbols)}]: {arg.doc}")
             doc.extend(f"    {arg.name}[{k}] = {s}" for k, s in enumerate(arg.symbols))
+    return doc
+
+
+def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
+    """The source text of one function (see the module docstring); ``memo``
+    (a :class:`PrintMemo`) reuses the text of expressions printed before for
+    functions of the same arguments."""
+    table = memo.table(spec) if memo is not None else None
+    if table is None:
+        names, argument_doc = _local_names(spec.arguments), _argument_doc(spec.arguments)
+    else:
+        if "names" not in table:  # (expressions are keyed by tuples: no clash)
+            table["names"], table["doc"] = _local_names(spec.arguments), _argument_doc(spec.arguments)
+        names, argument_doc = table["names"], table["doc"]
+
+    outputs = [sp.sympify(o) for o in spec.outputs]
+    needed: set = set()
+    shared = common_subexpressions(outputs, needed)
+    if memo is None:
+        temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
+    else:
+        temporaries = {expr: memo.temporary(expr) for expr in shared}
+    printer = _Printer(spec.raw, names, temporaries)
+
+    signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
+    lines = [f"def {spec.name}({signature}):"]
+    doc = [spec.doc.strip() or spec.name, "", *argument_doc]
     out_labels = spec.output_names or tuple(str(k) for k in range(len(outputs)))
     doc.append(("returns" if spec.raw else "out") + f"[{len(outputs)}]:")
     doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
@@ -235,18 +271,21 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
         for k, sym in enumerate(arg.symbols):
             if sym in needed:
                 lines.append(f"    {names[sym]} = {arg.name}[{k}]")
-    table = memo.table(spec) if memo is not None else None
 
     def text(expr, definition=False):
-        if table is not None and (not temporaries or not _holds_any(expr, temporaries, expr if definition else None)):
-            printed = table.get(expr)
-            if printed is None:
-                memo.misses += 1
-                printed = table[expr] = printer.doprint(expr) if not definition else printer.definition(expr)
-            else:
-                memo.hits += 1
-            return printed
-        return printer.definition(expr) if definition else printer.doprint(expr)
+        if table is None:
+            return printer.definition(expr) if definition else printer.doprint(expr)
+        if definition:
+            key = (expr, True, _outer_temporaries(expr, temporaries, expr))
+        else:
+            key = (expr, False, _outer_temporaries(expr, temporaries) if temporaries else frozenset())
+        printed = table.get(key)
+        if printed is None:
+            memo.misses += 1
+            printed = table[key] = printer.definition(expr) if definition else printer.doprint(expr)
+        else:
+            memo.hits += 1
+        return printed
 
     for expr in shared:
         lines.append(f"    {temporaries[expr]} = {text(expr, definition=True)}")

@@ -145,14 +145,19 @@ class ModeEquations:
     def to_raw(self, expr: sp.Basic) -> sp.Basic:
         """Replace bond variables in ``expr`` by this mode's raw expressions
         (and signals taken in another mode by their expressions of ``x``)."""
-        cross = {s: self.model.cross_signal(self.mode, s.name, self) for s in expr.free_symbols
-                 if s.name in self.model._cross and isinstance(s, sp.Symbol)}
-        if cross:
-            expr = expr.xreplace(cross)
-        subs = {s: self._bond_values[s] for s in expr.free_symbols if s in self._bond_values}
+        free = expr.free_symbols
+        if self.model._cross:
+            cross = {s: self.model.cross_signal(self.mode, s.name, self) for s in free
+                     if s.name in self.model._cross and isinstance(s, sp.Symbol)}
+            if cross:
+                expr = expr.xreplace(cross)
+                free = expr.free_symbols
+        subs = {s: self._bond_values[s] for s in free if s in self._bond_values}
         if subs:
             expr = expr.xreplace(subs)
         expr = expand_rates(expr, self, self.to_raw)  # branch symbols still free in the rates it forms
+        if not self.values:
+            return expr
         values = {s: self.values[s] for s in expr.free_symbols if s in self.values}
         return expr.xreplace(values) if values else expr
 
@@ -171,7 +176,7 @@ class ModeEquations:
         if self.restitution is None:
             return dict(base)
         e = self.restitution
-        return {x: x + (1 + e) * (base[x] - x) for x in self.states}
+        return {x: x if base[x] is x else x + (1 + e) * (base[x] - x) for x in self.states}
 
     def finite(self, raw: sp.Expr) -> sp.Expr:
         """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
