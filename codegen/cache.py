@@ -10,15 +10,19 @@ either the old file, the new one, or none (a miss).
 The directory is ``$HBG_CACHE_DIR``, else ``$XDG_CACHE_HOME/hbg``, else
 ``~/.cache/hbg``; ``HBG_CACHE_DIR=off`` disables the disk cache.  A
 directory that cannot be written costs speed only: a :class:`CacheWarning`
-names it once per process, and the compiled methods then build their kernels
-in a private temporary directory (see :func:`codegen.jit.load_module`).
+names it once per process, and the compiled methods then compile their mode
+functions in a private temporary directory (see :func:`codegen.jit.load_module`).
 
 Size cap.  The directory holds at most ``$HBG_CACHE_MAX_MB`` megabytes
 (default 500; ``inf`` for no cap).  An entry is everything filed under one
-key: ``<key>.py``, and for a compiled model its module
-``jit/hbg_model_<key>.py`` with numba's machine code
-``jit/__pycache__/hbg_model_<key>.*`` (``.nbi``/``.nbc``).  Whenever an entry
-is stored and the directory is then over the cap, whole entries are deleted,
+key: ``<key>.py``, and for a mode's compiled function its module
+``jit/hbg_mode_<key>.py`` with numba's machine code
+``jit/__pycache__/hbg_mode_<key>.*`` (``.nbi``/``.nbc``).  (The compiled
+kernel itself is model-independent: numba keeps it beside
+``switching/kernel.py``, once per installation.  Modules ``hbg_model_<key>``
+of earlier versions, one kernel per model, are entries too, evicted alike.)
+Whenever an entry is stored and the directory is then over the cap, whole
+entries are deleted,
 least recently used first (a load from disk refreshes the entry's
 modification time), down to 90 % of the cap.  Entries used in the last
 :data:`GRACE_SECONDS` are never deleted (another process may be loading
@@ -29,6 +33,7 @@ A file deleted under another process's feet is a miss there, not an error.
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import math
 import os
@@ -50,8 +55,8 @@ LOW_WATER = 0.9  # an eviction frees space down to this fraction of the cap
 # the files of one entry, by sub-directory of the cache directory (group 1: the key)
 _ENTRY_FILES = {
     "": re.compile(r"^\.?([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
-    "jit": re.compile(r"^\.?hbg_model_([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
-    os.path.join("jit", "__pycache__"): re.compile(r"^hbg_model_([0-9a-f]{32})\."),
+    "jit": re.compile(r"^\.?hbg_mode(?:l)?_([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
+    os.path.join("jit", "__pycache__"): re.compile(r"^hbg_mode(?:l)?_([0-9a-f]{32})\."),
 }
 
 
@@ -73,9 +78,9 @@ def warn_not_writable(directory: str | os.PathLike, error: BaseException, stackl
     reason = getattr(error, "strerror", None) or str(error) or type(error).__name__
     warnings.warn(
         f"the hbg cache directory {path} is not writable ({reason}): nothing generated now is kept for later runs "
-        f"(the compiled *-jit methods build the kernels it does not hold yet in a private temporary directory, again "
-        f"in every process). Set HBG_CACHE_DIR to a writable directory, or HBG_CACHE_DIR=off to run without a disk "
-        f"cache.",
+        f"(the compiled *-jit methods compile the mode functions it does not hold yet in a private temporary "
+        f"directory, again in every process). Set HBG_CACHE_DIR to a writable directory, or HBG_CACHE_DIR=off to run "
+        f"without a disk cache.",
         CacheWarning,
         stacklevel=stacklevel,
     )
@@ -202,6 +207,40 @@ class SourceCache:
                 except OSError:
                     pass
         self.evict(keep=key)
+
+    def record(self, key: str):
+        """The Python literal (numbers, strings, lists, dicts) stored under
+        ``key`` by :meth:`write_record`, read from disk afresh (another process
+        may have written it since); ``None`` if there is none or it is unreadable."""
+        body = None
+        if self.directory is not None:
+            self.memory.pop(key, None)
+            body = self.load(key)
+        elif key in self.memory:
+            body = self.memory[key]
+        if body is None or not body.startswith("RECORD = "):
+            return None
+        try:
+            return ast.literal_eval(body[len("RECORD = "):])
+        except (ValueError, SyntaxError, MemoryError, RecursionError):
+            return None
+
+    def write_record(self, key: str, value) -> None:
+        """Store a Python literal under ``key`` (an entry like any other:
+        evicted with the least recently used)."""
+        self.store(key, f"RECORD = {value!r}\n")
+
+    def remember(self, key: str, items) -> list:
+        """Add ``items`` (strings) to the set stored under ``key`` and return
+        the whole set, sorted.  The set only grows: what is on disk is read
+        again just before writing the union (two processes adding at once may
+        still lose one's addition, which is then added again by its next run)."""
+        known = self.record(key)
+        known = set(known) if isinstance(known, list) and all(isinstance(i, str) for i in known) else set()
+        union = known | set(items)
+        if union != known or self.directory is None and key not in self.memory:
+            self.write_record(key, sorted(union))
+        return sorted(union)
 
     def evict(self, keep: str | None = None) -> int:
         """Delete least recently used entries while the directory is over the

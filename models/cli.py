@@ -150,14 +150,14 @@ def _run_options(args, module) -> tuple[float, str, dict]:
     from switching import METHODS
     from switching.integrators import FIXED_STEP
 
-    if method not in METHODS:
-        raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}")
+    if method not in METHODS and method != "auto":
+        raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}, auto")
     _positive("--t-end", t_end)
     for option, value in (("--dt", args.dt), ("--rtol", args.rtol)):
         if value is not None:
             _positive(option, value)
     options = {}
-    if method in FIXED_STEP:
+    if method.removesuffix("-jit") in FIXED_STEP:
         if args.rtol is not None:
             raise _UsageError(f"--rtol is for adaptive methods; {method} is fixed-step: give --dt")
         if args.dt is None:
@@ -668,7 +668,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     p.add_argument("--t-end", type=float, dest="t_end")
-    p.add_argument("--method")
+    p.add_argument("--method", help="integration method (default: the model's, else RK45); 'auto': the compiled "
+                   "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--dt", type=float, help="step of euler / rk4")
     group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")

@@ -10,7 +10,7 @@ briefly — an extremum of a margin that comes within reach of its threshold
 :func:`_maximize`), or two or more parts of one guard changing truth — and
 :func:`_locate` bisects the step's interpolant down to adjacent
 floating-point numbers for the first time a guard holds.  The compiled
-kernel (:mod:`codegen.jit`) ports the same search.
+kernel (:mod:`switching.kernel`) ports the same search.
 """
 
 from __future__ import annotations

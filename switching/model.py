@@ -42,7 +42,7 @@ from codegen.source import PrintMemo
 from .compiled import MODE_SOURCE_VERSION, CompiledMode, generate_mode_source
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
-from .jit_model import CompiledModel
+from .jit_model import CompiledModel, remembered_modes
 from .law_automata import branches_at, law_automaton
 from .simulator import simulate
 
@@ -702,13 +702,16 @@ class HybridModel:
         set (see :mod:`switching.jit_model`): ``"visited"`` (those with
         generated functions so far, and the initial mode), ``"reachable"``
         (explored from the initial mode by :meth:`verify`), or a list.  The
-        ``*-jit`` methods use the visited set: they run modes outside it with
-        the Python integrators, and cover them from the next run on."""
+        ``*-jit`` methods start from the visited set, which includes the
+        modes compiled before by any process sharing the disk cache
+        (remembered there; the set only grows); a mode first reached during
+        a run is resolved in Python at that instant, compiled, and run by the
+        kernel from its next call."""
         if modes == "visited":
             last = self._jit.get("visited")
             if last is not None and last[0] == len(self._compiled):
                 return last[1]  # no mode visited since: the same set
-            selected = {self.initial_mode, *self.visited_modes}
+            selected = {self.initial_mode, *self.visited_modes, *remembered_modes(self)}
         elif modes == "reachable":
             report = self.verify(samples=5)
             selected = {self.initial_mode, *report.explored, *report.kinds}
@@ -777,9 +780,13 @@ class HybridModel:
         ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
         ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``);
         ``"euler-jit"``, ``"rk4-jit"``, ``"RK45-jit"``: the same in one
-        compiled kernel (numba) for the modes visited before the run, see
-        :meth:`compiled_model` (``progress`` is then called at each return of
-        the kernel, not at every step).  Output:
+        compiled kernel (numba; compiled once per installation, each mode's
+        functions compiled on first use), see :meth:`compiled_model`
+        (``progress`` is then called at each return of the kernel, not at
+        every step; inputs must be expressions of ``t``, ExpressionInput);
+        ``"auto"``: ``"RK45-jit"`` when its compilation is cached or paid for
+        by the run's expected length, else ``"RK45"`` (``stats`` says which
+        and why).  Output:
         every step (default), ``output="events"`` (instants only) or
         ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.

@@ -28,7 +28,6 @@ import weakref
 import numpy as np
 
 from bondgraph.errors import HybridBondGraphError
-from codegen.jit import STATUS as _KERNEL_STATUS
 from codegen.jit import available as _jit_available
 
 from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepSizeError, StiffnessError,
@@ -36,6 +35,10 @@ from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted
 from .events import _GuardScan, _locate
 from .integrators import ADAPTIVE, FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
 from .jit_model import KINDS, CompiledInstant
+from .jit_model import STATUS as _KERNEL_STATUS
+from .jit_model import choose_method as _choose_method
+from .jit_model import input_problem as _input_problem
+from .jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
 from .trajectory import Trajectory
 
@@ -225,6 +228,10 @@ def simulate(
     stiffness_check: bool = True,
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
+    auto = None
+    if method == "auto":  # RK45 compiled or not (switching.jit_model.choose_method); the stats say which and why
+        auto = _choose_method(model, t0, t_end, rtol, dt, stiffness_check=stiffness_check)
+        method = auto.method
     _check_options(method, dt, rtol, atol)
     if on_zeno not in ("raise", "stop"):
         raise SimulationError("on_zeno must be 'raise' or 'stop'")
@@ -259,12 +266,11 @@ def simulate(
     if method in COMPILED:
         if not _jit_available():
             raise SimulationError(f"method {method!r} needs numba: pip install '.[fast]'")
-        if model.input_symbols:
-            raise SimulationError(f"method {method!r} does not take models with inputs; use {method[:-4]!r}")
-        if t_eval is not None:
-            raise SimulationError(f"method {method!r} saves every step or events only; t_eval needs {method[:-4]!r}")
+        problem = _input_problem(model, method)  # inputs that are Python functions cannot run compiled
+        if problem:
+            raise SimulationError(problem)
         model.compiled_mode(current)
-        compiled = model.compiled_model()  # the modes visited so far; others flow in Python this run
+        compiled = model.compiled_model()  # the modes visited or remembered; one first reached is compiled then
         flow_method = method[:-4]
 
     def initial_instant():
@@ -299,7 +305,7 @@ def simulate(
             problem = nonfinite_at_start(model, model.compiled_mode(current), x, t)
             if problem:
                 raise fail(NonFiniteStateError, problem)
-        if t_eval is not None:
+        if t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its initial instant)
             recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
 
         options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
@@ -391,6 +397,10 @@ def simulate(
     stats = {"method": method, "steps": n_steps, "wall time [s]": round(_time.perf_counter() - started, 6)}
     if compiled is not None:
         stats["instants resolved in Python"] = python_instants
+        if python_instants:  # modes met outside the kernel: a new process's kernel covers them too
+            _remember_modes(model, model.visited_modes)
+    if auto is not None:
+        stats.update(auto.report(stats["wall time [s]"], t_end - t0))
     if stopped == "zeno":
         stats["zeno accumulation time [s]"] = accumulation
     if output == "events" and (not recorder.t or recorder.t[-1] != t):
@@ -661,9 +671,11 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
     kind = KINDS[method]
     steps = 0
     while True:
+        dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
         result = compiled.run(kind, mode, x, t, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
                               max_step=o["max_step"], first_step=o["first_step"], samples=o["samples"],
-                              save=o["save"], resolve_first=initial)
+                              save=o["save"], resolve_first=initial, t_eval=dense)
+        recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
         if initial and _KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
             return None, t, x, mode, 0, "initial"
         steps += result.steps

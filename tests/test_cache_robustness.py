@@ -392,7 +392,7 @@ def test_a_cache_directory_that_cannot_exist_warns_and_off_uses_a_private_direct
     assert Path(module.__file__).parent == jit._private
 
 
-# ------------------------------------------------------------------ one compiled kernel, fresh processes
+# ------------------------------------------------------------------ compiled mode functions, fresh processes
 
 BALL = textwrap.dedent(
     """
@@ -400,45 +400,46 @@ BALL = textwrap.dedent(
     warnings.simplefilter("always")
     import models.bouncing_ball as bouncing_ball
     model = bouncing_ball.build()
-    model.simulate(2.0, "RK45")  # both modes visited: the kernel tests/test_compiled.py compiles too
+    model.simulate(2.0, "RK45")  # both modes visited: the functions tests/test_compiled.py compiles too
     start = time.perf_counter()
     run = model.simulate(2.0, "RK45-jit")
     seconds = time.perf_counter() - start
-    (name,) = [n for n in sys.modules if n.startswith("hbg_model_")]
-    module = sys.modules[name]
-    kernels = [getattr(module, f) for f in ("run", "workspace_sizes")]
-    print(json.dumps({"module": name, "file": module.__file__, "seconds": seconds, "t": list(run.t),
-                      "x": run.x.tolist(), "compiled": [len(k.stats.cache_misses) for k in kernels]}))
+    names = sorted(n for n in sys.modules if n.startswith("hbg_mode_"))
+    functions = [sys.modules[n].compiled for n in names]  # each mode's compiled function (switching.jit_model)
+    print(json.dumps({"modules": names, "files": [sys.modules[n].__file__ for n in names], "seconds": seconds,
+                      "t": list(run.t), "x": run.x.tolist(), "compiled": [int(f.cache_hits == 0) for f in functions]}))
     """
 )
 
 
 @pytest.fixture(scope="module")
 def ball_kernel(tmp_path_factory):
-    """The bouncing ball's RK45-jit kernel, compiled (or found) in the
-    session's cache directory by a subprocess: its module name, the
-    reference run and a function copying the entry to a new directory."""
+    """The bouncing ball's compiled mode functions (for the RK45-jit kernel),
+    compiled (or found) in the session's cache directory by a subprocess:
+    their module names, the reference run and a function copying their
+    entries to a new directory."""
     pytest.importorskip("numba")
     setting = os.environ.get("HBG_CACHE_DIR", "off")
     session = tmp_path_factory.mktemp("ball-cache") if setting == "off" else Path(setting)
     done = run_python(BALL, session)
     assert done.returncode == 0, done.stderr
     reference = json.loads(done.stdout)
-    name = reference["module"]
-    key = name[len("hbg_model_"):]
-    print(f"ball kernel: {'compiled' if any(reference['compiled']) else 'loaded'} in {reference['seconds']:.1f} s")
+    names = reference["modules"]
+    assert len(names) >= 2  # flight, impact (and those other tests' runs of the model met, remembered)
+    print(f"ball functions: {'compiled' if any(reference['compiled']) else 'loaded'} in {reference['seconds']:.1f} s")
 
     def copy(destination: Path) -> Path:
         (destination / "jit" / "__pycache__").mkdir(parents=True)
         for path in session.glob("*.py"):
             shutil.copy2(path, destination / path.name)
-        shutil.copy2(session / "jit" / f"{name}.py", destination / "jit" / f"{name}.py")
-        for path in (session / "jit" / "__pycache__").glob(f"{name}.*"):
-            shutil.copy2(path, destination / "jit" / "__pycache__" / path.name)
-        assert key in cache_entries(destination)
+        for name in names:
+            shutil.copy2(session / "jit" / f"{name}.py", destination / "jit" / f"{name}.py")
+            for path in (session / "jit" / "__pycache__").glob(f"{name}.*"):
+                shutil.copy2(path, destination / "jit" / "__pycache__" / path.name)
+            assert name[len("hbg_mode_"):] in cache_entries(destination)
         return destination
 
-    return name, reference, copy
+    return names, reference, copy
 
 
 def _same_run(result, reference):
@@ -447,44 +448,43 @@ def _same_run(result, reference):
 
 
 def test_a_kernel_with_unreadable_numba_files_is_compiled_again_in_a_new_process(ball_kernel, tmp_path):
-    """The issue's case, on the two functions Python calls: garbage in one's
-    index, the other's machine code truncated (recompiling ``run`` takes
-    about 10 s; its callees still load)."""
-    name, reference, copy = ball_kernel
+    """The issue's case, on the two modes' compiled functions: garbage in
+    one's index, the other's machine code truncated."""
+    names, reference, copy = ball_kernel
     cache = copy(tmp_path)
     pycache = cache / "jit" / "__pycache__"
-    (index,) = pycache.glob(f"{name}.workspace_sizes-*.nbi")
+    (index,) = pycache.glob(f"{names[0]}.mode-*.nbi")
     index.write_bytes(os.urandom(400))
-    (data,) = pycache.glob(f"{name}.run-*.1.nbc")
+    (data,) = pycache.glob(f"{names[1]}.mode-*.1.nbc")
     data.write_bytes(data.read_bytes()[:1000])
     done = run_python(BALL, cache)
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     assert "CacheWarning" in done.stderr and "could not be read" in done.stderr
     result = json.loads(done.stdout)
-    assert result["compiled"] == [1, 1]
+    assert result["compiled"] == [1, 1] + [0] * (len(names) - 2)
     _same_run(result, reference)
     again = run_python(BALL, cache)  # the rebuilt files load, silently
     assert again.returncode == 0 and "CacheWarning" not in again.stderr, again.stderr
-    assert json.loads(again.stdout)["compiled"] == [0, 0]
+    assert json.loads(again.stdout)["compiled"] == [0] * len(names)
     print(f"rebuilt in {result['seconds']:.1f} s, then loaded in {json.loads(again.stdout)['seconds']:.2f} s")
 
 
 @pytest.mark.slow
 def test_a_kernel_whose_numba_files_are_all_garbage_is_compiled_again(ball_kernel, tmp_path):
-    name, reference, copy = ball_kernel
+    names, reference, copy = ball_kernel
     cache = copy(tmp_path)
-    files = list((cache / "jit" / "__pycache__").glob(f"{name}.*"))
+    files = list((cache / "jit" / "__pycache__").glob("hbg_mode_*"))
     for path in files:
         path.write_bytes(os.urandom(200))
     done = run_python(BALL, cache)
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
-    assert done.stderr.count("could not be read") == 1  # one warning for the module
+    assert done.stderr.count("could not be read") == len(names)  # one warning for each module
     _same_run(json.loads(done.stdout), reference)
     print(f"{len(files)} files of garbage; compiled again in {json.loads(done.stdout)['seconds']:.1f} s")
 
 
 def test_a_read_only_cache_holding_the_kernel_still_spares_the_compilation(ball_kernel, tmp_path):
-    name, reference, copy = ball_kernel
+    names, reference, copy = ball_kernel
     cache = copy(tmp_path / "ro")
     make_read_only(cache)
     try:
@@ -494,8 +494,8 @@ def test_a_read_only_cache_holding_the_kernel_still_spares_the_compilation(ball_
         assert "CacheWarning" in done.stderr and re.search(f"{re.escape(str(cache))}(/jit)? is not writable", done.stderr)
         assert "HBG_CACHE_DIR" in done.stderr
         result = json.loads(done.stdout)
-        assert result["compiled"] == [0, 0]  # numba's files were adopted, not compiled again
-        assert Path(result["file"]).parent != cache / "jit"
+        assert result["compiled"] == [0] * len(names)  # numba's files were adopted, not compiled again
+        assert all(Path(file).parent != cache / "jit" for file in result["files"])
         _same_run(result, reference)
         assert {k: size for k, (size, _) in snapshot(cache).items()} == {k: size for k, (size, _) in before.items()}
     finally:
@@ -519,10 +519,11 @@ def test_an_empty_read_only_cache_directory_still_runs_the_compiled_methods(tmp_
 
 
 def test_eviction_takes_a_real_kernel_whole(ball_kernel, tmp_path):
-    """numba's real file names are associated with the kernel's entry."""
-    name, reference, copy = ball_kernel
+    """numba's real file names are associated with a mode function's entry."""
+    names, reference, copy = ball_kernel
     cache = copy(tmp_path)
-    key = name[len("hbg_model_"):]
+    name = names[0]
+    key = name[len("hbg_mode_"):]
     entries = cache_entries(cache)
     size, _, files = entries[key]
     on_disk = [p for p in (cache / "jit" / "__pycache__").iterdir() if p.name.startswith(name)]
@@ -534,6 +535,7 @@ def test_eviction_takes_a_real_kernel_whole(ball_kernel, tmp_path):
             os.utime(os.path.join(where, n), (old, old))
     SourceCache(cache, max_bytes=size / 2).store(_key(7), "Z = 1\n")
     assert key not in cache_entries(cache)
-    assert not any((cache / "jit" / "__pycache__").iterdir()) and not (cache / "jit" / f"{name}.py").exists()
+    assert not any(p.name.startswith(name) for p in (cache / "jit" / "__pycache__").iterdir())
+    assert not (cache / "jit" / f"{name}.py").exists()
     print(f"ball cache copy {total / 1e6:.2f} MB ({len(entries)} entries, the kernel {size / 1e6:.2f} MB in "
           f"{len(files)} files); cap {size / 2e6:.2f} MB: {tree_bytes(cache) / 1e6:.3f} MB left")

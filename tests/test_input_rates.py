@@ -90,3 +90,12 @@ def test_clutch_engaging_jumps_to_the_prescribed_momentum_then_follows_it():
     after = tr.t > 1.0
     assert np.allclose(tr.state("p_m")[after], m * (1 + tr.t[after] / 2), rtol=1e-12)
     assert np.allclose(tr.signal("e_drive")[after], m * 0.5 + b * (1 + tr.t[after] / 2), rtol=1e-12)
+
+
+def test_compiled_run_takes_the_exact_input_derivative():
+    pytest.importorskip("numba")
+    model = HybridModel(driven_mass(), [], {"m": 2.0, "b": 0.5}, inputs={"u": ExpressionInput("sin(2*t)")})
+    plain = model.simulate(3.0, "RK45", rtol=1e-10, t_eval=np.linspace(0, 3, 7))
+    compiled = model.simulate(3.0, "RK45-jit", rtol=1e-10, t_eval=np.linspace(0, 3, 7))
+    np.testing.assert_allclose(compiled.signal("e_drive"), plain.signal("e_drive"), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(compiled.state("p_m"), 2.0 * np.sin(2 * compiled.t), rtol=0, atol=1e-12)
