@@ -599,27 +599,13 @@ def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT
             scan[0] = 1
         return -1.0
     # switching.events._locate
-    a = lo_a
-    b = hi_b
-    for _ in range(200):
-        mid = 0.5 * (a + b)
-        if mid <= a or mid >= b:
-            break
-        _interp(kind, t_old, h, A, mid, tmp)
-        if _holds_at(m, tmp, mid, M, s, rtol, atol):
-            b = mid
-        else:
-            a = mid
-    return b
+    return _first_hold(lo_a, hi_b, kind, m, t_old, h, A, M, s, tmp, rtol, atol)[1]
 
 
 @_dispatch
-def _bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
-    """_GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
-    adjacent floating-point numbers; ``(lo, hi)``, ``lo`` the slot of the last point seen not holding."""
-    template, z, dbuf, s, tmp = E
-    ptau, pmg, ptr, phd = PT
-    t_lo = ptau[a]
+def _first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
+    """Bisection of the step's interpolant over (t_lo, hi] (no guard holding at ``t_lo``, one at ``hi``) down to
+    adjacent floating-point numbers: ``(t_lo, hi)``, the last time seen not holding and the first holding."""
     for _ in range(200):
         mid = 0.5 * (t_lo + hi)
         if mid <= t_lo or mid >= hi:
@@ -629,6 +615,16 @@ def _bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
             hi = mid
         else:
             t_lo = mid
+    return t_lo, hi
+
+
+@_dispatch
+def _bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
+    """_GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
+    adjacent floating-point numbers; ``(lo, hi)``, ``lo`` the slot of the last point seen not holding."""
+    template, z, dbuf, s, tmp = E
+    ptau, pmg, ptr, phd = PT
+    t_lo, hi = _first_hold(ptau[a], hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol)
     if t_lo == ptau[a]:
         return a, hi
     # the last point not holding, evaluated again (deterministic) for its parts' truths
