@@ -18,6 +18,7 @@ from .errors import StepSizeError as StepSizeError
 from .errors import StiffnessError as StiffnessError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import SweepInterrupted as SweepInterrupted
+from .errors import UnknownOptionError as UnknownOptionError
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper

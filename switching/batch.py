@@ -46,6 +46,7 @@ import numpy as np
 from bondgraph.errors import HybridBondGraphError, ParameterValueError
 
 from .errors import SweepInterrupted
+from .simulator import check_option_names
 
 __all__ = ["MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model", "simulate_many"]
 
@@ -431,6 +432,7 @@ def simulate_many(build, parameter_sets, t_end: float, method: str = "RK45", *, 
         raise ParameterValueError("simulate_many: workers= sizes the LocalCluster started when client=None; "
                                   f"with client={client!r} it would have no effect: drop it (a cluster you give "
                                   "is sized by whoever started it)", "workers", workers)
+    check_option_names(options, "simulate_many")
     if "progress" in options:
         raise ParameterValueError("simulate_many: a per-step progress callable cannot follow runs on other "
                                   "processes; pass progress_bar=True for a bar over the runs", "progress",

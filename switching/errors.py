@@ -18,6 +18,7 @@ __all__ = [
     "StiffnessError",
     "SimulationInterrupted",
     "SweepInterrupted",
+    "UnknownOptionError",
 ]
 
 
@@ -122,3 +123,9 @@ class SweepInterrupted(HybridBondGraphError, KeyboardInterrupt):
     def __init__(self, message: str, results=()):
         super().__init__(message)
         self.results = list(results)
+
+
+class UnknownOptionError(SimulationError, TypeError):
+    """``simulate`` (or a sweep) was given an option it does not know; the
+    message names the closest known ones.  A ``TypeError`` too, as Python
+    reports an unexpected keyword argument."""

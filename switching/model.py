@@ -44,7 +44,7 @@ from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 from .jit_model import CompiledModel, remembered_modes
 from .law_automata import branches_at, law_automaton
-from .simulator import simulate
+from .simulator import check_option_names, simulate
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
 
@@ -822,6 +822,7 @@ class HybridModel:
         ``trajectory.event_time_sensitivity(k, p)``.  Python methods only.
         See :func:`switching.simulator.simulate`.
         """
+        check_option_names(options)
         sensitivities = options.pop("sensitivities", None)
         rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
         if sensitivities is not None:

@@ -31,7 +31,7 @@ from bondgraph.errors import HybridBondGraphError
 from codegen.jit import available as _jit_available
 
 from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepSizeError, StiffnessError,
-                     ZenoError)
+                     UnknownOptionError, ZenoError)
 from .events import _GuardScan, _locate
 from .integrators import ADAPTIVE, FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
 from .jit_model import KINDS, CompiledInstant
@@ -42,7 +42,7 @@ from .jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
 from .trajectory import Trajectory
 
-__all__ = ["simulate", "METHODS"]
+__all__ = ["simulate", "METHODS", "check_option_names"]
 
 COMPILED = ("euler-jit", "rk4-jit", "RK45-jit")
 METHODS = FIXED_STEP + ADAPTIVE + COMPILED
@@ -165,6 +165,28 @@ class _ZenoWatch:
             if accumulation <= self.t_end:
                 return accumulation
         return None
+
+
+#: options of HybridModel.simulate besides those of simulate() itself
+_MODEL_OPTIONS = ("sensitivities", "sensitivity_rtol", "sensitivity_atol")
+
+
+def check_option_names(options, what: str = "simulate") -> None:
+    """Raise :class:`UnknownOptionError` for an option ``simulate`` does not
+    take (a misspelt ``rtoll=``), naming the closest known ones — before
+    anything runs, rather than Python's bare ``TypeError`` (or, in a sweep,
+    one failed run per parameter set)."""
+    import difflib
+    import inspect
+
+    known = [name for name, p in inspect.signature(simulate).parameters.items()
+             if p.kind is inspect.Parameter.KEYWORD_ONLY] + list(_MODEL_OPTIONS)
+    for name in options:
+        if name not in known:
+            close = difflib.get_close_matches(name, known, n=3)
+            raise UnknownOptionError(
+                f"{what}: unknown option {name!r}" + (f"; did you mean {' or '.join(map(repr, close))}?" if close else "")
+                + f" The options are: {', '.join(known)}")
 
 
 def _check_options(method, dt, rtol, atol):

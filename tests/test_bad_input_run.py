@@ -25,7 +25,7 @@ from bondgraph.errors import (
 )
 from models import boost_converter, bouncing_ball, diode_circuit
 from switching import Automaton, HybridModel, simulate_many
-from switching.errors import NonFiniteStateError, SimulationError, SimulationInterrupted
+from switching.errors import NonFiniteStateError, SimulationError, SimulationInterrupted, UnknownOptionError
 
 from switching_models import rc_relay, relay_graph
 
@@ -301,3 +301,13 @@ def test_a_failing_input_function_keeps_the_run_and_chains_its_error():
     assert isinstance(info.value.__cause__, RuntimeError)
     trajectory = info.value.trajectory
     assert 0.4 < trajectory.t[-1] <= 0.5 and np.all(np.diff(trajectory.t) >= 0)
+
+
+def test_a_misspelt_simulate_option_is_named_with_the_closest_ones_before_anything_runs():
+    model = bouncing_ball.build()
+    with pytest.raises(UnknownOptionError, match=r"unknown option 'rtoll'; did you mean 'rtol'") as info:
+        model.simulate(1.0, "RK45", rtoll=1e-6)
+    assert isinstance(info.value, TypeError) and "keep_instants" in str(info.value)
+    assert model.derivation_count == 0  # refused before any mode was derived
+    with pytest.raises(UnknownOptionError, match=r"simulate_many: unknown option 'max_stpe'; did you mean 'max_step'"):
+        simulate_many(bouncing_ball.build, [{"e": 0.8}], 1.0, client="serial", max_stpe=0.1)
