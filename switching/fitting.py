@@ -163,7 +163,7 @@ def _built(build, arguments) -> tuple:
     """``(fingerprint, {model parameter name or x0:<state>: value})`` of ``build(**arguments)``."""
     model = build(**arguments)
     values = {s.name: float(v) for s, v in model.parameter_values.items()}
-    values.update({INITIAL_PREFIX + s.name: float(v) for s, v in zip(model.states, model._initial_given)})
+    values.update({INITIAL_PREFIX + s.name: float(v) for s, v in zip(model.states, model.given_initial_state)})
     return model.fingerprint, values
 
 

@@ -737,6 +737,12 @@ class HybridModel:
 
     # ------------------------------------------------------------ initial state
 
+    @property
+    def given_initial_state(self) -> np.ndarray:
+        """The initial state as given (``initial_state=`` of the model, zeros
+        elsewhere), before any projection onto the initial mode's constraints."""
+        return self._initial_given.copy()
+
     def initial_state(self) -> np.ndarray:
         """The initial state vector, projected onto the initial mode's
         constraints with its jump map (an :class:`InitialStateProjected`

@@ -523,7 +523,7 @@ class _Run:
         if cm.jump_kind != "symbolic":
             raise SimulationError(f"the initial projection into mode {mode.describe()} is numerical (nonlinear "
                                   "storage): sensitivities through numerical jump maps are not supported yet")
-        x_given = model._initial_given
+        x_given = model.given_initial_state
         if model.restitution_of(mode) is None:
             gx, gp, _ = self.gradient_rows(self.d.jump(mode), "jac", x_given, 0.0, n)
             return gx @ S0 + gp
