@@ -41,7 +41,7 @@ from codegen.source import Argument, FunctionSpec, function_source, module_names
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "8"
+MODE_SOURCE_VERSION = "9"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -120,12 +120,29 @@ def decide_tree(tree, sides, rtol, atol, record=None, fixed=None) -> bool:
 
 def comparison_triples(me, relations) -> list:
     """``[left, right, max(R(left), R(right))]`` of every comparison, finite
-    parts (``ẋ = f(x)`` substituted), concatenated: the outputs of ``sides``."""
+    parts (``ẋ = f(x)`` substituted), concatenated: the outputs of ``sides``.
+
+    A comparison on the time alone (a clock: its sides depend on ``t`` and
+    the parameters, on no state and no input) gets the round-off scale 0, so
+    its band is ``rtol·max(|left|, |right|) + atol``.  Its sides' round-off
+    at a float ``t`` (``≈ ε·R``) only moves the computed crossing by a few
+    units in the last place of ``t``; widening the band by ``rtol·R``
+    (``rtol ≫ ε``) would move every crossing by ``rtol·R/|d(left − right)/dt|``
+    instead — and the scale of a periodic clock grows with its phase: the
+    edges of a PWM carrier ``acos(cos(2·pi·f·t − pi·D))/pi`` (``R ≈ 12·f·t``,
+    slope ``2·f``) would lag ``6·rtol·t``, 6e-12 s after 1e5 periods of
+    10 kHz instead of the round-off of ``k/f``."""
     triples = []
-    memo = me.model._roundoff_memo
+    model = me.model
+    memo = model._roundoff_memo
+    clock = {model.time, *model.parameter_symbols}
     for rel in relations:
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
-        triples += [left, right, larger(roundoff_scale(left, memo), roundoff_scale(right, memo))]
+        free = left.free_symbols | right.free_symbols
+        if model.time in free and free <= clock:
+            triples += [left, right, sp.Integer(0)]
+        else:
+            triples += [left, right, larger(roundoff_scale(left, memo), roundoff_scale(right, memo))]
     return triples
 
 

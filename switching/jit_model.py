@@ -89,7 +89,7 @@ KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff", 7: "workspace"}
 _MAX_CODE = 2**62
 _NO_TIMES = np.empty(0)  # no requested output times
-GENERATOR_VERSION = "13"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "14"  # part of the cache key: change it when the generated functions change
 _KERNEL = []  # switching.kernel once imported, its numba caches guarded
 
 

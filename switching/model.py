@@ -79,7 +79,10 @@ class Tolerance:
     sides (:mod:`codegen.roundoff`; at an instant, a posteriori, the larger
     of its values before and after the jump).  A difference that is zero up
     to the round-off of those terms thus compares as zero, in any units,
-    while a small quantity of a small-scale model still counts.  A state
+    while a small quantity of a small-scale model still counts.  A
+    comparison on the time alone (a clock, no state) has ``R = 0``: its
+    crossing is located to the round-off of ``t``, not ``rtol·R`` away
+    (:func:`switching.compiled.comparison_triples`).  A state
     change at a jump smaller than ``jump_rtol·(largest moved state) +
     jump_atol`` is round-off: it is no jump and carries no Dirac pulse.
     ``atol`` and ``jump_atol`` are absolute, in the quantities' own units, and

@@ -71,17 +71,29 @@ def test_continuous_conduction_with_inductor_resistance():
     assert abs(v_mean - p["Vin"] / (1 - D)) > 3 * v_ripple  # the loss is clearly seen
 
 
+def assert_edges_exact(times, exact, model, D, f_sw):
+    """PWM edges at their exact times up to the round-off of the carrier's
+    phase 2π·f_sw·t (a few units in the last place of t) and the comparison
+    band rtol·max(|carrier|, |D|) = rtol·D crossed at the carrier's slope
+    2·f_sw — a constant 2.5e-18 s for D = 0.5, not growing with t."""
+    times, exact = np.asarray(times), np.asarray(exact)
+    assert len(times) == len(exact)
+    bound = 4 * np.spacing(exact) + model.tolerance.rtol * D / (2 * f_sw)
+    error = np.abs(times - exact)
+    worst = int(np.argmax(error / bound))
+    assert np.all(error <= bound), (f"edge {worst} at {times[worst]!r} is {error[worst]:.3g} s from {exact[worst]!r} "
+                                    f"({error[worst] / np.spacing(exact[worst]):.0f} ulps)")
+
+
 def test_continuous_conduction_edges_and_slopes_are_exact():
     D = 0.5
     model, p, T, options = setup(D=D, v_C0=24.0, i_L0=2.4)
     trajectory = model.simulate(20.25 * T, "RK45", **options)
     assert set(trajectory.mode_labels) == {"on|off", "off|on"}  # never both off: continuous conduction
     closing, opening = pwm_edges(trajectory, True), pwm_edges(trajectory, False)
-    # exact to the comparison band: rtol·R of the carrier, R ≈ 6·|2π f_sw t|/π (the round-off scale of
-    # its argument), crossed at the carrier's slope 2 f_sw: ≈ 1e-13·6·2t = 1.2e-15 s at t = 2 ms
-    band = 1e-13 * 6 * 2 * 20 * T
-    np.testing.assert_allclose([e.t for e in closing], T * np.arange(1, 21), rtol=0, atol=band)
-    np.testing.assert_allclose([e.t for e in opening], T * (np.arange(20) + D), rtol=0, atol=band)
+    # exact to round-off (see test_pwm_edges_stay_exact_over_two_thousand_periods)
+    assert_edges_exact([e.t for e in closing], T * np.arange(1, 21), model, D, p["f_sw"])
+    assert_edges_exact([e.t for e in opening], T * (np.arange(20) + D), model, D, p["f_sw"])
     for e in closing:  # the diode, shorted by the switch, is turned off through a mythical mode
         assert [m.label for m in e.modes] == ["off|on", "on|on", "on|off"]
         assert e.kinds == ["start", "mythical", "continuous"]
@@ -96,6 +108,22 @@ def test_continuous_conduction_edges_and_slopes_are_exact():
     # the diode only ever conducts forward and blocks reverse voltage
     assert trajectory.signal("i_D").min() >= -1e-12
     assert trajectory.signal("v_D").max() <= 1e-12
+
+
+def test_pwm_edges_stay_exact_over_two_thousand_periods():
+    """A PWM edge is where the carrier crosses D, to the round-off of k·T
+    itself, however many periods came before.  The carrier's round-off scale
+    grows with its phase (≈ 12·f_sw·t): were it to widen the comparison band
+    (rtol·R), the edges would lag 6·rtol·t — 1.2e-13 s, ~4000 ulps, at
+    t = 0.2 s (switching.compiled.comparison_triples)."""
+    D, periods = 0.3, 2000
+    V = boost_converter.DEFAULTS["Vin"] / (1 - D)
+    model, p, T, _ = setup(D=D, v_C0=V, i_L0=V / boost_converter.DEFAULTS["R_load"] / (1 - D))
+    trajectory = model.simulate(periods * T, "RK45", max_step=min(D, 1 - D) * T, output="events")
+    closing, opening = pwm_edges(trajectory, True), pwm_edges(trajectory, False)
+    assert len(opening) == periods and len(closing) in (periods - 1, periods)  # the last may fall past t_end
+    assert_edges_exact([e.t for e in closing], np.arange(1, len(closing) + 1) / p["f_sw"], model, D, p["f_sw"])
+    assert_edges_exact([e.t for e in opening], (np.arange(periods) + D) / p["f_sw"], model, D, p["f_sw"])
 
 
 @pytest.mark.parametrize("D", [0.5, 0.3])
