@@ -16,8 +16,9 @@ functions in a private temporary directory (see :func:`codegen.jit.load_module`)
 Size cap.  The directory holds at most ``$HBG_CACHE_MAX_MB`` megabytes
 (default 500; ``inf`` for no cap).  An entry is everything filed under one
 key: ``<key>.py``, and for a mode's compiled function its module
-``jit/hbg_mode_<key>.py`` with numba's machine code
-``jit/__pycache__/hbg_mode_<key>.*`` (``.nbi``/``.nbc``).  (The compiled
+``jit/hbg_mode_<key>.py`` with its machine code ``jit/hbg_mode_<key>.native``
+(:mod:`codegen.native`) or numba's ``jit/__pycache__/hbg_mode_<key>.*``
+(``.nbi``/``.nbc``).  (The compiled
 kernel itself is model-independent: numba keeps it beside
 ``switching/kernel.py``, once per installation.  Modules ``hbg_model_<key>``
 of earlier versions, one kernel per model, are entries too, evicted alike.)
@@ -55,7 +56,7 @@ LOW_WATER = 0.9  # an eviction frees space down to this fraction of the cap
 # the files of one entry, by sub-directory of the cache directory (group 1: the key)
 _ENTRY_FILES = {
     "": re.compile(r"^\.?([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
-    "jit": re.compile(r"^\.?hbg_mode(?:l)?_([0-9a-f]{32})\.(?:py|.*\.tmp)$"),
+    "jit": re.compile(r"^\.?hbg_mode(?:l)?_([0-9a-f]{32})\.(?:py|native|.*\.tmp)$"),
     os.path.join("jit", "__pycache__"): re.compile(r"^hbg_mode(?:l)?_([0-9a-f]{32})\."),
 }
 

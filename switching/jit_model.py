@@ -30,7 +30,8 @@ The kernel receives the addresses of these functions with the model's tables
 (:func:`model_tables`: state indices, the guards' one-sided parts, the mode
 codes) in one record (:attr:`CompiledModel.record`).  A mode first reached
 during a run is resolved in Python at that instant, its function compiled
-(0.3–3.5 s by the size of its equations; cached on disk like the kernel) and
+(by :mod:`codegen.native` in 10–150 ms, numba's front end as the fallback;
+cached on disk) and
 handed to the next kernel call (:meth:`CompiledModel.covers`).  Modes are
 identified in compiled code by a mixed-radix code of their automaton states,
 ``code = Σ_a state_a · radix_a``, so the kernel finds the mode a transition
@@ -70,7 +71,7 @@ import sympy as sp
 from bondgraph.errors import HybridBondGraphError
 from bondgraph.symbols import rate_symbol
 from bondgraph.symbols import t as TIME
-from codegen.cache import fingerprint
+from codegen.cache import CacheWarning, fingerprint, warn_not_writable
 from codegen.jit import guard_cache, load_module, tree_expression
 from codegen.source import Argument, FunctionSpec, function_source
 
@@ -183,7 +184,7 @@ def forget_modes(model) -> None:
 
 
 KERNEL_COMPILE_SECONDS = 30.0  # compiling switching.kernel (once per installation; about)
-MODE_COMPILE_SECONDS = 2.0  # compiling one mode's function (about; 0.3–3.5 s by the size of its equations)
+MODE_COMPILE_SECONDS = 0.3  # compiling one mode's function (about: codegen.native; numba's front end takes 0.3–3 s)
 
 
 class AutoChoice:
@@ -224,10 +225,15 @@ def mode_compiled(model, mode) -> bool:
     """Is the function of ``mode`` loaded in this process, or its machine code
     in the disk cache?"""
     name = f"hbg_mode_{_mode_key(model, mode)}"
-    if getattr(sys.modules.get(name), "compiled", None) is not None:
+    if name in _NATIVE or getattr(sys.modules.get(name), "compiled", None) is not None:
         return True
     if model.cache.directory is None:
         return False
+    if native_enabled():
+        from codegen.native import file_matches_machine
+
+        if file_matches_machine(_native_path(model, name)):
+            return True
     try:
         return any(n.startswith(name + ".mode-") and n.endswith(".nbi")
                    for n in os.listdir(model.cache.directory / "jit" / "__pycache__"))
@@ -440,6 +446,8 @@ def mode_function_source(model, mode) -> str:
              "NQ": max(len(parts), 1), "NPAR": max(len(model.parameter_symbols), 1),
              "NU": max(len(input_substitution(model)[1]), 1)}
     label = mode.describe()
+    # the function's parameters, renamed (…_, …__) where a local name of the statements takes theirs
+    P = _parameter_names(branches)
     lines = [
         f'"""Compiled function of mode {label} of model {model.name!r} (generated; do not edit)."""',
         "import math",
@@ -450,35 +458,37 @@ def mode_function_source(model, mode) -> str:
         "from switching.kernel import decide as _dec, larger as _larger",
         "",
         "",
-        "def mode(op_, which_, t, rtol, atol, x_, xp_, p_, u_, d_, s_, post_, target_, q_, out_):",
-        f'    """Mode {label}: ``op_`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
+        f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
+        f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
+        f'    """Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
         "    guard hold during flow, 3 the jump map (0: numerical), 4 the transitions firing at an instant",
-        "    (``which_``: quiet), 5 guard ``which_`` from its parts' truths (see switching.kernel).",
+        f'    (``{P["which_"]}``: quiet), 5 guard ``{P["which_"]}`` from its parts\' truths (see switching.kernel).',
         f'    Array sizes: {", ".join(f"{k} {v}" for k, v in sizes.items())}."""',
-        f"    p = carray(p_, ({sizes['NPAR']},))",
-        f"    u = carray(u_, ({sizes['NU']},))",
+        f"    p = carray({P['p_']}, ({sizes['NPAR']},))",
+        f"    u = carray({P['u_']}, ({sizes['NU']},))",
     ]
+    op_, which_ = P["op_"], P["which_"]
     for op, name in enumerate(_OP_ARRAYS):
         if name == "holds":  # and the quiet instant (op 4, which_ 1): the same sides, on y = x_i (in d's room)
-            lines += [f"    if op_ == {op} or (op_ == {OPS_FIRE} and which_ != 0):",
-                      f"        s = carray(s_, ({sizes['NS']},))",
-                      f"        if op_ == {op}:",
-                      f"            y = carray(x_, ({sizes['K']},))",
+            lines += [f"    if {op_} == {op} or ({op_} == {OPS_FIRE} and {which_} != 0):",
+                      f"        s = carray({P['s_']}, ({sizes['NS']},))",
+                      f"        if {op_} == {op}:",
+                      f"            y = carray({P['x_']}, ({sizes['K']},))",
                       "        else:",
-                      f"            y = carray(d_, ({sizes['K']},))",
-                      f"            xq = carray(x_, ({sizes['N']},))"]
+                      f"            y = carray({P['d_']}, ({sizes['K']},))",
+                      f"            xq = carray({P['x_']}, ({sizes['N']},))"]
             lines += [f"            y[{j}] = xq[{int(i)}]" for j, i in enumerate(cm.independent)]
             *statements, decision = branches["_holds"]
             lines += ["        " + line for line in statements]
-            lines += [f"        if op_ == {op}:", "            " + _returning_int(decision),
-                      f"        target = carray(target_, ({sizes['NA']},))"]
+            lines += [f"        if {op_} == {op}:", "            " + _returning_int(decision),
+                      f"        target = carray({P['target_']}, ({sizes['NA']},))"]
             lines += ["        " + _returning_int(line) for line in branches["_quiet"]]
             continue
-        lines.append(f"    if op_ == {op}:")
+        lines.append(f"    if {op_} == {op}:")
         for local, pointer, size in _OP_ARRAYS[name]:
-            lines.append(f"        {local} = carray({pointer}, ({sizes[size]},))")
+            lines.append(f"        {local} = carray({P[pointer]}, ({sizes[size]},))")
         if name == "gparts":
-            lines.append("        g = which_")
+            lines.append(f"        g = {which_}")
         body = branches[_BRANCH[name]]
         if name == "gparts":
             body = [re.sub(r"\bq\[(\d+)\]", r"(q[\1] != 0)", line) for line in body]
@@ -487,7 +497,26 @@ def mode_function_source(model, mode) -> str:
     return "\n".join(lines) + "\n"
 
 
-MODE_FUNCTION_VERSION = "4"  # part of the cache key of the per-mode functions: change it when they change
+_PARAMETERS = ("op_", "which_", "x_", "xp_", "p_", "u_", "d_", "s_", "post_", "target_", "q_", "out_")
+
+
+def _parameter_names(branches: dict) -> dict:
+    """The name of each pointer and selector parameter of a mode's function:
+    its usual name (``x_``, ``op_``, …), with ``_`` appended while a local
+    name of the statements (a state or parameter sanitized, e.g. a momentum
+    ``p`` unpacked as ``p_``) takes it, so no parameter is ever reassigned."""
+    taken = set(re.findall(r"\b[A-Za-z_]\w*", "\n".join(line for lines in branches.values() for line in lines)))
+    names = {}
+    for base in _PARAMETERS:
+        name = base
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        names[base] = name
+    return names
+
+
+MODE_FUNCTION_VERSION = "5"  # part of the cache key of the per-mode functions: change it when they change
 
 
 def _mode_key(model, mode) -> str:
@@ -495,12 +524,73 @@ def _mode_key(model, mode) -> str:
                        *_inputs_key(model))
 
 
-def mode_function(model, mode):
-    """The compiled function of ``mode`` (a numba ``CFunc``; its ``address``
-    goes to the kernel): its source from the cache (else generated and
-    cached), its machine code from numba's disk cache (else compiled, about
-    0.3–1 s).  Unreadable numba cache files are deleted and the function
+# the kinds of MODE_SIGNATURE's arguments for codegen.native: int64, float64, pointers to float64/int64/uint8
+_NATIVE_SIGNATURE = ["i", "i", "f", "f", "f"] + [("ptr", "f")] * 7 + [("ptr", "i"), ("ptr", "u"), ("ptr", "f")]
+_NATIVE: dict = {}  # this process's natively compiled mode functions by name (a symbol is defined once)
+NATIVE_ENVIRONMENT = "HBG_NATIVE"  # "0": compile the mode functions with numba (its front end) instead
+
+
+def native_enabled() -> bool:
+    """Are mode functions compiled by :mod:`codegen.native` (default), not by numba's front end?"""
+    return os.environ.get(NATIVE_ENVIRONMENT, "1").strip().lower() not in ("0", "off", "no", "false")
+
+
+def _native_path(model, name: str):
+    return model.cache.directory / "jit" / f"{name}.native" if model.cache.directory is not None else None
+
+
+def _native_function(model, mode, name: str, source: str):
+    """``mode``'s function compiled by :mod:`codegen.native` (its machine code
+    from the disk cache, else translated, compiled in milliseconds and
+    kept), or ``None`` when its source is outside the translated subset
+    (numba compiles it then).  An unreadable machine-code file is deleted and
     compiled again (a :class:`codegen.cache.CacheWarning`)."""
+    from codegen import native
+
+    if name in _NATIVE:
+        return _NATIVE[name]
+    path = _native_path(model, name)
+    function = None
+    if path is not None:
+        try:
+            function = native.read_file(path, name)
+        except native.CorruptFile as exc:
+            warnings.warn(f"machine code of mode {mode.describe()} of model {model.name!r} could not be read ({exc}); "
+                          "deleted it and compiling again", CacheWarning, stacklevel=4)
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+    if function is None:
+        try:
+            function = native.compile_function(source, "mode", _NATIVE_SIGNATURE, "i", name)
+        except native.Untranslatable:
+            return None
+        except Exception as exc:  # a fault of the translator: numba's front end still compiles the mode
+            warnings.warn(f"translating mode {mode.describe()} of model {model.name!r} to machine code failed "
+                          f"({type(exc).__name__}: {exc}); numba compiles it instead (slower to compile, the same "
+                          f"results). Set {NATIVE_ENVIRONMENT}=0 to always use numba, and please report this.",
+                          RuntimeWarning, stacklevel=4)
+            return None
+        if path is not None:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                native.write_file(function, path)
+            except OSError as exc:
+                warn_not_writable(path.parent, exc, stacklevel=5)
+    _NATIVE[name] = function
+    return function
+
+
+def mode_function(model, mode):
+    """The compiled function of ``mode`` (an object whose ``address`` goes
+    to the kernel): its source from the cache (else generated and cached),
+    then its machine code from the disk cache, else compiled — by
+    :mod:`codegen.native` (tens of milliseconds), or, for a source outside
+    that translator's subset or with ``HBG_NATIVE=0``, by numba (a ``CFunc``;
+    0.3–3 s, kept in numba's disk cache).  Unreadable cache files are
+    deleted and the function compiled again (a
+    :class:`codegen.cache.CacheWarning`)."""
     from numba.core.ccallback import CFunc
 
     MODE_SIGNATURE = kernel().MODE_SIGNATURE
@@ -509,8 +599,12 @@ def mode_function(model, mode):
     if source is None:
         source = mode_function_source(model, mode)
         model.cache.store(key, source)
-    directory = model.cache.directory / "jit" if model.cache.directory else None
     name = f"hbg_mode_{key}"
+    if native_enabled():
+        function = _native_function(model, mode, name, source)
+        if function is not None:
+            return function
+    directory = model.cache.directory / "jit" if model.cache.directory else None
     module = load_module(name, source, directory)
     function = getattr(module, "compiled", None)
     if function is None:

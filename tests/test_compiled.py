@@ -526,7 +526,8 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
     tighter = jm.choose_method(model, 0.0, 0.5 * cost / 0.1, 1e-6 / 2**10)  # 4× the steps (steps ∝ rtol^(-1/5))
     assert tighter.method == "RK45-jit" and f"≈ {2 * cost:.3g} s" in tighter.reason
     monkeypatch.setattr(jm, "kernel_compiled", lambda: True)
-    choice = jm.choose_method(model, 0.0, 10.0, 1e-6)  # ≈ 1 s in Python, less than 2 modes' functions
+    modes_cost = 2 * jm.MODE_COMPILE_SECONDS
+    choice = jm.choose_method(model, 0.0, 0.5 * modes_cost / 0.1, 1e-6)  # half of compiling 2 modes' functions
     assert choice.method == "RK45" and "less than compiling the functions of 2 mode(s)" in choice.reason
     model.cache.write_record(jm._speed_key(model), None)
     choice = jm.choose_method(model, 0.0, 10.0, 1e-6)
