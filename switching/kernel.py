@@ -88,7 +88,6 @@ from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
-from scipy.integrate._ivp.rk import RK45 as _SCIPY_RK45
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "decide", "larger", "run", "workspace_sizes"]
 
@@ -134,7 +133,17 @@ RK_A = np.array([
 ])
 RK_B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
 RK_E = np.array([-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-RK_P = np.array(_SCIPY_RK45.P, dtype=float)
+# scipy's RK45.P (dense output: y(t + θh) = y + h·K·(P·[θ, θ², θ³, θ⁴])), written out so a compiled run does not
+# import scipy.integrate (~0.2 s); tests/test_kernel.py checks it is scipy's
+RK_P = np.array([
+    [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+    [0, 0, 0, 0],
+    [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+    [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+    [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+    [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+    [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
+], dtype=float)
 
 # ------------------------------------------------------------------ the per-mode functions, through their addresses
 

@@ -751,10 +751,8 @@ class HybridModel:
         constraints with its jump map (an :class:`InitialStateProjected`
         warning says so when that changes it)."""
         if self._initial is None:
-            me = self.mode_equations(self.initial_mode)
             x0 = self._initial_given
-            projected = me.jump.apply(x0, 0.0, self.parameter_values_with_inputs(0.0)) if not me.jump.is_identity else x0
-            projected = np.asarray(projected, dtype=float)
+            projected = np.asarray(self._project_initial(x0), dtype=float)
             self.initial_projection = None
             if not np.allclose(projected, x0, rtol=1e-12, atol=1e-14):
                 changed = [
@@ -769,6 +767,19 @@ class HybridModel:
                 )
             self._initial = projected
         return self._initial.copy()
+
+    def _project_initial(self, x0: np.ndarray) -> np.ndarray:
+        """``g(x0)`` of the initial mode's jump map (no restitution), at ``t = 0``.
+        Where the mode carries no restitution its generated jump function is
+        that map, so a process whose cache holds the mode's code derives
+        nothing; otherwise the symbolic map is used."""
+        mode = self.initial_mode
+        if self.restitution_of(mode) is None:
+            compiled = self.compiled_mode(mode)
+            if compiled.jump_kind in ("identity", "symbolic"):
+                return compiled.jump(np.asarray(x0, dtype=float), 0.0)
+        me = self.mode_equations(mode)
+        return me.jump.apply(x0, 0.0, self.parameter_values_with_inputs(0.0)) if not me.jump.is_identity else x0
 
     # ------------------------------------------------------------ instants
 

@@ -33,6 +33,14 @@ def test_the_kernels_comparison_is_codegen_runtime_decide():
     assert checked == 6 * 10 * 5 * 4 * 3
 
 
+def test_the_kernels_dense_output_coefficients_are_scipys():
+    from scipy.integrate._ivp.rk import RK45
+
+    assert np.array_equal(kernel.RK_P, RK45.P)
+    assert np.array_equal(kernel.RK_A, RK45.A[:, :5]) and np.array_equal(kernel.RK_B, RK45.B)
+    assert np.array_equal(kernel.RK_C, RK45.C) and np.array_equal(kernel.RK_E, RK45.E)
+
+
 def test_a_mode_function_is_called_through_its_address():
     """The bouncing ball's flight: op 0 (rates), 3 (jump: the identity in
     flight), 2 (a guard holds during flow: y ≤ 0 while falling) through the

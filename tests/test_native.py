@@ -155,6 +155,31 @@ def test_integer_and_byte_arrays_and_short_circuits():
                 assert same_bits(t_ours, t_reference)
 
 
+def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
+    """The guard decision the mode functions call (switching.kernel.decide,
+    translated from its Python source with the helpers it calls) against the
+    Python path's reference, on the cases tests/test_kernel.py checks the
+    kernel with: band edges, impulses, infinities and NaN."""
+    import itertools
+    import math
+
+    from codegen.runtime import Hyper, decide
+
+    source = HEADER + "from switching.kernel import decide as _dec, larger as _larger\n\n" + textwrap.dedent(
+        """
+        def d(op, li, lf, ri, rf, sc, sc2, rtol, atol):
+            return 1 if _dec(op, li, lf, ri, rf, _larger(sc, sc2), rtol, atol) else 0
+        """)
+    compiled = compile_function(source, "d", ["i"] + ["f"] * 8, "i", f"hbg_test_native_{next(_serial)}")
+    function = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * 8)(compiled.address)
+    rtol, atol = 1e-9, 1e-12
+    finite = [0.0, 1.0, 1.0 + 5e-10, 1.0 + 2e-9, -1.0, 1e-13, -3e-12, math.inf, -math.inf, math.nan]
+    for (k, op), lf, rf, li, sc in itertools.product(enumerate(["<", "<=", ">", ">=", "==", "!="]), finite,
+                                                     finite[:5], [0.0, 1.0, -1.0, 1e-20], [0.0, 10.0, math.inf]):
+        expected = decide(op, Hyper(li, lf), Hyper(0.0, rf), rtol, atol, sc if math.isfinite(sc) else 0.0)
+        assert function(k, li, lf, 0.0, rf, sc, -1.0, rtol, atol) == int(expected), (op, li, lf, rf, sc)
+
+
 @pytest.mark.parametrize("body, message", [
     ("    while a > 0:\n        a = a - 1\n    return 0", "While statement"),
     ("    print(a)\n    return 0", "call of 'print'"),
