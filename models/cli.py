@@ -4,6 +4,7 @@
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
+                  [--no-stiffness-check]
     hbg modes MODEL [--mode LABEL] [--latex] [--state-space]  f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
@@ -28,7 +29,9 @@ instant, so each instant adds two rows.  ``--samples 0`` writes every
 integrator step and every instant (no cap).  ``--no-keep-instants`` does not
 keep the record of each instant (memory stays flat on long runs; the summary
 then only counts instants).  ``--on-zeno stop`` ends a Zeno run at the
-accumulation point instead of failing.  The data files are written first,
+accumulation point instead of failing.  ``--no-stiffness-check`` turns off
+the explicit methods' stiffness test (``stiffness_check=False``: the run
+goes on whatever the stability of its step).  The data files are written first,
 then the plot, each on its own: one that cannot be written does not stop the
 others.
 
@@ -360,6 +363,8 @@ def _cmd_run(args) -> int:
     if t_eval is not None:
         options["t_eval"] = t_eval
     options.update(on_zeno=args.on_zeno, keep_instants=args.keep_instants)
+    if not args.stiffness_check:
+        options["stiffness_check"] = False
     wants_files = bool(args.csv or args.npz or args.plot)
 
     progress = _Progress(t_end)
@@ -687,6 +692,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "on long runs, the summary then only counts them")
     p.add_argument("--on-zeno", choices=("raise", "stop"), default="raise",
                    help="on Zeno behaviour fail (raise, default) or end the run at the accumulation point (stop)")
+    p.add_argument("--stiffness-check", action=argparse.BooleanOptionalAction, default=True,
+                   help="stop with advice when the explicit method's step is beyond its stability (default); "
+                        "--no-stiffness-check runs on whatever the stability (e.g. rates that jump inside an "
+                        "input function)")
     p.set_defaults(run=_cmd_run)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")

@@ -973,10 +973,11 @@ def run(M, ints, floats, x0, te, out, work):
     """A hybrid run of the model ``M`` (:class:`Model`) from ``(t0, mode, x0)`` until ``t_end`` (see the module
     docstring).  Returns ``(status, n_saved, n_events, t, mode, steps, n_te)``.
 
-    ints[7]: kind (0 euler, 1 rk4, 2 RK45), mode (its number in M), samples (guard samples per step),
+    ints[8]: kind (0 euler, 1 rk4, 2 RK45), mode (its number in M), samples (guard samples per step),
           max_instant (step cap per instant), save (0 events only, 1 every step, 2 the requested times te,
           sorted; those consumed are counted in the returned ``n_te``), max_steps (step cap of this call),
-          resolve_first (1: resolve the instant at t0 first);
+          resolve_first (1: resolve the instant at t0 first), stiffness_check (0: no stiffness test, the
+          flow goes on whatever the step's |h·λ|);
     floats[11]: t0, t_end, dt, rtol, atol, max_step, first_step (0: select) [s, -]; rtol_g, atol_g, jrtol,
           jatol: the guards' and the jump's tolerances;
     out = (out_t[N], out_x[N, n], out_m[N], ev_f[E, 1 + 2n], ev_i[E, 3], info[5 + n]): saved steps, or the
@@ -987,6 +988,7 @@ def run(M, ints, floats, x0, te, out, work):
           max_instant)."""
     kind, mode, samples, max_instant, save, max_steps, resolve_first = (ints[0], ints[1], ints[2], ints[3], ints[4],
                                                                          ints[5], ints[6])
+    stiffness_check = ints[7] != 0
     t0, t_end, dt, rtol, atol, max_step, first_step = (floats[0], floats[1], floats[2], floats[3], floats[4],
                                                        floats[5], floats[6])
     rtol_g, atol_g, jrtol, jatol = floats[7], floats[8], floats[9], floats[10]
@@ -1163,7 +1165,7 @@ def run(M, ints, floats, x0, te, out, work):
                 t_new = t + h if t + h < t_end else t_end
                 if kind == 0:
                     # stiffness (switching.integrators): f₂ − 2f₁ + f₀ ≈ (h·J)² f₀ over three steps
-                    if history == 2:
+                    if history == 2 and stiffness_check:
                         num = 0.0
                         den = 0.0
                         for i in range(ke):
@@ -1195,7 +1197,7 @@ def run(M, ints, floats, x0, te, out, work):
                         err[i] = K[2, i] - K[1, i]
                         num += err[i] * err[i]
                         den += f[i] * f[i]
-                    if den > 0.0:
+                    if den > 0.0 and stiffness_check:
                         streak = _fixed_stiffness(16.0 * num / den, 2.78, M.at_once, streak, h, err, info)
                         if streak < 0:
                             _full(m, y, k, t, E, M)
@@ -1268,7 +1270,7 @@ def run(M, ints, floats, x0, te, out, work):
                     err[i] = K[6, i] - K[5, i]
                     num += err[i] ** 2
                     den += (y_new[i] - tmp[i]) ** 2
-                if den > 0.0 and abs(h) * math.sqrt(num / den) > 3.25:
+                if stiffness_check and den > 0.0 and abs(h) * math.sqrt(num / den) > 3.25:
                     calm_run = 0
                     stiff_run += 1
                     # reported when the rest of the flow would take more than 1e4 steps at this step size

@@ -829,7 +829,7 @@ class HybridModel:
         ``*-jit`` kernels alike.
         ``stiffness_check=False`` turns off the stiffness tests of the
         explicit methods (the run then goes on whatever the stability of the
-        step; Python methods only).
+        step; Python and compiled methods alike).
         Discontinuous element laws (``sign``, ``Heaviside``, ``Piecewise``)
         are law switches (:mod:`switching.law_automata`): their crossings are
         located as events and a state held on a surface slides on it.

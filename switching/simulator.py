@@ -252,16 +252,13 @@ def simulate(
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
     auto = None
     if method == "auto":  # RK45 compiled or not (switching.jit_model.choose_method); the stats say which and why
-        auto = _choose_method(model, t0, t_end, rtol, dt, stiffness_check=stiffness_check)
+        auto = _choose_method(model, t0, t_end, rtol, dt)
         method = auto.method
     _check_options(method, dt, rtol, atol)
     if on_zeno not in ("raise", "stop"):
         raise SimulationError("on_zeno must be 'raise' or 'stop'")
     if not isinstance(stiffness_check, bool):
         raise SimulationError(f"stiffness_check must be True or False, not {stiffness_check!r}")
-    if not stiffness_check and method in COMPILED:
-        raise SimulationError(f"stiffness_check=False is not available on the compiled method {method!r} yet; "
-                              f"use {method[:-4]!r}")
     if output not in ("steps", "events"):
         raise SimulationError("output must be 'steps' or 'events' (give t_eval=… for chosen times)")
     t_eval = _check_times(t0, t_end, t_eval, max_step, first_step)
@@ -696,7 +693,8 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
         dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
         result = compiled.run(kind, mode, x, t, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
                               max_step=o["max_step"], first_step=o["first_step"], samples=o["samples"],
-                              save=o["save"], resolve_first=initial, t_eval=dense)
+                              save=o["save"], resolve_first=initial, t_eval=dense,
+                              stiffness_check=o["stiffness_check"])
         recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
         if initial and _KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
             return None, t, x, mode, 0, "initial"

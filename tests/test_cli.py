@@ -37,6 +37,18 @@ def test_run_prints_a_summary_and_saves_plot_and_data(tmp_path):
     assert data["event_times"][1] == pytest.approx(t1 * 2.0, abs=1e-9)
 
 
+def test_run_without_the_stiffness_check():
+    """A step beyond rk4's stability stops the run with advice naming the option; with
+    --no-stiffness-check it runs on (here unstable, as the advice warns)."""
+    stiff = hbg("run", "boost-converter", "--method", "rk4", "--dt", "0.01", "--t-end", "0.05", "--samples", "0")
+    assert stiff.returncode != 0 and "beyond its stability limit" in stiff.stderr
+    assert "stiffness_check=False" in stiff.stderr
+    out = hbg("run", "boost-converter", "--method", "rk4", "--dt", "0.01", "--t-end", "0.05", "--samples", "0",
+              "--no-stiffness-check")
+    assert out.returncode == 0, out.stderr
+    assert "method: rk4" in out.stdout
+
+
 def test_run_with_a_fixed_step_method():
     out = hbg("run", "bouncing-ball", "--method", "rk4", "--dt", "0.01", "--t-end", "1")
     assert out.returncode == 0, out.stderr and "method: rk4" in out.stdout

@@ -324,6 +324,32 @@ def test_stiffness_check_can_be_turned_off_and_advice_names_it():
     assert abs(ok.state("q_C")[-1] - math.exp(-100.0)) <= 1e-6
 
 
+@pytest.mark.parametrize("method", ["euler", "rk4"])
+def test_compiled_fixed_step_methods_turn_the_stiffness_check_off_like_python(method):
+    pytest.importorskip("numba")
+    model = HybridModel(stiff_graph(), [], {"C": 1e-3, "R": 1.0}, initial_state={"q_C": 1.0})
+    with pytest.raises(StiffnessError):
+        model.simulate(0.1, method + "-jit", dt=0.01)
+    python = model.simulate(0.1, method, dt=0.01, stiffness_check=False)
+    compiled = model.simulate(0.1, method + "-jit", dt=0.01, stiffness_check=False)
+    assert abs(compiled.state("q_C")[-1]) > 1.0  # runs on, and diverges, as the Python path does
+    np.testing.assert_allclose(compiled.x, python.x, rtol=1e-12)
+    np.testing.assert_array_equal(compiled.t, python.t)
+
+
+def test_compiled_RK45_turns_hairers_stiffness_test_off():
+    """A flow that would take 1e4 more steps at its stability-bound step is
+    reported as stiff; without the check it runs to the end, decaying as
+    e^(−t/RC) to round-off."""
+    pytest.importorskip("numba")
+    model = HybridModel(stiff_graph(), [], {"C": 1e-3, "R": 1.0}, initial_state={"q_C": 1.0})
+    with pytest.raises(StiffnessError):
+        model.simulate(50.0, "RK45-jit", output="events")
+    run = model.simulate(50.0, "RK45-jit", output="events", stiffness_check=False)
+    assert run.t[-1] == 50.0 and abs(run.state("q_C")[-1]) < 1e-6
+    assert run.stats["steps"] > 10_000
+
+
 def test_two_blocks_held_by_friction_solve_their_static_forces_together():
     """Two blocks joined by a compressed spring (force q/c = 2 N < μN): both
     slide on their surfaces at once; each friction force balances the spring."""
