@@ -732,7 +732,7 @@ class CompiledModel:
         with the model's parameter values of now (a shared model of a sweep,
         :func:`switching.batch.shared_model`, gets each run's values)."""
         if self._record is not None and self._record.p is not self.model.parameter_array:
-            self._record = self._record._replace(p=np.ascontiguousarray(self.model.parameter_array, dtype=float))
+            self._record = self._record._replace(p=_kernel_array(self.model.parameter_array))
         if self._record is not None and self._record.u is not self._u:
             self._record = self._record._replace(u=self._u)
         if self._record is None:
@@ -740,7 +740,7 @@ class CompiledModel:
             n_sides = max([self.model.compiled_mode(m).n_sides for m in self.modes] + [0])
             self._record = kernel().Model(
                 fns=np.array([f.address for f in self.functions], dtype=np.int64),
-                p=np.ascontiguousarray(self.model.parameter_array, dtype=float), u=self._u, tables=t["TABLES"],
+                p=_kernel_array(self.model.parameter_array), u=self._u, tables=t["TABLES"],
                 lengths=t["LENGTHS"], mstates=t["MSTATES"], radix=t["RADIX"], codes=t["CODES"], n_sides=int(n_sides),
                 at_once=math.inf if self.model.input_symbols else 1.25)
         return self._record
@@ -781,7 +781,7 @@ class CompiledModel:
         tol = model.tolerance
         max_instant = int(model.max_steps_per_instant)
         if t_eval is not None:
-            te = np.ascontiguousarray(t_eval, dtype=float)
+            te = np.array(t_eval, dtype=float)  # a writable C-contiguous copy: the type _call_run expects
             mode_code = 2
             buffers = self.buffers(2, len(te))
         else:
@@ -795,10 +795,18 @@ class CompiledModel:
         floats = np.array([t, t_end, dt or 0.0, rtol, atol, max_step, first_step or 0.0, tol.rtol, tol.atol,
                            tol.jump_rtol, tol.jump_atol], dtype=float)
         status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
-            record, ints, floats, np.ascontiguousarray(x, dtype=float), te, buffers, work)
+            record, ints, floats, np.array(x, dtype=float), te, buffers, work)
         if status == 7:
             raise RuntimeError(f"compiled model {self.model.name!r}: the kernel's workspace is too small (a bug)")
         return KernelResult(self, status, t_stop, m_stop, steps, n_saved, n_ev, buffers, n_dense)
+
+
+def _kernel_array(values) -> np.ndarray:
+    """``values`` as the kernel's argument type: a writable C-contiguous float64 array (itself when it is one)."""
+    if isinstance(values, np.ndarray) and values.dtype == np.float64 and values.flags.c_contiguous \
+            and values.flags.writeable:
+        return values
+    return np.array(values, dtype=float)
 
 
 _RUN_ENTRY: list = []  # the kernel's compiled run, called without numba's type dispatch (see _call_run)

@@ -573,3 +573,22 @@ def test_hbg_run_takes_every_compiled_method_with_its_default_output(tmp_path):
     np.testing.assert_allclose(rows["RK45-jit"]["x"], rows["RK45"]["x"], rtol=1e-9, atol=1e-9)
     assert "method: rk4-jit" in hbg("run", "bouncing-ball", "--t-end", "1", "--method", "rk4-jit", "--dt", "0.01")
     assert "method chosen by auto: RK45" in hbg("run", "bouncing-ball", "--t-end", "1", "--method", "auto")
+
+
+def test_read_only_arrays_run_compiled_as_writable_ones():
+    """The kernel is called through its compiled entry point with fixed
+    argument types: read-only initial states, output times and parameter
+    arrays are copied into that type, not misread."""
+    model = bouncing_ball.build()
+    times = np.linspace(0.0, 1.5, 16)
+    reference = model.simulate(1.5, "RK45-jit", t_eval=times, x0=model.initial_state())
+    frozen_times, frozen_x0 = times.copy(), model.initial_state()
+    frozen_times.setflags(write=False)
+    frozen_x0.setflags(write=False)
+    model.parameter_array.setflags(write=False)
+    try:
+        again = model.simulate(1.5, "RK45-jit", t_eval=frozen_times, x0=frozen_x0)
+    finally:
+        model.parameter_array.setflags(write=True)
+    np.testing.assert_array_equal(again.t, reference.t)
+    np.testing.assert_array_equal(again.x, reference.x)
