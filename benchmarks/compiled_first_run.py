@@ -109,8 +109,8 @@ def main(argv=None):
     t_end = {"falling_rod": 0.5, "bouncing_ball": 2.5}.get(module, 1.0)
     for name, end in ((module, t_end), ("bouncing_ball", 2.5)):
         with tempfile.TemporaryDirectory() as cache:
-            print(f"\ncompiling each visited mode's function ({name}; the kernel cached; the first pays numba's "
-                  "own set-up):")
+            print(f"\ncompiling each visited mode's function ({name}; codegen.native, or numba with HBG_NATIVE=0; "
+                  "the first pays the code generator's set-up):")
             done = subprocess.run([sys.executable, "-c", MODE_TIMES.format(root=str(ROOT), module=name, t_end=end)],
                                   env={**os.environ, "HBG_CACHE_DIR": cache}, capture_output=True, text=True,
                                   check=True)
