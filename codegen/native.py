@@ -27,7 +27,8 @@ fast-math), operation by operation, so both compile a source to the same
 numbers (``tests/test_native.py`` checks them bitwise): ``x**k`` for a
 literal integer ``k`` is numba's unrolled product (``1/…`` for ``k < 0``,
 infinite at ``x = 0``, where numba raises inside the C function and returns
-0 with its outputs half written), any other power is ``pow``; ``max(a, b)`` is ``b if b > a else a``; ``%`` on
+0 with its outputs half written; likewise an integer divided by integer 0 is
+infinite here), any other power is ``pow``; ``max(a, b)`` is ``b if b > a else a``; ``%`` on
 floats has Python's sign rule; a variable assigned an integer and a float
 holds a float; an integer ``/`` is a float division.
 
@@ -64,20 +65,17 @@ class Untranslatable(Exception):
 
 
 _FLOAT, _INT, _BOOL = "f", "i", "b"
-# math functions: (numba's LLVM intrinsic or libm name, is an intrinsic, result kind)
+# math functions: (the LLVM intrinsic numba calls, or the libm function it calls; the result's kind)
 _MATH = {
-    "fabs": ("llvm.fabs.f64", True, _FLOAT), "exp": ("llvm.exp.f64", True, _FLOAT),
-    "log": ("llvm.log.f64", True, _FLOAT), "log10": ("llvm.log10.f64", True, _FLOAT),
-    "sin": ("llvm.sin.f64", True, _FLOAT), "cos": ("llvm.cos.f64", True, _FLOAT),
-    "log1p": ("log1p", False, _FLOAT), "expm1": ("expm1", False, _FLOAT), "erf": ("erf", False, _FLOAT),
-    "erfc": ("erfc", False, _FLOAT), "tan": ("tan", False, _FLOAT), "asin": ("asin", False, _FLOAT),
-    "acos": ("acos", False, _FLOAT), "atan": ("atan", False, _FLOAT), "asinh": ("asinh", False, _FLOAT),
-    "acosh": ("acosh", False, _FLOAT), "atanh": ("atanh", False, _FLOAT), "sinh": ("sinh", False, _FLOAT),
-    "cosh": ("cosh", False, _FLOAT), "tanh": ("tanh", False, _FLOAT), "log2": ("log2", False, _FLOAT),
-    "sqrt": ("sqrt", False, _FLOAT), "lgamma": ("lgamma", False, _FLOAT),
-    "ceil": ("ceil", False, _INT), "floor": ("floor", False, _INT), "trunc": ("trunc", False, _INT),
-    "atan2": ("atan2", False, _FLOAT), "hypot": ("hypot", False, _FLOAT),
-    "pow": ("llvm.pow.f64", True, _FLOAT), "copysign": ("llvm.copysign.f64", True, _FLOAT),
+    "fabs": ("llvm.fabs.f64", _FLOAT), "exp": ("llvm.exp.f64", _FLOAT), "log": ("llvm.log.f64", _FLOAT),
+    "log10": ("llvm.log10.f64", _FLOAT), "sin": ("llvm.sin.f64", _FLOAT), "cos": ("llvm.cos.f64", _FLOAT),
+    "pow": ("llvm.pow.f64", _FLOAT), "copysign": ("llvm.copysign.f64", _FLOAT),
+    "log1p": ("log1p", _FLOAT), "expm1": ("expm1", _FLOAT), "erf": ("erf", _FLOAT), "erfc": ("erfc", _FLOAT),
+    "tan": ("tan", _FLOAT), "asin": ("asin", _FLOAT), "acos": ("acos", _FLOAT), "atan": ("atan", _FLOAT),
+    "asinh": ("asinh", _FLOAT), "acosh": ("acosh", _FLOAT), "atanh": ("atanh", _FLOAT), "sinh": ("sinh", _FLOAT),
+    "cosh": ("cosh", _FLOAT), "tanh": ("tanh", _FLOAT), "log2": ("log2", _FLOAT), "sqrt": ("sqrt", _FLOAT),
+    "lgamma": ("lgamma", _FLOAT), "atan2": ("atan2", _FLOAT), "hypot": ("hypot", _FLOAT),
+    "ceil": ("ceil", _INT), "floor": ("floor", _INT), "trunc": ("trunc", _INT),
 }
 _ARITY = {"atan2": 2, "hypot": 2, "pow": 2, "copysign": 2}
 _COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!="}
@@ -291,7 +289,7 @@ class _Translator:
             if what[0] == "math":
                 if len(kinds) != _ARITY.get(what[1], 1):
                     raise Untranslatable(f"math.{what[1]} with {len(kinds)} arguments ({_where(node)})")
-                return _MATH[what[1]][2]
+                return _MATH[what[1]][1]
             if what[0] == "isfinite":
                 if len(kinds) != 1:
                     raise Untranslatable(f"isfinite with {len(kinds)} arguments ({_where(node)})")
@@ -849,7 +847,7 @@ class _Body:
         b, t, ir = self.builder, self.t, self.ir
         what = self.t.callee(self.fn, node)
         if what[0] == "math":
-            symbol, _, kind = _MATH[what[1]]
+            symbol, kind = _MATH[what[1]]
             arguments = [self.convert(self.value(a), _FLOAT) for a in node.args]
             result = b.call(self.intrinsic(symbol, len(arguments)), arguments)
             return (b.fptosi(result, t.i64), _INT) if kind == _INT else (result, _FLOAT)

@@ -27,7 +27,9 @@ needs nothing else.
 
 from __future__ import annotations
 
+import ast
 import math
+import re
 
 import numpy as np
 import sympy as sp
@@ -38,7 +40,8 @@ from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
-__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree"]
+__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree",
+           "mode_source_and_meta"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
 MODE_SOURCE_VERSION = "9"
@@ -148,6 +151,13 @@ def comparison_triples(me, relations) -> list:
 
 def generate_mode_source(model, me) -> str:
     """The generated module (source text) of one mode from its ModeEquations."""
+    return mode_source_and_meta(model, me)[0]
+
+
+def mode_source_and_meta(model, me) -> tuple[str, dict]:
+    """The generated module of one mode and its ``META`` (the value the
+    module's ``META = …`` line holds, which a :class:`CompiledMode` made now
+    need not parse back: ~10 ms a mode for a scene of 200 contacts)."""
     states = list(model.states)
     rates = [me.equations.rate_symbols[s] for s in states]
     params = list(model.parameter_symbols)
@@ -211,34 +221,79 @@ def generate_mode_source(model, me) -> str:
         "n_states": len(states),
     }
     header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
-    return header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s, model._print_memo) for s in specs)
+    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s, model._print_memo) for s in specs)
+    return source, meta
+
+
+def _function_chunks(source: str) -> dict:
+    """The parts of a generated mode module: ``META`` (the text of its
+    value) and each function by name as ``(first line, text)``."""
+    chunks = {}
+    starts = [m for m in re.finditer(r"^(?:def (\w+)\(|META = )", source, re.MULTILINE)]
+    for k, match in enumerate(starts):
+        end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
+        text = source[match.start():end]
+        if match.group(1) is None:
+            chunks["META"] = text[len("META = "):].strip()
+        else:
+            chunks[match.group(1)] = (source.count("\n", 0, match.start()) + 1, text)
+    return chunks
+
+
+class _Generated:
+    """A generated function of a :class:`CompiledMode`, compiled on first use
+    (:meth:`CompiledMode._function`); assigning one replaces it."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, mode, owner=None):
+        return self if mode is None else mode._function(self.name)
+
+    def __set__(self, mode, function) -> None:
+        mode._namespace[self.name] = function
 
 
 class CompiledMode:
     """Executable functions and metadata of one mode (see the module docstring)."""
 
-    def __init__(self, model, mode, source: str):
+    def __init__(self, model, mode, source: str, meta: dict | None = None):
         self.model = model
         self.mode = mode
         self.source = source
-        namespace = module_namespace()
-        exec(compile(source, f"<hbg mode {mode.label}>", "exec"), namespace)  # our own generated, sanitized code
-        meta = namespace["META"]
+        self._namespace = module_namespace()
+        self._chunks = _function_chunks(source)
+        meta_text = self._chunks.pop("META")
+        meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
         self.meta = meta
         self.independent = np.array(meta["independent"], dtype=int)
         self.dependent = np.array(meta["dependent"], dtype=int)
         self.moved = np.array(meta["moved"], dtype=int)
         self.jump_kind = meta["jump"]
         self.guards = meta["guards"]
-        self._phi = namespace["phi"]
-        self._rates = namespace["rates"]
-        self._sides = namespace["sides"]
-        self._sides_raw = namespace["sides_raw"]
-        self._jump = namespace.get("jump")
         self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
         self.n = meta["n_states"]
         self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
         self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
+
+    def _function(self, name: str):
+        """Generated function ``name``, compiled when first asked for (a mode
+        passed through at instants never needs its rates, say; compiling the
+        whole module is a third of a large scene's time per mode).  Its line
+        numbers are those of :attr:`source`."""
+        found = self._namespace.get(name)
+        if found is None and name in self._chunks:
+            first_line, text = self._chunks[name]
+            code = compile("\n" * (first_line - 1) + text, f"<hbg mode {self.mode.label}>", "exec")
+            exec(code, self._namespace)  # our own generated, sanitized code
+            found = self._namespace[name]
+        return found
+
+    _phi = _Generated("phi")
+    _rates = _Generated("rates")
+    _sides = _Generated("sides")
+    _sides_raw = _Generated("sides_raw")
+    _jump = _Generated("jump")
 
     def on_numpy(self, name: str):
         """Generated function ``name`` run with numpy's math functions, whose

@@ -39,7 +39,7 @@ from .errors import ModelDefinitionError
 from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
-from .compiled import MODE_SOURCE_VERSION, CompiledMode, generate_mode_source
+from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_source_and_meta
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 from .jit_model import CompiledModel, remembered_modes
@@ -646,11 +646,11 @@ class HybridModel:
         mode = self.mode(mode)
         if mode not in self._compiled:
             key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
-            source = self.cache.load(key)
+            source, meta = self.cache.load(key), None
             if source is None:
-                source = generate_mode_source(self, self.mode_equations(mode))
+                source, meta = mode_source_and_meta(self, self.mode_equations(mode))
                 self.cache.store(key, source)
-            self._compiled[mode] = CompiledMode(self, mode, source)
+            self._compiled[mode] = CompiledMode(self, mode, source, meta)
         return self._compiled[mode]
 
     def signal_function(self, mode, names):

@@ -338,7 +338,7 @@ def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tm
             elif case == "truncated data" and path.suffix == ".nbc":
                 path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
         jit._rebuilt.discard(name)
-        with pytest.warns(CacheWarning, match=f"{name} in .*could not be read.*deleted them and compiling again"):
+        with pytest.warns(CacheWarning, match=f"(?s){name} in .*could not be read.*deleted them and compiling again"):
             module = _reload(name, tmp_path)
             assert module.thrice(2.0) == 6.0 and module.twice(1.5) == 3.0
         assert module.twice.stats.cache_misses and module.thrice.stats.cache_misses  # compiled, not loaded

@@ -212,3 +212,36 @@ def test_hyper_runtime_matches_the_impulse_formula():
     # normal_force <= 0: left side is -e_tip_y = dp_y/dt + m g → its pulse is Δp_y
     assert sides[0].impulse == pytest.approx(plus[1] - x[1], rel=1e-14)
     assert isinstance(sides[0], Hyper)
+
+
+@pytest.mark.parametrize("build", [falling_rod, lambda: ball_row([1.0, 2.0, 3.0], 0.7)])
+def test_a_mode_made_now_and_one_read_from_its_source_are_the_same(build):
+    """A mode generated in this process keeps the META it printed; one read
+    from the cache parses the printed text: both must be the same value.
+    Its functions, compiled when first used, report the source's own line
+    numbers."""
+    import ast
+    import traceback
+
+    from codegen.cache import SourceCache
+    from switching.compiled import CompiledMode, _function_chunks
+
+    model = build()
+    model.cache = SourceCache(None)
+    model.simulate(0.5, "RK45")
+    for mode in model.visited_modes:
+        made = model.compiled_mode(mode)
+        assert made.meta == ast.literal_eval(_function_chunks(made.source)["META"])
+        read = CompiledMode(model, mode, made.source)
+        assert read.meta == made.meta
+        x = model.initial_state()
+        np.testing.assert_array_equal(read.rates(x, 0.1), made.rates(x, 0.1))
+        np.testing.assert_array_equal(read.sides(x, 0.1), made.sides(x, 0.1))
+        try:
+            read._rates(x, 0.1, None, [], None)  # no parameters: fails inside the generated code
+        except TypeError:
+            frame = traceback.extract_tb(sys.exc_info()[2])[-1]
+            assert frame.filename == f"<hbg mode {mode.label}>"
+            assert "p[" in made.source.splitlines()[frame.lineno - 1]
+        else:
+            raise AssertionError("the generated rates ran without parameters")
