@@ -41,14 +41,14 @@ def main(names) -> None:
 
     from codegen.native import compile_function
     from switching import kernel
-    from switching.jit_model import _NATIVE_SIGNATURE, mode_function_source
+    from switching.jit_model import mode_function_source, native_signature
 
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)
     serial = iter(range(10**9))
 
     def native(source):
         start = time.perf_counter()
-        compile_function(source, "mode", _NATIVE_SIGNATURE, "i", f"hbg_benchmark_{next(serial)}")
+        compile_function(source, "mode", *native_signature(), f"hbg_benchmark_{next(serial)}")
         return time.perf_counter() - start
 
     def numba(source):

@@ -83,7 +83,8 @@ from .events import guard_parts  # the guards' one-sided parts, as the Python sc
 
 __all__ = ["KINDS", "STATUS", "AutoChoice", "CompiledInstant", "CompiledModel", "KernelResult", "choose_method",
            "forget_modes", "input_problem", "input_substitution", "kernel", "kernel_compiled", "mode_compiled",
-           "mode_function", "mode_function_source", "model_tables", "remember_modes", "remembered_modes"]
+           "mode_function", "mode_function_source", "model_tables", "native_enabled", "native_signature",
+           "remember_modes", "remembered_modes"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 # the kernel's return codes (switching.kernel)
@@ -522,8 +523,17 @@ def _mode_key(model, mode) -> str:
                        *_inputs_key(model))
 
 
-# the kinds of MODE_SIGNATURE's arguments for codegen.native: int64, float64, pointers to float64/int64/uint8
-_NATIVE_SIGNATURE = ["i", "i", "f", "f", "f"] + [("ptr", "f")] * 7 + [("ptr", "i"), ("ptr", "u"), ("ptr", "f")]
+def native_signature() -> tuple[list, str]:
+    """:data:`switching.kernel.MODE_SIGNATURE` in :func:`codegen.native.compile_function`'s
+    terms: the argument kinds (``"i"`` int64, ``"f"`` float64, ``("ptr", kind)``) and the result's."""
+    from numba import types
+
+    kinds = {types.int64: "i", types.float64: "f", types.uint8: "u"}
+    signature = kernel().MODE_SIGNATURE
+    arguments = [("ptr", kinds[a.dtype]) if isinstance(a, types.CPointer) else kinds[a] for a in signature.args]
+    return arguments, kinds[signature.return_type]
+
+
 _NATIVE: dict = {}  # this process's natively compiled mode functions by name (a symbol is defined once)
 NATIVE_ENVIRONMENT = "HBG_NATIVE"  # "0": compile the mode functions with numba (its front end) instead
 
@@ -561,7 +571,7 @@ def _native_function(model, mode, name: str, source: str):
                 pass
     if function is None:
         try:
-            function = native.compile_function(source, "mode", _NATIVE_SIGNATURE, "i", name)
+            function = native.compile_function(source, "mode", *native_signature(), name)
         except native.Untranslatable:
             return None
         except Exception as exc:  # a fault of the translator: numba's front end still compiles the mode

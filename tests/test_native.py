@@ -219,13 +219,13 @@ def assert_modes_agree_with_numba(model, trials: int = 60):
     """Every visited mode's function, compiled both ways, gives the same bits
     for every operation on random states (zero pulses a third of the time)."""
     from switching import kernel
-    from switching.jit_model import _NATIVE_SIGNATURE, mode_function_source
+    from switching.jit_model import mode_function_source, native_signature
 
     rng = np.random.default_rng(11)
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)
     for mode in model.visited_modes:
         source = mode_function_source(model, mode)
-        compiled = compile_function(source, "mode", _NATIVE_SIGNATURE, "i", f"hbg_test_native_{next(_serial)}")
+        compiled = compile_function(source, "mode", *native_signature(), f"hbg_test_native_{next(_serial)}")
         namespace: dict = {}
         exec(compile(source, "<mode source>", "exec"), namespace)
         reference = CFunc(namespace["mode"], signature, locals={}, options={"error_model": "numpy"})
