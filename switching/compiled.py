@@ -229,7 +229,8 @@ def _function_chunks(source: str) -> dict:
     """The parts of a generated mode module: ``META`` (the text of its
     value) and each function by name as ``(first line, text)``."""
     chunks = {}
-    starts = [m for m in re.finditer(r"^(?:def (\w+)\(|META = )", source, re.MULTILINE)]
+    starts = list(re.finditer(r"^(?:def (phi|rates|sides|sides_raw|jump)\(x, t, p, u(?:, xdot)?(?:, out)?\):$|META = )",
+                              source, re.MULTILINE))
     for k, match in enumerate(starts):
         end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
         text = source[match.start():end]
@@ -263,6 +264,9 @@ class CompiledMode:
         self.source = source
         self._namespace = module_namespace()
         self._chunks = _function_chunks(source)
+        missing = {"META", "phi", "rates", "sides", "sides_raw"} - set(self._chunks)
+        if missing:  # not a module generate_mode_source wrote
+            raise ValueError(f"the generated source of mode {mode.describe()} lacks {', '.join(sorted(missing))}")
         meta_text = self._chunks.pop("META")
         meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
         self.meta = meta
@@ -278,8 +282,7 @@ class CompiledMode:
 
     def _function(self, name: str):
         """Generated function ``name``, compiled when first asked for (a mode
-        passed through at instants never needs its rates, say; compiling the
-        whole module is a third of a large scene's time per mode).  Its line
+        passed through at instants never needs its rates, say).  Its line
         numbers are those of :attr:`source`."""
         found = self._namespace.get(name)
         if found is None and name in self._chunks:
