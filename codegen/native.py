@@ -113,6 +113,8 @@ def _where(node) -> str:
 def _constant(node):
     """The value of a constant expression (folded as CPython folds it), or ``None``."""
     if isinstance(node, ast.Constant) and type(node.value) in (int, float, bool):
+        if type(node.value) is int and not -2**63 <= node.value < 2**63:
+            return None  # not an int64: refused as a constant (numba has no such literal either)
         return node.value
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
         inner = _constant(node.operand)

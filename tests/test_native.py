@@ -191,6 +191,7 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
     ("    return 1 if 0 < a < 1 else 0", "chained or unsupported comparison"),
     ("    x = carray(x_, (1,))\n    return 1 if x[-1] > 0 else 0", "index -1"),
     ("    if a > 0:\n        return 1", "may end without a return"),
+    ("    return 1 if a > 123456789012345678901234567890 else 0", "constant 123456789012345678901234567890"),
     ("    for k in range(3):\n        a = k\n    return 0", "'a' changes its kind in a loop"),
 ])
 def test_what_is_outside_the_subset_is_refused_by_name(body, message):
