@@ -18,7 +18,8 @@ summary).  States of the caches:
   second        the same command again in a new process: everything loaded.
 
 Then the compile time of each mode's function (a new process per model,
-the kernel cached), and the kernel's own reload time after numba's import.
+the kernel cached), the kernel's own reload time after numba's import, and
+where a second process's time goes (the phases of the run, caches warm).
 """
 
 from __future__ import annotations
@@ -79,6 +80,31 @@ model.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")  # loads run
 print(f"{{middle - start:.3f}} {{time.perf_counter() - middle:.3f}}")
 """
 
+# where a second process's time goes (caches warm): seconds since the process started, after each phase
+PHASES = """
+import time
+start = time.perf_counter()
+import sys
+sys.path.insert(0, {root!r})
+marks = []
+def mark(name):
+    marks.append((name, time.perf_counter() - start))
+from models import {module} as family
+mark("models imported")
+model = family.build()
+mark("model built")
+if {compiled}:
+    import numba
+    mark("numba imported")
+    from switching.jit_model import kernel
+    kernel()
+    mark("kernel module")
+import numpy as np
+model.simulate({t_end}, {method!r}, t_eval=np.linspace(0.0, {t_end}, 500))
+mark("run done")
+print(", ".join(f"{{name}} {{seconds:.3f}}" for name, seconds in marks))
+"""
+
 
 def main(argv=None):
     parser = argparse.ArgumentParser()
@@ -124,7 +150,16 @@ def main(argv=None):
         sizes, first = (float(v) for v in done.stdout.split())
         print(f"\nthe kernel reloaded from numba's cache in a new process (after numba's import and set-up): "
               f"workspace_sizes {sizes:.3f} s, then run + the first RK45-jit run {first:.3f} s")
-
+    print(f"\na second process, caches warm ({module}; seconds since the process started; best of 3):")
+    with tempfile.TemporaryDirectory() as cache:
+        environment = {**os.environ, "HBG_CACHE_DIR": cache}
+        for method in ("RK45", "RK45-jit"):
+            script = PHASES.format(root=str(ROOT), module=module, t_end=t_end, method=method,
+                                   compiled=method.endswith("-jit"))
+            runs = [subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True,
+                                   check=True).stdout.strip() for _ in range(4)][1:]  # the first fills the caches
+            best = min(runs, key=lambda line: float(line.rsplit(" ", 1)[1]))
+            print(f"  {method:<9} {best}")
 
 if __name__ == "__main__":
     main()

@@ -929,9 +929,14 @@ def machine_key() -> str:
     import llvmlite
     import numba
 
+    from llvmlite import binding
+
     codegen = _codegen()
-    return "|".join((numba.__version__, llvmlite.__version__, codegen._get_host_cpu_name(),
-                     codegen._get_host_cpu_features()))
+    try:  # numba's choice (NUMBA_CPU_NAME / NUMBA_CPU_FEATURES may override the host's)
+        cpu, features = codegen._get_host_cpu_name(), codegen._get_host_cpu_features()
+    except AttributeError:  # another numba version
+        cpu, features = binding.get_host_cpu_name(), binding.get_host_cpu_features().flatten()
+    return "|".join((numba.__version__, llvmlite.__version__, cpu, features))
 
 
 def compile_function(source: str, entry: str, signature: list, result: str, name: str,

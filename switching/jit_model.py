@@ -562,7 +562,7 @@ def _native_function(model, mode, name: str, source: str):
     if path is not None:
         try:
             function = native.read_file(path, name)
-        except native.CorruptFile as exc:
+        except Exception as exc:  # a damaged file (CorruptFile), or machine code LLVM refuses to load
             warnings.warn(f"machine code of mode {mode.describe()} of model {model.name!r} could not be read ({exc}); "
                           "deleted it and compiling again", CacheWarning, stacklevel=4)
             try:
