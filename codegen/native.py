@@ -154,7 +154,7 @@ class _Translator:
         self.f64, self.i64, self.i1, self.i8 = ir.DoubleType(), ir.IntType(64), ir.IntType(1), ir.IntType(8)
         self.helpers: dict = {}  # (python function, argument kinds) → (llvm function, result kind)
 
-    # ------------------------------------------------------------------ kinds (a flow-insensitive pre-pass)
+    # ------------------------------------------------------------------ kinds of values (under fn.variables)
     def llvm_type(self, kind):
         return {_FLOAT: self.f64, _INT: self.i64, _BOOL: self.i1}[kind]
 
@@ -338,8 +338,9 @@ class _Translator:
         return _ArrayKind(pointer[1])
 
     def infer(self, fn: _Function) -> None:
-        """The kinds of ``fn``'s variables (joined over all their assignments,
-        to a fixed point) and of its result."""
+        """The kind of a called toolkit function's result, from its variables'
+        kinds joined over all their assignments (to a fixed point): its LLVM
+        type is needed before its body is translated (along the flow)."""
         fn.variables = {name: kind for name, kind in fn.parameters.items()}
         for _ in range(50):
             before = dict(fn.variables)
