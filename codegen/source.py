@@ -44,8 +44,6 @@ class FunctionSpec:
     doc: str = ""
     output_names: tuple = ()
     raw: bool = False  # outputs computed on Hyper values and returned as a list
-    offset: bool = False  # written from out[at] on (an argument ``at`` after ``out``), not from out[0]
-    argument_doc: bool = True  # the docstring lists every entry of the argument arrays
 
 
 _RESERVED = set(keyword.kwlist) | {"out", "H", "math", "abs", "max", "min", "pi", "e", "inf", "float", "range"}
@@ -261,14 +259,10 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     printer = _Printer(spec.raw, names, temporaries)
 
     signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
-    signature += ", at" if spec.offset and not spec.raw else ""
     lines = [f"def {spec.name}({signature}):"]
-    doc = [spec.doc.strip() or spec.name, "", *(argument_doc if spec.argument_doc else ())]
+    doc = [spec.doc.strip() or spec.name, "", *argument_doc]
     out_labels = spec.output_names or tuple(str(k) for k in range(len(outputs)))
-    if spec.offset and not spec.raw:
-        doc.append(f"out[at + k], k < {len(outputs)}:")
-    else:
-        doc.append(("returns" if spec.raw else "out") + f"[{len(outputs)}]:")
+    doc.append(("returns" if spec.raw else "out") + f"[{len(outputs)}]:")
     doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
     lines.append('    """' + "\n    ".join(doc).replace('"""', "'''") + '\n    """')
     for arg in spec.arguments:
@@ -299,8 +293,7 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
         lines.append("    return [" + ", ".join(text(e) for e in outputs) + "]")
     else:
         for k, expr in enumerate(outputs):
-            index = (f"at + {k}" if k else "at") if spec.offset else k
-            lines.append(f"    out[{index}] = {text(expr)}")
+            lines.append(f"    out[{k}] = {text(expr)}")
         lines.append("    return out")
     return "\n".join(lines) + "\n"
 

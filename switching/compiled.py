@@ -44,7 +44,7 @@ __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generat
            "mode_source_and_meta"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "10"
+MODE_SOURCE_VERSION = "9"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -197,27 +197,19 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
 
     g = me.g
     jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
-    memo = model._print_memo
-    texts_of = [function_source(spec, memo) for spec in (
+    specs = [
         FunctionSpec("phi", base_args, tuple(me.equations.constraints[s] for s in dependent),
                      f"Dependent states of mode {label} (x_d = phi(x_i, t)).", tuple(map(str, dependent))),
         FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
                      tuple(map(str, states))),
-    )]
-    if len(relations) >= SHARED_SIDES_FROM:
-        texts_of += _shared_sides(model, relations, finite_sides, texts, base_args, raw_args, label)
-    else:
-        texts_of += [function_source(spec, memo) for spec in (
-            FunctionSpec("sides", base_args, tuple(finite_sides),
-                         f"Guard comparison sides in mode {label} (finite) with their round-off scales.",
-                         triple_names),
-            FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
-                         f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names,
-                         raw=True),
-        )]
+        FunctionSpec("sides", base_args, tuple(finite_sides),
+                     f"Guard comparison sides in mode {label} (finite) with their round-off scales.", triple_names),
+        FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
+                     f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names, raw=True),
+    ]
     if jump_kind == "symbolic":
-        texts_of.append(function_source(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
-                                                     f"x+ = g(x) into mode {label}.", tuple(map(str, states))), memo))
+        specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
+                                  f"x+ = g(x) into mode {label}.", tuple(map(str, states))))
     meta = {
         "mode": tuple(me.mode.states),
         "automata": tuple(me.mode.automata),
@@ -229,72 +221,23 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
         "n_states": len(states),
     }
     header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
-    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(texts_of)
+    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s, model._print_memo) for s in specs)
     return source, meta
-
-
-#: From this many comparisons on, a mode's guard sides are computed by one function per comparison, shared by the
-#: modes (``_gs<k>``, finite, and ``_gr<k>``, raw), which ``sides`` and ``sides_raw`` call in turn: a scene of N
-#: contacts holds N − 1 comparisons in every mode, of which one or two change between modes, and these are all a
-#: new mode prints and compiles.  Fewer comparisons keep one function each (common subexpressions across them).
-SHARED_SIDES_FROM = 12
-
-
-def _shared_sides(model, relations, finite_sides, texts, base_args, raw_args, label) -> list:
-    """The texts of the per-comparison functions ``mode``'s guards use
-    (printed once per model: :attr:`HybridModel._shared_sides`) and of
-    ``sides`` and ``sides_raw`` calling them."""
-    known = model._shared_sides  # ("finite" | "raw", sides) → (function name, text)
-    kinds = {"finite": ("_gs", base_args, ("left", "right", "round-off scale"), "finite, with their round-off scale"),
-             "raw": ("_gr", raw_args, ("left", "right"), "raw signals, impulse-aware")}
-    used, finite_calls, raw_names = {}, [], []
-    for k, rel in enumerate(relations):
-        text = " ".join(texts[k].split())  # one line: it goes into a comment
-        for kind, sides in (("finite", tuple(finite_sides[3 * k: 3 * k + 3])), ("raw", (rel.lhs, rel.rhs))):
-            key = (kind, sides)
-            if key not in known:
-                prefix, arguments, names, what = kinds[kind]
-                spec = FunctionSpec(f"{prefix}{len(known)}", arguments, sides, f"The sides of {texts[k]} ({what}).",
-                                    names, raw=kind == "raw", offset=kind == "finite", argument_doc=False)
-                known[key] = (spec.name, function_source(spec, model._print_memo))
-            name, function_text = known[key]
-            used[name] = function_text
-            if kind == "finite":
-                finite_calls.append(f"    {name}(x, t, p, u, out, {3 * k})  # {text}")
-            else:
-                raw_names.append(name)
-    sides = "\n".join([
-        "def sides(x, t, p, u, out):",
-        f'    """Guard comparison sides in mode {label} (finite) with their round-off scales: out[3k], out[3k + 1],',
-        "    out[3k + 2] = left, right, round-off scale of comparison k, by the function of each comparison",
-        '    (shared by the modes)."""',
-        *finite_calls,
-        "    return out",
-    ]) + "\n"
-    sides_raw = "\n".join([
-        "def sides_raw(x, t, p, u, xdot):",
-        f'    """Guard comparison sides in mode {label} on raw signals (impulse-aware): [2k], [2k + 1] = left,',
-        '    right of comparison k, by the function of each comparison (shared by the modes)."""',
-        "    return [" + ", ".join(f"*{name}(x, t, p, u, xdot)" for name in raw_names) + "]",
-    ]) + "\n"
-    return list(used.values()) + [sides, sides_raw]
 
 
 def _function_chunks(source: str) -> dict:
     """The parts of a generated mode module: ``META`` (the text of its
     value) and each function by name as ``(first line, text)``."""
-    chunks, line, counted = {}, 1, 0
-    starts = list(re.finditer(r"^(?:def (phi|rates|sides|sides_raw|jump|_g[sr]\d+)\(x, t, p, u(?:, xdot)?(?:, out)?"
-                              r"(?:, at)?\):$|META = )", source, re.MULTILINE))
+    chunks = {}
+    starts = list(re.finditer(r"^(?:def (phi|rates|sides|sides_raw|jump)\(x, t, p, u(?:, xdot)?(?:, out)?\):$|META = )",
+                              source, re.MULTILINE))
     for k, match in enumerate(starts):
         end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
         text = source[match.start():end]
         if match.group(1) is None:
             chunks["META"] = text[len("META = "):].strip()
         else:
-            line += source.count("\n", counted, match.start())  # (counted from the last start: linear)
-            counted = match.start()
-            chunks[match.group(1)] = (line, text)
+            chunks[match.group(1)] = (source.count("\n", 0, match.start()) + 1, text)
     return chunks
 
 
@@ -342,29 +285,12 @@ class CompiledMode:
         passed through at instants never needs its rates, say).  Its line
         numbers are those of :attr:`source`."""
         found = self._namespace.get(name)
-        if found is None and name in ("sides", "sides_raw"):
-            self._load_shared()
         if found is None and name in self._chunks:
             first_line, text = self._chunks[name]
             code = compile("\n" * (first_line - 1) + text, f"<hbg mode {self.mode.label}>", "exec")
             exec(code, self._namespace)  # our own generated, sanitized code
             found = self._namespace[name]
         return found
-
-    def _load_shared(self) -> None:
-        """Into this mode's namespace: the per-comparison side functions its
-        ``sides`` and ``sides_raw`` call, each compiled once per model (by
-        its text: modes share them; :data:`SHARED_SIDES_FROM`)."""
-        compiled = self.model._shared_side_functions
-        for name, (first_line, text) in self._chunks.items():
-            if not name.startswith("_g") or name in self._namespace:
-                continue
-            function = compiled.get(text)
-            if function is None:
-                namespace = module_namespace()
-                exec(compile("\n" * (first_line - 1) + text, f"<hbg mode {self.mode.label}>", "exec"), namespace)
-                function = compiled[text] = namespace[name]  # our own generated, sanitized code
-            self._namespace[name] = function
 
     _phi = _Generated("phi")
     _rates = _Generated("rates")

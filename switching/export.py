@@ -60,9 +60,6 @@ def export_module(model, path, modes="visited") -> list:
         source = re.sub(r"^META = ", f"META_{k} = ", source, flags=re.M)
         for name in _FUNCTIONS:
             source = re.sub(rf"^def {name}\(", f"def m{k}_{name}(", source, flags=re.M)
-        # the per-comparison side functions a mode's sides call (switching.compiled.SHARED_SIDES_FROM): their
-        # names are the mode's own (modes generated in other processes may number them differently)
-        source = re.sub(r"\b(_g[sr]\d+)\b", rf"m{k}\1", source)
         parts += [f"# ---- mode {mode.describe()}", source]
         functions = ", ".join(
             f"{name!r}: m{k}_{name}" for name in _FUNCTIONS if f"def m{k}_{name}(" in source

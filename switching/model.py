@@ -208,8 +208,6 @@ class HybridModel:
         self._jit: dict = {}
         self._roundoff_memo: dict = {}  # subexpression → round-off scale, shared by the modes (codegen.roundoff)
         self._print_memo = PrintMemo()  # printed text of expressions, shared by the modes' generated functions
-        self._shared_sides: dict = {}  # a comparison's sides → its generated function (switching.compiled)
-        self._shared_side_functions: dict = {}  # the text of such a function → it, compiled
         self._guard_texts: dict = {}  # guard comparison → its text
         self._fingerprint = None
         self.cache = default_cache()
