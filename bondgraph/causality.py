@@ -86,9 +86,10 @@ _JUNCTION_WORDS = {"0": ("effort", "flows"), "1": ("flow", "efforts")}
 class _SCAP:
     """Mutable state of one run of the procedure."""
 
-    def __init__(self, graph, config):
+    def __init__(self, graph, config, rank_storage: bool = False):
         self.g = graph
         self.config = config
+        self.rank_storage = rank_storage
         self.effort_by: dict[str, str] = {}
         self.origin: dict[str, str] = {}
         self.queue: deque[str] = deque()
@@ -201,16 +202,19 @@ class _SCAP:
     def _storage_order(self) -> list[str]:
         """Storage elements in the order they are offered integral causality.
 
-        Insertion order, except that when modulated two-ports are present,
+        Insertion order, except that when modulated two-ports are present
+        (or ``rank_storage`` says the whole graph has some: an island of it,
+        see :mod:`bondgraph.islands`, is ranked as the whole graph would be),
         elements whose integral causality would make a modulated TF/GY
         *divide* by its modulus (``f1 = f2/m``: singular where ``m`` = 0, e.g.
-        a rod's ``l sin θ``) come last.  For a rod pinned at its tip this
+        a rod's ``l sin θ``) come later, and those whose integral causality
+        conflicts already come last.  For a rod pinned at its tip this
         keeps the rotation independent, as in the paper's Eq. (20).
         """
         g = self.g
         names = [n for n, el in g.elements.items() if isinstance(el, Storage)]
         modulated = {n for n, el in g.elements.items() if isinstance(el, (TF, GY)) and el.modulated}
-        if not modulated:
+        if not modulated and not self.rank_storage:
             return names
         scores = {}
         for name in names:
@@ -316,17 +320,20 @@ def _fmt_config(config) -> str:
     return "{" + ", ".join(f"{k}: {'on' if v else 'off'}" for k, v in config.items()) + "}"
 
 
-def assign_causality(graph, config) -> Causality:
+def assign_causality(graph, config, *, validate: bool = True, rank_storage: bool = False) -> Causality:
     """Assign causality for ``config`` (controlled junction → on/off).
 
     Returns a :class:`Causality`.  Raises :class:`CausalityConflictError`
     when sources over-determine the graph, and
-    :class:`~bondgraph.errors.InvalidGraphError` if the graph is malformed.
+    :class:`~bondgraph.errors.InvalidGraphError` if the graph is malformed
+    (``validate=False`` skips that check, for a graph already checked or an
+    island of one; ``rank_storage``: see :meth:`_SCAP._storage_order`).
     """
     from .relations import causal_relations
 
-    graph.validate()
-    scap = _SCAP(graph, dict(config))
+    if validate:
+        graph.validate()
+    scap = _SCAP(graph, dict(config), rank_storage)
     scap.run()
 
     dependent, independent = [], []

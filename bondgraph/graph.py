@@ -29,6 +29,7 @@ import sympy as sp
 from .elements import Element, Junction, OnePort, Storage, TwoPort
 from .errors import (
     DuplicateNameError,
+    HybridBondGraphError,
     InvalidGraphError,
     MissingParameterError,
     UnknownNameError,
@@ -442,7 +443,11 @@ class BondGraph:
 
     @property
     def controlled_junctions(self) -> tuple[str, ...]:
-        return tuple(n for n, e in self.elements.items() if isinstance(e, Junction) and e.controlled)
+        found = self._cache.get("controlled junctions")
+        if found is None:
+            found = tuple(n for n, e in self.elements.items() if isinstance(e, Junction) and e.controlled)
+            self._cache["controlled junctions"] = found
+        return found
 
     def bond_symbols(self) -> set[sp.Symbol]:
         return {s for b in self.bonds.values() for s in (b.effort, b.flow)}
@@ -542,10 +547,13 @@ class BondGraph:
         merged = dict(config or {})
         merged.update(on)
         controlled = self.controlled_junctions
+        known = self._memo("controlled junction set", lambda: frozenset(controlled))
         for name, value in merged.items():
+            if name in known and isinstance(value, (bool, int)):
+                continue
             if name not in self.elements:
                 raise UnknownNameError(f"configuration names unknown junction {name!r}{self._suggest(name)}", name)
-            if name not in controlled:
+            if name not in known:
                 raise InvalidGraphError(
                     f"configuration switches {name!r}, which is not a controlled junction "
                     "(create it with controlled=True)",
@@ -556,9 +564,10 @@ class BondGraph:
         return {name: bool(merged.get(name, True)) for name in controlled}
 
     def _cached(self, kind: str, config, compute):
-        key = (kind, tuple(sorted(self.configuration(config).items())))
+        config = self.configuration(config)
+        key = (kind, tuple(sorted(config.items())))
         if key not in self._cache:
-            self._cache[key] = compute(self.configuration(config))
+            self._cache[key] = compute(config)
         return self._cache[key]
 
     def open_view(self, port_causality: Mapping[str, str] | None = None) -> "BondGraph":
@@ -642,11 +651,10 @@ class BondGraph:
         A graph with ports is assigned with its ports open (see
         :meth:`open_view`, ``port_causality``); ``open_ports=False`` ignores them.
         """
-        from .causality import assign_causality
-
         graph = self.open_view(port_causality) if open_ports else self
+        ports = self._port_key("", port_causality, open_ports)
         return self._cached(self._port_key("causality", port_causality, open_ports), config,
-                            lambda c: assign_causality(graph, c))
+                            lambda c: self._derive_causality(graph, c, ports))
 
     def equations(self, config: Configuration | None = None, port_causality: Mapping[str, str] | None = None,
                   open_ports: bool = True):
@@ -661,13 +669,12 @@ class BondGraph:
         ``eq.flows["A"]``.  ``open_ports=False`` derives as if the ports were
         not there.
         """
-        from .equations import derive_equations
-
         graph = self.open_view(port_causality) if open_ports else self
+        ports = self._port_key("", port_causality, open_ports)
         return self._cached(
             self._port_key("equations", port_causality, open_ports),
             config,
-            lambda c: derive_equations(graph, c, self.causality(c, port_causality, open_ports)),
+            lambda c: self._derive_equations(graph, c, self.causality(c, port_causality, open_ports), ports),
         )
 
     def jump_map(self, config: Configuration | None = None, law: str = "conservation"):
@@ -677,6 +684,90 @@ class BondGraph:
         # derived on this graph itself: its declared ports closed, as the jump needs the whole graph
         return self._cached(f"jump {law}", config,
                             lambda c: derive_jump_map(self, self.equations(c, open_ports=False), law))
+
+    # -------------------------------------------- derivation island by island
+
+    def _memo(self, key, compute):
+        """``compute()`` kept in the graph's cache under ``key`` (dropped when the graph changes)."""
+        if key not in self._cache:
+            self._cache[key] = compute()
+        return self._cache[key]
+
+    def _islands(self, graph, config: dict, ports: str):
+        """The islands of ``config`` (:mod:`bondgraph.islands`) in ``graph``
+        (this graph, or its open view ``ports``), or ``None`` when the
+        configuration is all one piece."""
+        from .islands import _couplings, islands
+
+        def split():
+            couplings = self._memo(("island couplings", ports), lambda: _couplings(graph))
+            parts = islands(graph, config, couplings)
+            return parts if len(parts) > 1 else None
+
+        return self._memo(("islands", ports, tuple(config.items())), split)
+
+    def _island_graph(self, graph, island, ports: str):
+        from .islands import island_graph
+
+        return self._memo(("island graph", ports, island.key), lambda: island_graph(graph, island))
+
+    def _island_causality(self, graph, island, ports: str):
+        """The causality of one island, kept for every configuration holding it."""
+        from .causality import assign_causality
+        from .islands import has_modulated_two_port
+
+        def derive():
+            rank = self._memo(("modulated two-port", ports), lambda: has_modulated_two_port(graph))
+            return assign_causality(self._island_graph(graph, island, ports), dict(island.key[1]), validate=False,
+                                    rank_storage=rank)
+
+        return self._memo(("island causality", ports, island.key), derive)
+
+    def _island_equations(self, graph, island, ports: str):
+        """The equations of one island, kept for every configuration holding it."""
+        from .equations import derive_equations
+
+        return self._memo(("island equations", ports, island.key),
+                          lambda: derive_equations(self._island_graph(graph, island, ports), dict(island.key[1]),
+                                                   self._island_causality(graph, island, ports)))
+
+    def _checked(self, graph, ports: str) -> None:
+        """Validate ``graph`` once per version of this graph (it raises every time while invalid)."""
+        if ("validated", ports) not in self._cache:
+            graph.validate()
+            self._cache[("validated", ports)] = True
+
+    def _derive_causality(self, graph, config: dict, ports: str):
+        """The causality of ``config``: assembled from its islands' (each
+        derived once for all configurations holding it) when it has several;
+        a conflict in an island is reported by the whole graph's derivation."""
+        from .causality import assign_causality
+        from .islands import merge_causality
+
+        self._checked(graph, ports)
+        parts = self._islands(graph, config, ports)
+        if parts is None:
+            return assign_causality(graph, config, validate=False)
+        try:
+            pieces = [self._island_causality(graph, island, ports) for island in parts]
+        except HybridBondGraphError:
+            return assign_causality(graph, config, validate=False)
+        return merge_causality(graph, config, pieces)
+
+    def _derive_equations(self, graph, config: dict, causality, ports: str):
+        """The equations of ``config``, assembled from its islands' like
+        :meth:`_derive_causality`."""
+        from .equations import derive_equations
+        from .islands import merge_equations
+
+        parts = self._islands(graph, config, ports)
+        if parts is None:
+            return derive_equations(graph, config, causality)
+        try:
+            pieces = [self._island_equations(graph, island, ports) for island in parts]
+        except HybridBondGraphError:
+            return derive_equations(graph, config, causality)
+        return merge_equations(graph, config, causality, pieces)
 
     @property
     def version(self) -> int:

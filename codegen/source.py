@@ -130,10 +130,13 @@ def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
     temporaries — so an expression is printed exactly as derived, and the
     cost stays linear in the size of the DAG.  ``symbols``, a set, receives
     every symbol met (the free symbols of the outputs, from the same walk)."""
-    seen, repeated = set(), set()
-    stack = list(reversed(outputs))
-    while stack:
-        expr = stack.pop()
+    seen, repeated, finished = set(), set(), []
+    stack = [(expr, False) for expr in reversed(outputs)]
+    while stack:  # depth first, arguments in order; a subtree is walked once, when first met
+        expr, walked = stack.pop()
+        if walked:
+            finished.append(expr)
+            continue
         if not isinstance(expr, sp.Basic) or expr.is_Atom:
             if symbols is not None and isinstance(expr, sp.Symbol):
                 symbols.add(expr)
@@ -143,21 +146,10 @@ def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
                 repeated.add(expr)
             continue
         seen.add(expr)
-        stack.extend(reversed(expr.args))
-    ordered, placed = [], set()
-    for output in outputs:  # post-order: a temporary after those it uses
-        stack = [(output, False)]
-        while stack:
-            expr, expanded = stack.pop()
-            if not isinstance(expr, sp.Basic) or expr.is_Atom or expr in placed:
-                continue
-            if expanded:
-                placed.add(expr)
-                if expr in repeated:
-                    ordered.append(expr)
-                continue
-            stack.append((expr, True))
-            stack.extend((arg, False) for arg in reversed(expr.args))
+        stack.append((expr, True))
+        stack.extend((arg, False) for arg in reversed(expr.args))
+    # post-order: a temporary after those it uses
+    ordered = [expr for expr in finished if expr in repeated] if repeated else []
     return ordered
 
 

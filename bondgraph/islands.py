@@ -1,0 +1,221 @@
+"""Islands: the independent parts of a configuration, derived one by one and
+reused by every configuration that contains them.
+
+A controlled junction that is *off* imposes zero on all of its bonds (an off
+0-junction their efforts, an off 1-junction their flows); causality does not
+propagate through it, and no equation passes a bond variable through it.  So
+the graph splits at its off junctions into **islands**: classes of bonds
+joined by the elements that are on (every bond of an on element is in that
+element's island), and by the symbols an element's expressions read (a
+modulus ``l sin θ`` joins the bonds of the rod's ``TF`` to the bond whose
+flow integrates ``θ``; a source modulated by ``e_b`` joins bond ``b``).
+
+Within one configuration the islands share no unknown: the causal assignment
+of the whole graph, restricted to an island, is the assignment of the island
+derived on its own (its off junctions still imposing their zeros on the bonds
+it holds), and so are its bond relations, its constraints ``x_d = φ(x_i)`` and
+its rates ``f``.  An island is determined by its bonds and the states of the
+controlled junctions among its elements, so two configurations that differ
+only in junctions far away share it: a pinnacle of an N-ball chain switches
+one contact, and only the one or two islands next to it are derived again.
+
+The procedures run on an island exactly as on the whole graph, in the
+graph's own order of elements and bonds; the results are merged back into
+one :class:`~bondgraph.causality.Causality` and one
+:class:`~bondgraph.equations.ConfigurationEquations` with the very
+expressions a derivation of the whole graph gives (``tests/test_islands.py``
+compares them over many configurations of the shipped models).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .elements import Junction, TwoPort
+
+__all__ = ["Island", "islands", "island_graph", "has_modulated_two_port", "merge_causality", "merge_equations"]
+
+
+@dataclass(frozen=True)
+class Island:
+    """One island of a configuration: its ``bonds`` (in the graph's order)
+    and ``key``, which identifies it in every configuration holding it (the
+    bonds and the on/off state of the controlled junctions among its
+    elements)."""
+
+    bonds: tuple
+    elements: tuple
+    key: tuple
+
+
+def _couplings(graph) -> dict:
+    """Element → the bonds its expressions read (through a state, a
+    displacement or a bond variable); computed once per graph version."""
+    bond_of_symbol = {}
+    for name, bond in graph.bonds.items():
+        bond_of_symbol[bond.effort] = name
+        bond_of_symbol[bond.flow] = name
+    for el in graph.storage:
+        bond_of_symbol[el.state] = graph._bonds_of[el.name][0]
+    for sym, disp in graph.displacements.items():
+        bond_of_symbol[sym] = disp.bond
+    couplings = {}
+    for name, el in graph.elements.items():
+        read = set()
+        for expr in el.expressions():
+            read.update(bond_of_symbol[s] for s in expr.free_symbols if s in bond_of_symbol)
+        if read:
+            couplings[name] = sorted(read)
+    return couplings
+
+
+def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
+    """The islands of ``graph`` in configuration ``config`` (every controlled
+    junction named), in the order of their first bond.  ``couplings`` is
+    :func:`_couplings` of the graph (computed when not given)."""
+    if couplings is None:
+        couplings = _couplings(graph)
+    parent = {b: b for b in graph.bonds}
+
+    def find(b):
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        return b
+
+    def union(bonds):
+        root = find(bonds[0])
+        for b in bonds[1:]:
+            other = find(b)
+            if other != root:
+                parent[other] = root
+
+    elements = graph.elements
+    bonds_of = graph._bonds_of
+    for name, el in elements.items():
+        bonds = bonds_of[name]
+        if not bonds:
+            continue
+        if not (isinstance(el, Junction) and el.controlled and not config[name]):
+            union(bonds)
+        read = couplings.get(name)
+        if read:
+            union([bonds[0], *read])
+    order = _element_order(graph)
+    groups: dict = {}
+    for b in graph.bonds:
+        groups.setdefault(find(b), []).append(b)
+    out = []
+    for bonds in groups.values():
+        members = set()
+        for b in bonds:
+            bond = graph.bonds[b]
+            members.add(bond.tail)
+            members.add(bond.head)
+        names = tuple(sorted(members, key=order.__getitem__))
+        switched = tuple((n, config[n]) for n in names if isinstance(elements[n], Junction) and elements[n].controlled)
+        out.append(Island(tuple(bonds), names, (tuple(bonds), switched)))
+    return out
+
+
+def _element_order(graph) -> dict:
+    """Element name → its position in the graph (kept until the graph changes)."""
+    order = graph._cache.get("island element order")
+    if order is None:
+        order = graph._cache["island element order"] = {n: k for k, n in enumerate(graph.elements)}
+    return order
+
+
+def island_graph(graph, island: Island):
+    """The island as a graph of its own: its elements (off junctions holding
+    only the island's bonds), bonds and displacements in the graph's order;
+    every declared input of the graph; the open ports whose bond it holds.
+    Not validated (an off junction may keep a single bond)."""
+    from .graph import BondGraph
+
+    sub = BondGraph(graph.name)
+    held = set(island.bonds)
+    sub.elements = {n: graph.elements[n] for n in island.elements}
+    sub.bonds = {b: graph.bonds[b] for b in island.bonds}
+    sub._bonds_of = {n: [b for b in graph._bonds_of[n] if b in held] for n in island.elements}
+    sub.displacements = {s: d for s, d in graph.displacements.items() if d.bond in held}
+    sub.inputs = dict(graph.inputs)
+    sub.open_ports = {p: (outside, b) for p, (outside, b) in graph.open_ports.items() if b in held}
+    return sub
+
+
+def has_modulated_two_port(graph) -> bool:
+    return any(isinstance(el, TwoPort) and el.modulated for el in graph.elements.values())
+
+
+def merge_causality(graph, config: dict, parts: list):
+    """One :class:`~bondgraph.causality.Causality` of the whole graph from
+    those of its islands (``parts``), ordered as the whole graph's own."""
+    from .causality import Causality
+    from .relations import CausalRelations
+    from .symbols import rate_symbol
+
+    effort_by, dead, dependent_set, loops = {}, set(), set(), []
+    relations, rates, constraints = {}, {}, {}
+    for part in parts:
+        effort_by.update(part.effort_by)
+        dead |= part.dead
+        dependent_set.update(part.dependent)
+        loops.extend(part.algebraic_loops)
+        relations.update(part.relations.relations)
+        rates.update(part.relations.rates)
+        constraints.update(part.relations.constraints)
+    independent = [el.state for el in graph.storage if el.state not in dependent_set]
+    independent.extend(graph.displacements)
+    dependent = tuple(el.state for el in graph.storage if el.state in dependent_set)
+    rate_symbols = {s: rate_symbol(s) for s in graph.states}
+    return Causality(
+        configuration=dict(config),
+        effort_by={b: effort_by[b] for b in graph.bonds if b in effort_by},
+        dead=frozenset(dead),
+        independent=tuple(independent),
+        dependent=dependent,
+        algebraic_loops=tuple(sorted(loops)),
+        relations=CausalRelations(relations, rates, constraints, rate_symbols),
+    )
+
+
+def merge_equations(graph, config: dict, causality, parts: list):
+    """One :class:`~bondgraph.equations.ConfigurationEquations` of the whole
+    graph from those of its islands, with the whole graph's ``causality``
+    (:func:`merge_causality` of the islands')."""
+    from .equations import ConfigurationEquations
+
+    constraints, implicit, rates, dependent_rates, efforts, flows, input_rates = {}, {}, {}, {}, {}, {}, {}
+    port_values = {}
+    for part in parts:
+        constraints.update(part.constraints)
+        implicit.update(part.implicit_rates)
+        rates.update(part.rates)
+        dependent_rates.update(part._dependent_rates)
+        efforts.update(part.efforts)
+        flows.update(part.flows)
+        input_rates.update(part.input_rates)
+        for port in part.port_inputs:
+            port_values[port] = (part.port_inputs[port], part.port_outputs[port])
+    open_ports = [p for p in graph.open_ports if p in port_values]
+    return ConfigurationEquations(
+        graph_name=graph.name,
+        configuration=dict(config),
+        states=tuple(graph.states),
+        independent=causality.independent,
+        dependent=causality.dependent,
+        rate_symbols=dict(causality.relations.rate_symbols),
+        constraints={x: constraints[x] for x in causality.dependent},
+        implicit_rates={x: implicit[x] for x in causality.independent},
+        rates={x: rates[x] for x in graph.states},
+        efforts={b: efforts[b] for b in graph.bonds},
+        flows={b: flows[b] for b in graph.bonds},
+        causality=causality,
+        _dependent_rates=dependent_rates,
+        graph=graph,
+        port_inputs={p: port_values[p][0] for p in open_ports},
+        port_outputs={p: port_values[p][1] for p in open_ports},
+        input_rates={u: input_rates[u] for u in sorted(input_rates, key=lambda s: s.name)},
+    )
+
