@@ -138,11 +138,8 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     storage = {el.state: el for el in graph.storage}
     constraints = equations.constraints
     storage_states = set(storage)
-    participating = tuple(
-        x
-        for x in equations.independent
-        if x in storage_states and any(constraints[d].has(x) for d in dependent)
-    )
+    constrained = set().union(*(constraints[d].free_symbols for d in dependent))
+    participating = tuple(x for x in equations.independent if x in storage_states and x in constrained)
     phi = sp.Matrix([constraints[d] for d in dependent])
     K = phi.jacobian(list(participating)) if participating else sp.zeros(len(dependent), 0)
     metrics = {x: _metric(storage[x], x) for x in (*participating, *dependent)}

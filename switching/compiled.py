@@ -137,15 +137,20 @@ def comparison_triples(me, relations) -> list:
     10 kHz instead of the round-off of ``k/f``."""
     triples = []
     model = me.model
-    memo = model._roundoff_memo
-    clock = {model.time, *model.parameter_symbols}
+    memo, scales = model._roundoff_memo, model._scale_memo
+    clock = None
     for rel in relations:
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
-        free = left.free_symbols | right.free_symbols
-        if model.time in free and free <= clock:
-            triples += [left, right, sp.Integer(0)]
-        else:
-            triples += [left, right, larger(roundoff_scale(left, memo), roundoff_scale(right, memo))]
+        scale = scales.get((left, right))
+        if scale is None:
+            clock = clock or {model.time, *model.parameter_symbols}
+            free = left.free_symbols | right.free_symbols
+            if model.time in free and free <= clock:
+                scale = sp.Integer(0)
+            else:
+                scale = larger(roundoff_scale(left, memo), roundoff_scale(right, memo))
+            scales[(left, right)] = scale
+        triples += [left, right, scale]
     return triples
 
 

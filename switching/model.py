@@ -209,6 +209,8 @@ class HybridModel:
         self._roundoff_memo: dict = {}  # subexpression → round-off scale, shared by the modes (codegen.roundoff)
         self._print_memo = PrintMemo()  # printed text of expressions, shared by the modes' generated functions
         self._guard_texts: dict = {}  # guard comparison → its text
+        self._symbols_memo: dict = {}  # expression → (free symbols, holds a law switch's Rate), see symbols_of
+        self._scale_memo: dict = {}  # (left, right) of a comparison → its round-off scale (comparison_triples)
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0
@@ -586,6 +588,17 @@ class HybridModel:
                 list(found),
             )
         return values.pop()
+
+    def symbols_of(self, expr) -> tuple:
+        """``(free symbols, whether a law switch's Rate occurs)`` of ``expr``,
+        kept for the model's lifetime: the modes of a large scene ask about
+        the same guard comparisons and signals again and again."""
+        found = self._symbols_memo.get(expr)
+        if found is None:
+            from .law_automata import Rate, RateWith
+
+            found = self._symbols_memo[expr] = (frozenset(expr.free_symbols), expr.has(Rate, RateWith))
+        return found
 
     def guards_from(self, mode: Mode) -> list:
         """(automaton, transition, condition, text) of every transition leaving ``mode``."""
