@@ -696,8 +696,12 @@ class BondGraph:
     def _islands(self, graph, config: dict, ports: str):
         """The islands of ``config`` (:mod:`bondgraph.islands`) in ``graph``
         (this graph, or its open view ``ports``), or ``None`` when the
-        configuration is all one piece."""
+        configuration is all one piece (or has no junction off: no island
+        of it could serve another configuration)."""
         from .islands import _couplings, islands
+
+        if all(config.values()):
+            return None
 
         def split():
             couplings = self._memo(("island couplings", ports), lambda: _couplings(graph))
