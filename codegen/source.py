@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "function_source", "sanitize",
-           "module_namespace"]
+__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "composed_source", "function_source",
+           "sanitize", "module_namespace"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,7 @@ class FunctionSpec:
     doc: str = ""
     output_names: tuple = ()
     raw: bool = False  # outputs computed on Hyper values and returned as a list
+    brief: bool = False  # a one-line docstring, without the lists of argument and output entries
 
 
 _RESERVED = set(keyword.kwlist) | {"out", "H", "math", "abs", "max", "min", "pi", "e", "inf", "float", "range"}
@@ -229,17 +230,58 @@ def _argument_doc(arguments) -> list:
     return doc
 
 
+def _def_line(spec: FunctionSpec) -> str:
+    signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
+    return f"def {spec.name}({signature}):"
+
+
+def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: list) -> list:
+    """The docstring lines of ``spec``: its doc, then (unless brief) every argument and output entry."""
+    if spec.brief:
+        return ['    """' + (spec.doc.strip() or spec.name).replace('"""', "'''") + '"""']
+    doc = [spec.doc.strip() or spec.name, "", *argument_doc]
+    out_labels = spec.output_names or tuple(str(k) for k in range(n_outputs))
+    doc.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")
+    doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
+    return ['    """' + "\n    ".join(doc).replace('"""', "'''") + '\n    """']
+
+
+def _names_and_doc(spec: FunctionSpec, memo: PrintMemo | None):
+    """The local names of the argument entries and the docstring lines listing them (memoized per argument list)."""
+    table = memo.table(spec) if memo is not None else None
+    if table is None:
+        return None, _local_names(spec.arguments), _argument_doc(spec.arguments)
+    if "names" not in table:  # (expressions are keyed by tuples: no clash)
+        table["names"], table["doc"] = _local_names(spec.arguments), _argument_doc(spec.arguments)
+    return table, table["names"], table["doc"]
+
+
+def composed_source(spec: FunctionSpec, blocks: list, memo: PrintMemo | None = None) -> str:
+    """The source of function ``spec`` (its outputs are not printed) made of
+    calls of the block functions ``blocks`` — ``(name, number of outputs)``
+    in order, each printed by :func:`function_source` with the arguments of
+    ``spec``: each writes its outputs into its slice of ``out`` (a view: ``out``
+    must be a numpy array), or, for a raw ``spec``, returns their list (the
+    lists are concatenated)."""
+    _, _, argument_doc = _names_and_doc(spec, memo)
+    lines = [_def_line(spec), *_docstring(spec, sum(n for _, n in blocks), argument_doc)]
+    call = ", ".join(a.name for a in spec.arguments)
+    if spec.raw:
+        lines.append("    return " + (" + ".join(f"{name}({call})" for name, _ in blocks) or "[]"))
+        return "\n".join(lines) + "\n"
+    start = 0
+    for name, count in blocks:
+        lines.append(f"    {name}({call}, out[{start}:{start + count}])")
+        start += count
+    lines.append("    return out")
+    return "\n".join(lines) + "\n"
+
+
 def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     """The source text of one function (see the module docstring); ``memo``
     (a :class:`PrintMemo`) reuses the text of expressions printed before for
     functions of the same arguments."""
-    table = memo.table(spec) if memo is not None else None
-    if table is None:
-        names, argument_doc = _local_names(spec.arguments), _argument_doc(spec.arguments)
-    else:
-        if "names" not in table:  # (expressions are keyed by tuples: no clash)
-            table["names"], table["doc"] = _local_names(spec.arguments), _argument_doc(spec.arguments)
-        names, argument_doc = table["names"], table["doc"]
+    table, names, argument_doc = _names_and_doc(spec, memo)
 
     outputs = [sp.sympify(o) for o in spec.outputs]
     needed: set = set()
@@ -250,13 +292,7 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
         temporaries = {expr: memo.temporary(expr) for expr in shared}
     printer = _Printer(spec.raw, names, temporaries)
 
-    signature = ", ".join(a.name for a in spec.arguments) + ("" if spec.raw else ", out")
-    lines = [f"def {spec.name}({signature}):"]
-    doc = [spec.doc.strip() or spec.name, "", *argument_doc]
-    out_labels = spec.output_names or tuple(str(k) for k in range(len(outputs)))
-    doc.append(("returns" if spec.raw else "out") + f"[{len(outputs)}]:")
-    doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
-    lines.append('    """' + "\n    ".join(doc).replace('"""', "'''") + '\n    """')
+    lines = [_def_line(spec), *_docstring(spec, len(outputs), argument_doc)]
     for arg in spec.arguments:
         if arg.scalar:
             continue

@@ -16,6 +16,12 @@ Generated functions of one mode (arrays: ``x`` states, ``p`` parameters,
 ``sides_raw(x, t, p, u, xdot)``  the left and right sides on raw signals,
                                impulse-aware (``[2k], [2k + 1]``)
 
+In a mode of many automata (more than ``2·SIDE_BLOCK_AUTOMATA``) ``sides``
+and ``sides_raw`` call one function per block of automata
+(``_sides_<hash>``, ``_sides_raw_<hash>``, named by a hash of their text),
+which every mode holding those automata in the same states shares;
+:func:`flat_sides` writes such a ``sides`` out as one function.
+
 A comparison is decided with the band ``rtol·max(|left|, |right|, R) + atol``
 (:func:`codegen.runtime.decide`): a difference that is zero up to the
 round-off of the terms that formed it compares as zero, whatever the units.
@@ -38,13 +44,13 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
 from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
-from codegen.source import Argument, FunctionSpec, function_source, module_namespace
+from codegen.source import Argument, FunctionSpec, composed_source, function_source, module_namespace
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree",
            "mode_source_and_meta"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "9"
+MODE_SOURCE_VERSION = "10"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -180,8 +186,11 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
 
     relations: list = []
     guards = []
+    spans = []  # per guard: (block of its automaton, its first comparison, the comparison after its last)
+    automaton_index = model.automaton_index
     for guard in me.guards:
         tr = guard.transition
+        start = len(relations)
         guards.append(
             {
                 "automaton": guard.automaton,
@@ -193,6 +202,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
                 "tree": _tree(guard.condition, relations, model._guard_texts),
             }
         )
+        spans.append((automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA, start, len(relations)))
     finite_sides, raw_sides = comparison_triples(me, relations), []
     for rel in relations:
         raw_sides += [rel.lhs, rel.rhs]
@@ -215,6 +225,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     if jump_kind == "symbolic":
         specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
                                   f"x+ = g(x) into mode {label}.", tuple(map(str, states))))
+    blocks = _side_blocks(spans) if len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA else None
     meta = {
         "mode": tuple(me.mode.states),
         "automata": tuple(me.mode.automata),
@@ -226,16 +237,111 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
         "n_states": len(states),
     }
     header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
-    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(function_source(s, model._print_memo) for s in specs)
+    texts = []
+    for spec in specs:
+        if blocks and spec.name in ("sides", "sides_raw"):
+            texts.append(_blocked_source(model, spec, blocks, 3 if spec.name == "sides" else 2))
+        else:
+            texts.append(function_source(spec, model._print_memo))
+    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(texts)
     return source, meta
+
+
+#: the guard comparisons of a mode of more than twice this many automata are
+#: printed in blocks of this many automata: a function of its own per block,
+#: shared by every mode in which those automata are in the same states (a new
+#: mode of a 200-contact chain prints and compiles one block, not the sides of
+#: 200 contacts).  ``sides`` calls them in turn, each on its slice of ``out``;
+#: the price is a few per cent per call (the parameters and the subexpressions
+#: shared across a block's edge are computed once per block).
+SIDE_BLOCK_AUTOMATA = 16
+
+_BLOCK_NAME = r"_(?:sides|sides_raw)_[0-9a-f]{12}"
+
+
+def _side_blocks(spans) -> list | None:
+    """``[(first comparison, end)]`` of each block of automata that has
+    comparisons, from the guards' ``spans`` (``None`` if the guards are not
+    in the automata's order)."""
+    blocks: list = []
+    current = None
+    for block, start, end in spans:
+        if end == start:
+            continue
+        if current is None or block > current:
+            blocks.append((start, end))
+            current = block
+        elif block == current and blocks[-1][1] == start:
+            blocks[-1] = (blocks[-1][0], end)
+        else:
+            return None
+    return blocks
+
+
+def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int) -> str:
+    """``spec`` (``sides`` or ``sides_raw``) as calls of one block function
+    per block of comparisons, followed by the blocks' own source.  A block
+    is named by a hash of its text, so one block is one function for every
+    mode that holds it, in this process and in the disk cache; its text is
+    kept for the model by its outputs (the print memo makes the rest)."""
+    import hashlib
+
+    memo = model._side_block_sources
+    calls, texts = [], {}
+    for start, end in blocks:
+        outputs = spec.outputs[per_comparison * start:per_comparison * end]
+        key = (spec.raw, outputs)
+        found = memo.get(key)
+        if found is None:
+            block = FunctionSpec("_block_", spec.arguments, outputs,
+                                 "A block of guard comparison sides " + ("on raw signals (impulse-aware)."
+                                                                         if spec.raw else "with their round-off scales."),
+                                 raw=spec.raw, brief=True)
+            text = function_source(block, model._print_memo)
+            name = f"_{spec.name}_" + hashlib.sha1(text.encode()).hexdigest()[:12]
+            found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
+        calls.append((found[0], len(outputs)))
+        texts[found[0]] = found[1]
+    return "\n\n".join([composed_source(spec, calls, model._print_memo), *texts.values()])
+
+
+def flat_sides(source: str) -> str:
+    """A generated mode module with a ``sides`` made of blocks written out as
+    one function — each block's statements in turn, its outputs at their
+    places — and the blocks' definitions dropped: the same numbers, for any
+    ``out`` (a standalone export may be handed a list, whose slices are
+    copies, not views).  Other modules are returned as they are."""
+    chunks = _function_chunks(source)
+    if "sides" not in chunks:
+        return source
+    caller = chunks["sides"][1]
+    calls = re.findall(rf"^    ({_BLOCK_NAME})\(x, t, p, u, out\[(\d+):\d+\]\)$", caller, re.MULTILINE)
+    if not calls:
+        return source
+    lines = caller.rstrip("\n").split("\n")
+    end_of_doc = next(k for k in range(1, len(lines)) if lines[k] == '    """') + 1
+    flat = lines[:end_of_doc]
+    for name, start in calls:
+        body = chunks[name][1].rstrip("\n").split("\n")[2:]  # (after the def line and the one-line docstring)
+        for line in body:
+            output = re.match(r"    out\[(\d+)\] = ", line)
+            if output:
+                flat.append(f"    out[{int(start) + int(output.group(1))}] = " + line[output.end():])
+            elif line != "    return out":
+                flat.append(line)
+    flat.append("    return out")
+    source = source.replace(caller, "\n".join(flat) + caller[len(caller.rstrip("\n")):])
+    for name in dict.fromkeys(name for name, _ in calls):
+        source = source.replace(chunks[name][1], "")
+    return source
 
 
 def _function_chunks(source: str) -> dict:
     """The parts of a generated mode module: ``META`` (the text of its
     value) and each function by name as ``(first line, text)``."""
     chunks = {}
-    starts = list(re.finditer(r"^(?:def (phi|rates|sides|sides_raw|jump)\(x, t, p, u(?:, xdot)?(?:, out)?\):$|META = )",
-                              source, re.MULTILINE))
+    starts = list(re.finditer(rf"^(?:def (phi|rates|sides|sides_raw|jump|{_BLOCK_NAME})\(x, t, p, u(?:, xdot)?"
+                              r"(?:, out)?\):$|META = )", source, re.MULTILINE))
     for k, match in enumerate(starts):
         end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
         text = source[match.start():end]
@@ -292,10 +398,26 @@ class CompiledMode:
         found = self._namespace.get(name)
         if found is None and name in self._chunks:
             first_line, text = self._chunks[name]
+            if name in ("sides", "sides_raw"):
+                self._place_blocks(text)
             code = compile("\n" * (first_line - 1) + text, f"<hbg mode {self.mode.label}>", "exec")
             exec(code, self._namespace)  # our own generated, sanitized code
             found = self._namespace[name]
         return found
+
+    def _place_blocks(self, text: str) -> None:
+        """Put the block functions that ``text`` calls into this mode's
+        namespace: the model's, compiled by the first mode that needed them
+        (a block's name is a hash of its text, so equal names are equal
+        functions), else compiled now from this mode's source."""
+        shared = getattr(self.model, "_side_block_functions", {})
+        for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", text)):
+            if block in self._namespace:
+                continue
+            function = shared.get(block)
+            if function is None:
+                function = shared[block] = self._function(block)
+            self._namespace[block] = function
 
     _phi = _Generated("phi")
     _rates = _Generated("rates")

@@ -55,8 +55,13 @@ def export_module(model, path, modes="visited") -> list:
         inspect.getsource(compiled.decide_tree),
     ]
     table = []
+    blocks: set = set()  # (the raw guard sides of a large mode come in blocks shared by modes: each written once)
     for k, mode in enumerate(selected):
-        source = model.compiled_mode(mode).source
+        source = compiled.flat_sides(model.compiled_mode(mode).source)
+        for name, chunk in compiled._function_chunks(source).items():
+            if name.startswith("_sides_raw_"):
+                source = source.replace(chunk[1], "") if name in blocks else source
+                blocks.add(name)
         source = re.sub(r"^META = ", f"META_{k} = ", source, flags=re.M)
         for name in _FUNCTIONS:
             source = re.sub(rf"^def {name}\(", f"def m{k}_{name}(", source, flags=re.M)

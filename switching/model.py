@@ -18,6 +18,8 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 
 from __future__ import annotations
 
+import functools
+
 import math
 import warnings
 from dataclasses import dataclass
@@ -211,6 +213,8 @@ class HybridModel:
         self._guard_texts: dict = {}  # guard comparison → its text
         self._symbols_memo: dict = {}  # expression → (free symbols, holds a law switch's Rate), see symbols_of
         self._scale_memo: dict = {}  # (left, right) of a comparison → its round-off scale (comparison_triples)
+        self._side_block_sources: dict = {}  # outputs of a block of guard sides → (name, source), see compiled
+        self._side_block_functions: dict = {}  # name of a block of guard sides → its compiled function
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0
@@ -588,6 +592,11 @@ class HybridModel:
                 list(found),
             )
         return values.pop()
+
+    @functools.cached_property
+    def automaton_index(self) -> dict:
+        """Automaton name → its position in :attr:`automata` (and in a mode's states)."""
+        return {automaton.name: k for k, automaton in enumerate(self.automata)}
 
     def symbols_of(self, expr) -> tuple:
         """``(free symbols, whether a law switch's Rate occurs)`` of ``expr``,
