@@ -101,29 +101,25 @@ def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
         read = couplings.get(name)
         if read:
             union([bonds[0], *read])
-    order = _element_order(graph)
     groups: dict = {}
     for b in graph.bonds:
         groups.setdefault(find(b), []).append(b)
+    members: dict = {root: [] for root in groups}
+    for name in elements:  # (in the graph's order; an off junction joins each island it has a bond in)
+        for root in dict.fromkeys(find(b) for b in bonds_of[name]):
+            members[root].append(name)
+    controlled = _controlled(graph)
     out = []
-    for bonds in groups.values():
-        members = set()
-        for b in bonds:
-            bond = graph.bonds[b]
-            members.add(bond.tail)
-            members.add(bond.head)
-        names = tuple(sorted(members, key=order.__getitem__))
-        switched = tuple((n, config[n]) for n in names if isinstance(elements[n], Junction) and elements[n].controlled)
+    for root, bonds in groups.items():
+        names = tuple(members[root])
+        switched = tuple((n, config[n]) for n in names if n in controlled)
         out.append(Island(tuple(bonds), names, (tuple(bonds), switched)))
     return out
 
 
-def _element_order(graph) -> dict:
-    """Element name → its position in the graph (kept until the graph changes)."""
-    order = graph._cache.get("island element order")
-    if order is None:
-        order = graph._cache["island element order"] = {n: k for k, n in enumerate(graph.elements)}
-    return order
+def _controlled(graph) -> frozenset:
+    """The names of the graph's controlled junctions."""
+    return graph._memo("controlled junction set", lambda: frozenset(graph.controlled_junctions))
 
 
 def island_graph(graph, island: Island):
@@ -168,7 +164,7 @@ def merge_causality(graph, config: dict, parts: list):
     independent = [el.state for el in graph.storage if el.state not in dependent_set]
     independent.extend(graph.displacements)
     dependent = tuple(el.state for el in graph.storage if el.state in dependent_set)
-    rate_symbols = {s: rate_symbol(s) for s in graph.states}
+    rate_symbols = dict(graph._memo("rate symbols", lambda: {s: rate_symbol(s) for s in graph.states}))
     return Causality(
         configuration=dict(config),
         effort_by={b: effort_by[b] for b in graph.bonds if b in effort_by},

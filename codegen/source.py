@@ -45,6 +45,13 @@ class FunctionSpec:
     output_names: tuple = ()
     raw: bool = False  # outputs computed on Hyper values and returned as a list
     brief: bool = False  # a one-line docstring, without the lists of argument and output entries
+    #: an array argument whose entries most outputs equal (a jump leaves most states as they are):
+    #: from COPY_MIN such outputs on, one slice copy ``out[:] = <it>`` writes them all
+    copy_of: str = ""
+
+
+#: outputs equal to their entry of :attr:`FunctionSpec.copy_of` written by one slice copy from this many on
+COPY_MIN = 16
 
 
 _RESERVED = set(keyword.kwlist) | {"out", "H", "math", "abs", "max", "min", "pi", "e", "inf", "float", "range"}
@@ -284,8 +291,10 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     table, names, argument_doc = _names_and_doc(spec, memo)
 
     outputs = [sp.sympify(o) for o in spec.outputs]
+    copied = _copied_outputs(spec, outputs)
     needed: set = set()
-    shared = common_subexpressions(outputs, needed)
+    shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
+                                   needed)
     if memo is None:
         temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
     else:
@@ -320,10 +329,24 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     if spec.raw:
         lines.append("    return [" + ", ".join(text(e) for e in outputs) + "]")
     else:
+        if copied:
+            lines.append(f"    out[:] = {spec.copy_of}  # (the entries below differ from it)")
         for k, expr in enumerate(outputs):
-            lines.append(f"    out[{k}] = {text(expr)}")
+            if k not in copied:
+                lines.append(f"    out[{k}] = {text(expr)}")
         lines.append("    return out")
     return "\n".join(lines) + "\n"
+
+
+def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:
+    """The indices of the outputs one slice copy of ``spec.copy_of`` writes (none below :data:`COPY_MIN`)."""
+    if not spec.copy_of or spec.raw:
+        return frozenset()
+    (argument,) = [a for a in spec.arguments if a.name == spec.copy_of]
+    if len(argument.symbols) != len(outputs):
+        return frozenset()
+    same = frozenset(k for k, (expr, sym) in enumerate(zip(outputs, argument.symbols)) if expr == sym)
+    return same if len(same) >= COPY_MIN else frozenset()
 
 
 def module_namespace(vectorized: bool = False) -> dict:

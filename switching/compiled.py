@@ -224,7 +224,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     ]
     if jump_kind == "symbolic":
         specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
-                                  f"x+ = g(x) into mode {label}.", tuple(map(str, states))))
+                                  f"x+ = g(x) into mode {label}.", tuple(map(str, states)), copy_of="x"))
     blocks = _side_blocks(spans) if len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA else None
     meta = {
         "mode": tuple(me.mode.states),

@@ -149,3 +149,36 @@ def test_an_export_of_large_modes_fills_a_list(chain, tmp_path):
     values, count = json.loads(out.stdout)
     assert np.array_equal(np.array(values), expected)
     assert count == 2 * cm.n_relations
+
+
+@pytest.mark.parametrize("moved", [1, 5, 30])
+def test_a_jump_that_leaves_most_states_copies_them_in_one_slice(moved):
+    """``copy_of``: outputs equal to their entry of ``x`` are written by ``out[:] = x``
+    from ``COPY_MIN`` of them on; the numbers are those of one line per output."""
+    import sympy as sp
+
+    from codegen.source import COPY_MIN, Argument, FunctionSpec, function_source
+
+    n = 40
+    x = sp.symbols(f"x0:{n}")
+    k = sp.Symbol("k")
+    outputs = tuple((x[i] + k * x[(i + 1) % n]) / (1 + k) if i < moved else x[i] for i in range(n))
+    arguments = (Argument("x", x, doc="states"), Argument("t", (sp.Symbol("t"),), scalar=True),
+                 Argument("p", (k,), doc="parameters"), Argument("u", (), doc="inputs"))
+    copying = function_source(FunctionSpec("jump", arguments, outputs, "g", copy_of="x"))
+    plain = function_source(FunctionSpec("jump", arguments, outputs, "g"))
+    assert ("out[:] = x" in copying) == (n - moved >= COPY_MIN)
+    writes = [line for line in copying.splitlines() if line.startswith("    out[") and " = " in line]
+    assert len(writes) == (moved + 1 if n - moved >= COPY_MIN else n)
+    functions = []
+    for text in (copying, plain):
+        namespace = module_namespace()
+        exec(compile(text, "<jump>", "exec"), namespace)
+        functions.append(namespace["jump"])
+    values = np.random.default_rng(1).normal(size=n)
+    for out in (np.empty(n), [0.0] * n):
+        a = functions[0](values, 0.0, [0.3], [], out)
+        assert np.array_equal(np.asarray(a, dtype=float), functions[1](values, 0.0, [0.3], [], np.empty(n)))
+    aliased = values.copy()  # out may be x itself
+    functions[0](aliased, 0.0, [0.3], [], aliased)
+    assert np.array_equal(aliased, functions[1](values, 0.0, [0.3], [], np.empty(n)))
