@@ -87,6 +87,33 @@ def _tree(condition, relations: list, texts: dict | None = None):
     raise TypeError(f"cannot compile {condition} as a guard")
 
 
+def _guard_tree(condition, relations: list, model):
+    """:func:`_tree` of a guard condition, its comparisons appended to
+    ``relations``; kept for the model with the comparisons numbered from 0
+    (a large scene's modes hold the same guards again and again)."""
+    memo = model._guard_trees
+    found = memo.get(condition)
+    if found is None:
+        own: list = []
+        found = memo[condition] = (_tree(condition, own, model._guard_texts), tuple(own))
+    tree, own = found
+    offset = len(relations)
+    relations.extend(own)
+    return _shifted(tree, offset) if offset else tree
+
+
+def _shifted(tree, offset: int):
+    """A guard tree with its comparison indices moved by ``offset``."""
+    kind = tree[0]
+    if kind == "rel":
+        return ("rel", tree[1] + offset, tree[2], tree[3])
+    if kind in ("and", "or"):
+        return (kind, tuple(_shifted(t, offset) for t in tree[1]))
+    if kind == "not":
+        return ("not", _shifted(tree[1], offset))
+    return tree
+
+
 def _leaf_texts(trees, count: int) -> list:
     """The text of every comparison, by index, from the leaves of guard trees."""
     texts = [""] * count
@@ -199,7 +226,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
                 "when": tr.when,
                 "pulses": tr.pulses,
                 "text": guard.text,
-                "tree": _tree(guard.condition, relations, model._guard_texts),
+                "tree": _guard_tree(guard.condition, relations, model),
             }
         )
         spans.append((automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA, start, len(relations)))
@@ -214,9 +241,10 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
     specs = [
         FunctionSpec("phi", base_args, tuple(me.equations.constraints[s] for s in dependent),
-                     f"Dependent states of mode {label} (x_d = phi(x_i, t)).", tuple(map(str, dependent))),
+                     f"Dependent states of mode {label} (x_d = phi(x_i, t)).",
+                     tuple(model.state_names[model.state_index[s]] for s in dependent)),
         FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
-                     tuple(map(str, states))),
+                     model.state_names),
         FunctionSpec("sides", base_args, tuple(finite_sides),
                      f"Guard comparison sides in mode {label} (finite) with their round-off scales.", triple_names),
         FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
@@ -224,7 +252,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     ]
     if jump_kind == "symbolic":
         specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
-                                  f"x+ = g(x) into mode {label}.", tuple(map(str, states)), copy_of="x"))
+                                  f"x+ = g(x) into mode {label}.", model.state_names, copy_of="x"))
     blocks = _side_blocks(spans) if len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA else None
     meta = {
         "mode": tuple(me.mode.states),
@@ -342,13 +370,16 @@ def _function_chunks(source: str) -> dict:
     chunks = {}
     starts = list(re.finditer(rf"^(?:def (phi|rates|sides|sides_raw|jump|{_BLOCK_NAME})\(x, t, p, u(?:, xdot)?"
                               r"(?:, out)?\):$|META = )", source, re.MULTILINE))
+    line, counted = 1, 0
     for k, match in enumerate(starts):
         end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
         text = source[match.start():end]
+        line += source.count("\n", counted, match.start())
+        counted = match.start()
         if match.group(1) is None:
             chunks["META"] = text[len("META = "):].strip()
         else:
-            chunks[match.group(1)] = (source.count("\n", 0, match.start()) + 1, text)
+            chunks[match.group(1)] = (line, text)
     return chunks
 
 

@@ -215,6 +215,7 @@ class HybridModel:
         self._scale_memo: dict = {}  # (left, right) of a comparison → its round-off scale (comparison_triples)
         self._side_block_sources: dict = {}  # outputs of a block of guard sides → (name, source), see compiled
         self._side_block_functions: dict = {}  # name of a block of guard sides → its compiled function
+        self._guard_trees: dict = {}  # guard condition → (its tree, its comparisons), see compiled._guard_tree
         self._fingerprint = None
         self.cache = default_cache()
         self.derivation_count = 0
@@ -592,6 +593,11 @@ class HybridModel:
                 list(found),
             )
         return values.pop()
+
+    @functools.cached_property
+    def state_names(self) -> tuple:
+        """The names of :attr:`states`, in order."""
+        return tuple(s.name for s in self.states)
 
     @functools.cached_property
     def automaton_index(self) -> dict:
