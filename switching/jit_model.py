@@ -186,6 +186,19 @@ def forget_modes(model) -> None:
 
 KERNEL_COMPILE_SECONDS = 30.0  # compiling switching.kernel (once per installation; about)
 MODE_COMPILE_SECONDS = 0.3  # compiling one mode's function (about: codegen.native; numba's front end takes 0.3–3 s)
+#: compiling one mode's function of a large model, per state and per guard transition of the model:
+#: codegen.native compiles about 1.5 generated lines a millisecond, and a mode has about 10 lines per state or
+#: transition (``python benchmarks/mode_compile.py``; a 50-ball chain: ≈ 1.4 s a mode)
+MODE_COMPILE_SECONDS_PER_ITEM = 0.007
+#: with the Python speed of a model not known yet, ``auto`` compiles (its kernel cached) only when one
+#: mode's function costs at most this much: a large scene's run measures the Python speed first
+CHEAP_MODE_SECONDS = 1.0
+
+
+def mode_compile_seconds(model) -> float:
+    """The estimated cost of compiling one mode's function of ``model``
+    (:data:`MODE_COMPILE_SECONDS`, more for a model of many states and guards)."""
+    return max(MODE_COMPILE_SECONDS, MODE_COMPILE_SECONDS_PER_ITEM * (len(model.states) + len(model._guards)))
 
 
 class AutoChoice:
@@ -250,9 +263,9 @@ def choose_method(model, t0, t_end, rtol, dt=None) -> AutoChoice:
     cached), or less than a Python run is expected to take (expected from the
     speed of this model's last Python run chosen by ``auto``, scaled by
     ``rtol^(-1/5)``; compiling estimated as :data:`KERNEL_COMPILE_SECONDS`
-    for the kernel, :data:`MODE_COMPILE_SECONDS` per mode).  With the speed
-    not known yet: compiled when the kernel is cached (a mode's function is
-    cheap), else ``"RK45"``, which measures it."""
+    for the kernel, :func:`mode_compile_seconds` per mode).  With the speed
+    not known yet: compiled when the kernel is cached and a mode's function
+    is cheap (:data:`CHEAP_MODE_SECONDS`), else ``"RK45"``, which measures it."""
     from codegen.jit import available
 
     from .errors import SimulationError
@@ -270,14 +283,18 @@ def choose_method(model, t0, t_end, rtol, dt=None) -> AutoChoice:
     if ready and not missing:
         return AutoChoice(model, "RK45-jit", f"the kernel and the functions of its {len(modes)} mode(s) are "
                           "compiled (cached)", rtol)
-    cost = (0.0 if ready else KERNEL_COMPILE_SECONDS) + MODE_COMPILE_SECONDS * missing
+    per_mode = mode_compile_seconds(model)
+    cost = (0.0 if ready else KERNEL_COMPILE_SECONDS) + per_mode * missing
     what = (("" if ready else "the kernel and ") + f"the functions of {missing} mode(s)") if missing else "the kernel"
     speed = model.cache.record(_speed_key(model))
     try:
         expected = speed["rate"] * (float(t_end) - float(t0)) * (speed["rtol"] / float(rtol)) ** 0.2
     except (TypeError, KeyError, ValueError, ZeroDivisionError, OverflowError):
-        if ready:
+        if ready and per_mode <= CHEAP_MODE_SECONDS:
             return AutoChoice(model, "RK45-jit", f"the kernel is cached; compiling {what} costs ≈ {cost:g} s", rtol)
+        if ready:
+            return AutoChoice(model, "RK45", f"compiling a mode's function of this model costs ≈ {per_mode:.2g} s "
+                              "and its Python speed is not known yet (this run measures it)", rtol)
         return AutoChoice(model, "RK45", "the compiled kernel is not cached yet and this model's Python speed is not "
                           "known yet (this run measures it)", rtol)
     if expected > cost:

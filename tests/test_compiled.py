@@ -544,6 +544,31 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
                                               "compiled path)")
 
 
+def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, monkeypatch):
+    """A mode's function of a large scene takes seconds to compile (about 0.7 ms
+    per generated line, ten lines per state or transition): with the Python
+    speed unknown, auto runs Python first even with the kernel cached; with it
+    known, every mode to compile is priced at that size."""
+    import switching.jit_model as jm
+    from codegen.cache import SourceCache
+    from models import ball_chain
+
+    assert jm.mode_compile_seconds(bouncing_ball.build()) == jm.MODE_COMPILE_SECONDS
+    model = ball_chain.build(N=60, e=1.0)
+    model.cache = SourceCache(tmp_path)
+    monkeypatch.setattr(jm, "kernel_compiled", lambda: True)
+    monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
+    per_mode = jm.mode_compile_seconds(model)
+    assert per_mode == pytest.approx(jm.MODE_COMPILE_SECONDS_PER_ITEM * (120 + 2 * 59))
+    choice = jm.choose_method(model, 0.0, 1.0, 1e-9)
+    assert (choice.method, choice.reason) == ("RK45", f"compiling a mode's function of this model costs ≈ "
+                                              f"{per_mode:.2g} s and its Python speed is not known yet (this run "
+                                              "measures it)")
+    model.cache.write_record(jm._speed_key(model), {"rate": 0.5, "rtol": 1e-9})
+    assert jm.choose_method(model, 0.0, 1.0, 1e-9).method == "RK45"  # 0.5 s against ≈ 1.7 s for the initial mode
+    assert jm.choose_method(model, 0.0, 100.0, 1e-9).method == "RK45-jit"
+
+
 # ------------------------------------------------ the command line
 
 
