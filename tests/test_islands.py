@@ -30,6 +30,7 @@ from models import parallel_capacitors, two_tanks
 from switching.modelfile import load_model
 
 import switching_models as sm
+import test_law_switches as law_switch_models
 
 EXAMPLES = Path(models.__file__).parent / "examples"
 
@@ -45,6 +46,10 @@ def _hybrid_models():
     yield "rc relay", sm.rc_relay()
     for path in sorted(EXAMPLES.glob("*.toml")):
         yield path.name, load_model(path)
+    yield "friction law switch", law_switch_models.sign_block(c=0.2, F=1.0)
+    yield "stick/slip automaton", law_switch_models.automaton_block(c=0.2)
+    yield pytest.param("rod, Newton-Coulomb impacts", falling_rod.build(impact_law="newton-coulomb"),
+                       marks=pytest.mark.slow)
 
 
 def configurations(graph, limit=48, seed=3):
@@ -105,17 +110,24 @@ def test_island_derivation_is_the_whole_graphs(name, model):
         assert split > 0, "no configuration of this model split into islands: the test checks nothing new"
 
 
-def test_jump_map_over_islands_is_the_whole_graphs():
-    model = ball_chain.build(N=5, e=1.0)
+@pytest.mark.parametrize("model, law, limit", [
+    (ball_chain.build(N=5, e=1.0), "conservation", 48),
+    pytest.param(falling_rod.build(), "conservation", 48, marks=pytest.mark.slow),
+    (falling_rod.build(impact_law="newton-coulomb"), "impulse balance", 4),  # (a whole rod derivation: ~0.5 s)
+], ids=["chain", "rod", "rod impulse balance"])
+def test_jump_map_over_islands_is_the_whole_graphs(model, law, limit):
     graph = model.derivation_graph
     from bondgraph.jump import derive_jump_map
 
-    for config in configurations(graph):
+    for config in configurations(graph, limit):
         config = graph.configuration(config)
-        whole = derive_jump_map(graph, derive_equations(graph, config, assign_causality(graph, config)))
-        merged = graph.jump_map(config)
+        whole = derive_jump_map(graph, derive_equations(graph, config, assign_causality(graph, config)), law)
+        merged = graph.jump_map(config, law)
         assert merged.dependent == whole.dependent and merged.participating == whole.participating
-        assert_same_expressions(merged.expressions, whole.expressions, "jump")
+        if whole.expressions is None:
+            assert merged.expressions is None
+        else:
+            assert_same_expressions(merged.expressions, whole.expressions, "jump")
 
 
 def test_a_configuration_that_switches_one_contact_derives_only_the_islands_next_to_it():
