@@ -698,17 +698,17 @@ class BondGraph:
         (this graph, or its open view ``ports``), or ``None`` when the
         configuration is all one piece (or has no junction off: no island
         of it could serve another configuration)."""
-        from .islands import _couplings, islands
+        from .islands import element_couplings, islands
 
         if all(config.values()):
             return None
-
-        def split():
-            couplings = self._memo(("island couplings", ports), lambda: _couplings(graph))
+        key = (ports, tuple(config.items()))
+        last = self._cache.get("islands")  # (kept for one configuration: its causality, then its equations)
+        if last is None or last[0] != key:
+            couplings = self._memo(("island couplings", ports), lambda: element_couplings(graph))
             parts = islands(graph, config, couplings)
-            return parts if len(parts) > 1 else None
-
-        return self._memo(("islands", ports, tuple(config.items())), split)
+            last = self._cache["islands"] = (key, parts if len(parts) > 1 else None)
+        return last[1]
 
     def _island_graph(self, graph, island, ports: str):
         from .islands import island_graph

@@ -33,12 +33,14 @@ from dataclasses import dataclass
 
 from .elements import Junction, TwoPort
 
-__all__ = ["Island", "islands", "island_graph", "has_modulated_two_port", "merge_causality", "merge_equations"]
+__all__ = ["Island", "element_couplings", "has_modulated_two_port", "island_graph", "islands", "merge_causality",
+           "merge_equations"]
 
 
 @dataclass(frozen=True)
 class Island:
-    """One island of a configuration: its ``bonds`` (in the graph's order)
+    """One island of a configuration: its ``bonds`` and ``elements`` (in the
+    graph's order; an off junction belongs to every island it has a bond in)
     and ``key``, which identifies it in every configuration holding it (the
     bonds and the on/off state of the controlled junctions among its
     elements)."""
@@ -48,7 +50,7 @@ class Island:
     key: tuple
 
 
-def _couplings(graph) -> dict:
+def element_couplings(graph) -> dict:
     """Element → the bonds its expressions read (through a state, a
     displacement or a bond variable); computed once per graph version."""
     bond_of_symbol = {}
@@ -72,9 +74,9 @@ def _couplings(graph) -> dict:
 def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
     """The islands of ``graph`` in configuration ``config`` (every controlled
     junction named), in the order of their first bond.  ``couplings`` is
-    :func:`_couplings` of the graph (computed when not given)."""
+    :func:`element_couplings` of the graph (computed when not given)."""
     if couplings is None:
-        couplings = _couplings(graph)
+        couplings = element_couplings(graph)
     parent = {b: b for b in graph.bonds}
 
     def find(b):
@@ -141,6 +143,9 @@ def island_graph(graph, island: Island):
 
 
 def has_modulated_two_port(graph) -> bool:
+    """Does the graph hold a TF or GY whose modulus is not constant?  (Then
+    its storage is ranked before causality is assigned, in every island:
+    :meth:`bondgraph.causality._SCAP._storage_order`.)"""
     return any(isinstance(el, TwoPort) and el.modulated for el in graph.elements.values())
 
 

@@ -59,8 +59,9 @@ def export_module(model, path, modes="visited") -> list:
     for k, mode in enumerate(selected):
         source = compiled.flat_sides(model.compiled_mode(mode).source)
         for name, chunk in compiled._function_chunks(source).items():
-            if name.startswith("_sides_raw_"):
-                source = source.replace(chunk[1], "") if name in blocks else source
+            if name.startswith("_sides_raw_") and name in blocks:
+                source = source.replace(chunk[1], "")
+            elif name.startswith("_sides_raw_"):
                 blocks.add(name)
         source = re.sub(r"^META = ", f"META_{k} = ", source, flags=re.M)
         for name in _FUNCTIONS:

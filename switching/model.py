@@ -19,7 +19,6 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 from __future__ import annotations
 
 import functools
-
 import math
 import warnings
 from dataclasses import dataclass
