@@ -442,7 +442,8 @@ class CompiledMode:
         (a block's name is a hash of its text, so equal names are equal
         functions), else compiled now from this mode's source."""
         shared = getattr(self.model, "_side_block_functions", {})
-        for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", text)):
+        body = text[text.rindex('"""') + 3:]  # (the calls: after the docstring, which lists every output)
+        for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", body)):
             if block in self._namespace:
                 continue
             function = shared.get(block)

@@ -199,8 +199,9 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
             if prior is None:
                 prior = cm.sides(x, t)
             sides = prior
-        comparisons: list = []
-        if decide_tree(guard["tree"], sides, rtol, atol, comparisons):
+        if decide_tree(guard["tree"], sides, rtol, atol):
+            comparisons: list = []  # the figures of a guard that fired, for the record (decided alike again)
+            decide_tree(guard["tree"], sides, rtol, atol, comparisons)
             done.add(guard["automaton"])
             fired.append(
                 FiredGuard(guard["automaton"], guard["source"], guard["target"], guard["text"], guard["when"],
