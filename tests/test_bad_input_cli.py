@@ -121,6 +121,9 @@ def test_ctrl_c_during_a_run_saves_the_partial_run_and_exits_130(tmp_path):
         [sys.executable, "-m", "models.cli", "run", "boost-converter", "--t-end", "1", "--csv", str(data)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
         env={**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": ROOT},
+        # Ctrl-C as a terminal delivers it, also when the tests run in the background
+        # (a shell without job control starts them with SIGINT ignored, and the child would inherit that)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     # wait until the run has begun: imports and derivation take about 1.5 s of CPU, the run about 25 s
     stat = f"/proc/{process.pid}/stat"
