@@ -24,12 +24,12 @@ t = sp.Symbol("t")
 
 #: Element, parameter and state names: identifiers, optionally joined by ``/``
 #: for hierarchy (``cell3/C``).
-NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
+NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")  # use fullmatch: a whole name
 
 
 def check_name(name: str, what: str = "name") -> str:
     """Return ``name`` if it is a valid (hierarchical) identifier, else raise."""
-    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         raise InvalidGraphError(
             f"invalid {what} {name!r}: use letters, digits and '_' (not starting with a digit), "
             "with '/' separating hierarchy levels, e.g. 'cell3/C'"
@@ -58,7 +58,7 @@ def as_expr(value, what: str = "value") -> sp.Expr:
     if isinstance(value, Number):
         return sp.sympify(value)  # numbers only: no text reaches sympify
     if isinstance(value, str):
-        if not NAME_PATTERN.match(value):
+        if not NAME_PATTERN.fullmatch(value):
             raise InvalidGraphError(
                 f"{what} {value!r} is not a parameter name; formulas are not parsed from text here: "
                 "build them with sympy (e.g. sp.Symbol('R0') * f**3)"

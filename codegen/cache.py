@@ -44,6 +44,8 @@ import time
 import warnings
 from pathlib import Path
 
+from .safety import GeneratedCodeError, check_source
+
 __all__ = ["CacheWarning", "SourceCache", "cache_entries", "default_cache", "default_max_bytes", "fingerprint",
            "warn_not_writable"]
 
@@ -155,7 +157,12 @@ class SourceCache:
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.py"
 
-    def load(self, key: str) -> str | None:
+    def load(self, key: str, imports=()) -> str | None:
+        """The source stored under ``key``: from memory, else from disk if its
+        header matches and it passes :func:`codegen.safety.check_source` (with
+        the ``imports`` it may hold); ``None`` for a miss.  An entry on disk
+        that fails the check was altered: it is deleted, with a
+        :class:`CacheWarning`, and its caller builds it again."""
         if key in self.memory:
             self.hits["memory"] += 1
             return self.memory[key]
@@ -172,9 +179,15 @@ class SourceCache:
             self.hits["rejected"] += 1
             return None
         try:
-            compile(body, str(path), "exec")
-        except SyntaxError:
+            check_source(body, str(path), imports)
+        except GeneratedCodeError as exc:
             self.hits["rejected"] += 1
+            warnings.warn(f"cache entry {path} was altered and is not run ({exc}); deleted it, building it again",
+                          CacheWarning, stacklevel=2)
+            try:
+                path.unlink()
+            except OSError:
+                pass
             return None
         self.hits["disk"] += 1
         self.memory[key] = body

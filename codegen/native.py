@@ -55,6 +55,8 @@ import textwrap
 import types as pytypes
 from dataclasses import dataclass, field
 
+from .safety import check_source
+
 __all__ = ["CorruptFile", "NativeFunction", "Untranslatable", "compile_function", "file_matches_machine",
            "load_function", "machine_key", "read_file", "write_file"]
 
@@ -941,16 +943,18 @@ def machine_key() -> str:
 
 
 def compile_function(source: str, entry: str, signature: list, result: str, name: str,
-                     namespace: dict | None = None) -> NativeFunction:
+                     namespace: dict | None = None, imports=()) -> NativeFunction:
     """Translate function ``entry`` of module ``source`` (executed in
     ``namespace``, or its own imports run in a fresh one) to LLVM IR and
     compile it as the C function ``name`` of parameter kinds ``signature``
     (``"f"`` float64, ``"i"`` int64, ``("ptr", "f"|"i"|"u")`` pointers to
     float64/int64/uint8) returning ``result``.  Raises
-    :class:`Untranslatable` for anything outside the subset (see the module)."""
+    :class:`Untranslatable` for anything outside the subset (see the module),
+    and :class:`~codegen.safety.GeneratedCodeError` for a source that holds
+    anything the code generator never writes (``imports``: the imports it may hold)."""
     from numba.core.compiler_lock import global_compiler_lock
 
-    tree = ast.parse(source)
+    tree = check_source(source, f"<{name}>", imports)  # (its imports run below: only those allowed)
     definitions = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry]
     if len(definitions) != 1:
         raise Untranslatable(f"no single function {entry!r} in the source")

@@ -13,6 +13,7 @@ Only sanitized identifiers reach the source: symbol names such as
 
 from __future__ import annotations
 
+import builtins
 import keyword
 import math
 import re
@@ -21,8 +22,8 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "composed_source", "function_source",
-           "sanitize", "module_namespace"]
+__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "composed_source", "docstring",
+           "escaped", "function_source", "sanitize", "module_namespace"]
 
 
 @dataclass(frozen=True)
@@ -54,15 +55,27 @@ class FunctionSpec:
 COPY_MIN = 16
 
 
-_RESERVED = set(keyword.kwlist) | {"out", "H", "math", "abs", "max", "min", "pi", "e", "inf", "float", "range"}
+#: names a sanitized symbol never takes (``_`` appended): keywords, builtins, the math functions and the
+#: names of the generated module's own namespace (``out``, ``H``, ``np``, ...)
+_RESERVED = set(keyword.kwlist) | set(dir(builtins)) | {"out", "H", "np", "math", "inf", "nan", "pi", "e", "tau",
+                                                         "carray"}
+#: the arrays, selectors and loop variables of the compiled mode functions (switching.jit_model)
+_RESERVED |= {"x", "t", "p", "u", "y", "xp", "xq", "xdot", "d", "s", "post", "target", "g", "q", "k"}
 _RESERVED |= {name for name in dir(math) if not name.startswith("_")}
 
 
 def sanitize(name: str) -> str:
-    """A Python identifier for a symbol name (``rod/theta`` → ``rod_theta``)."""
-    ident = re.sub(r"\W", "_", name)
-    if not ident or ident[0].isdigit():
-        ident = "_" + ident
+    """An ASCII Python identifier for a symbol name (``rod/theta`` → ``rod_theta``).
+
+    It never starts with ``_`` (every name the code generator invents does:
+    temporaries ``_c<k>``, helpers ``_dec``, blocks ``_sides_<hash>``, so no
+    user name can take one of them; a name starting with ``_`` or a digit gets
+    a ``v`` in front) and is never a keyword, a builtin or a name of the
+    generated module's namespace (``_`` appended).  Distinct names may meet
+    (``a/b`` and ``a_b``): callers keep locals unique."""
+    ident = re.sub(r"[^0-9A-Za-z_]", "_", name)
+    if not ident or not ident[0].isalpha():
+        ident = "v" + ident
     if ident in _RESERVED:
         ident += "_"
     return ident
@@ -242,15 +255,45 @@ def _def_line(spec: FunctionSpec) -> str:
     return f"def {spec.name}({signature}):"
 
 
+def escaped(text: str) -> str:
+    """``text`` as the inside of a ``"``-quoted Python string literal that
+    reads back as ``text``: backslashes, double quotes and every character that
+    is not printable (newlines, ``\\r``, NUL, line separators, bidirectional
+    controls) escaped, so that no text can end the literal early or start a
+    new line of code.  Printable non-ASCII characters (``µ``, ``θ``) stay."""
+    if text.isprintable() and "\\" not in text and '"' not in text:
+        return text
+    parts = []
+    for char in text:
+        if char == "\\" or char == '"':
+            parts.append("\\" + char)
+        elif char.isprintable():
+            parts.append(char)
+        else:
+            code = ord(char)
+            parts.append(f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000
+                         else f"\\U{code:08x}")
+    return "".join(parts)
+
+
+def docstring(lines, indent: str = "    ") -> str:
+    """A triple-quoted docstring literal of ``lines`` (a str or its lines),
+    indented by ``indent``, each line passed through :func:`escaped`: user text
+    (names, labels, descriptions) is shown as given and cannot end it early."""
+    lines = lines.split("\n") if isinstance(lines, str) else list(lines)
+    body = ("\n" + indent).join(escaped(line) for line in lines)
+    return f'{indent}"""{body}\n{indent}"""' if len(lines) > 1 else f'{indent}"""{body}"""'
+
+
 def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: list) -> list:
     """The docstring lines of ``spec``: its doc, then (unless brief) every argument and output entry."""
     if spec.brief:
-        return ['    """' + (spec.doc.strip() or spec.name).replace('"""', "'''") + '"""']
-    doc = [spec.doc.strip() or spec.name, "", *argument_doc]
+        return [docstring([spec.doc.strip() or spec.name])]
+    doc = [*(spec.doc.strip() or spec.name).split("\n"), "", *argument_doc]
     out_labels = spec.output_names or tuple(str(k) for k in range(n_outputs))
     doc.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")
     doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
-    return ['    """' + "\n    ".join(doc).replace('"""', "'''") + '\n    """']
+    return [docstring(doc)]
 
 
 def _names_and_doc(spec: FunctionSpec, memo: PrintMemo | None):

@@ -61,6 +61,7 @@ import argparse
 import inspect
 import math
 import os
+import re
 import sys
 import time
 
@@ -452,11 +453,29 @@ def _cmd_verify(args) -> int:
     return 0 if report.ok else 1
 
 
+def _file_stem(name: str) -> str:
+    """A file name stem from a model's name (a stranger's text): ASCII letters,
+    digits, ``_``, ``-`` and inner dots only; no separators, no leading dot."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", name).lstrip(".")[:100]
+    return stem or "model"
+
+
+def _inside(directory: str, filename: str, option: str) -> str:
+    """``directory/filename``, refused unless it resolves inside ``directory``
+    (after symbolic links: a file name from a model must not leave the folder the user gave)."""
+    root = os.path.realpath(directory)
+    path = os.path.realpath(os.path.join(root, filename))
+    if os.path.dirname(path) != root:
+        raise _UsageError(f"{option}: the file {filename!r} would be written outside {directory!r} "
+                          f"(to {path}); give another folder or rename the model")
+    return os.path.join(directory, filename)
+
+
 def _cmd_codegen(args) -> int:
     module, model = _build(args)
     _visited_modes(module, model)
     os.makedirs(args.output, exist_ok=True)
-    path = os.path.join(args.output, f"{model.name}_modes.py")
+    path = _inside(args.output, f"{_file_stem(model.name)}_modes.py", "-o/--output")
     labels = model.export_module(path)
     print(f"wrote {path} ({len(labels)} modes: {', '.join(labels)})")
     return 0

@@ -44,13 +44,14 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
 from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
-from codegen.source import Argument, FunctionSpec, composed_source, function_source, module_namespace
+from codegen.safety import check_source, execute
+from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree",
            "mode_source_and_meta"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "10"
+MODE_SOURCE_VERSION = "11"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -264,7 +265,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
         "guards": tuple(guards),
         "n_states": len(states),
     }
-    header = f'"""Generated functions of mode {label} of model {model.name!r} (do not edit)."""\n\n'
+    header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
     texts = []
     for spec in specs:
         if blocks and spec.name in ("sides", "sides_raw"):
@@ -404,6 +405,8 @@ class CompiledMode:
         self.model = model
         self.mode = mode
         self.source = source
+        self._where = f"<hbg mode {mode.label}>"
+        check_source(source, self._where)  # before any of it is compiled (a cached source may have been altered)
         self._namespace = module_namespace()
         self._chunks = _function_chunks(source)
         missing = {"META", "phi", "rates", "sides", "sides_raw"} - set(self._chunks)
@@ -431,8 +434,7 @@ class CompiledMode:
             first_line, text = self._chunks[name]
             if name in ("sides", "sides_raw"):
                 self._place_blocks(text)
-            code = compile("\n" * (first_line - 1) + text, f"<hbg mode {self.mode.label}>", "exec")
-            exec(code, self._namespace)  # our own generated, sanitized code
+            execute(text, self._namespace, self._where, first_line=first_line)  # (a function of the checked source)
             found = self._namespace[name]
         return found
 
@@ -465,7 +467,7 @@ class CompiledMode:
         non-finite checks know how to handle."""
         if self._on_numpy is None:
             namespace = module_namespace(vectorized=True)
-            exec(compile(self.source, f"<hbg mode {self.mode.label} (numpy)>", "exec"), namespace)  # our own code
+            execute(self.source, namespace, self._where)
             self._on_numpy = namespace
         return self._on_numpy[name]
 

@@ -14,6 +14,8 @@ import inspect
 import re
 from pathlib import Path
 
+from codegen.source import docstring, escaped
+
 __all__ = ["export_module"]
 
 _FUNCTIONS = ("phi", "rates", "sides", "sides_raw", "jump")
@@ -34,11 +36,11 @@ def export_module(model, path, modes="visited") -> list:
     if not selected:
         selected = [model.initial_mode]
     parts = [
-        f'"""Generated functions of model {model.name!r}: {len(selected)} mode(s). Standalone: needs only math.',
-        "",
-        "Arrays: x = STATES, p = PARAMETERS (values in PARAMETER_VALUES), u = inputs.",
-        "MODES[label] gives 'meta' and the functions phi, rates, sides, sides_raw and (symbolic jumps) jump.",
-        '"""',
+        docstring([f"Generated functions of model {model.name!r}: {len(selected)} mode(s). Standalone: needs only "
+                   "math.", "",
+                   "Arrays: x = STATES, p = PARAMETERS (values in PARAMETER_VALUES), u = inputs.",
+                   "MODES[label] gives 'meta' and the functions phi, rates, sides, sides_raw and (symbolic jumps) "
+                   "jump."], ""),
         "",
         "import math",
         "from math import *",
@@ -66,7 +68,7 @@ def export_module(model, path, modes="visited") -> list:
         source = re.sub(r"^META = ", f"META_{k} = ", source, flags=re.M)
         for name in _FUNCTIONS:
             source = re.sub(rf"^def {name}\(", f"def m{k}_{name}(", source, flags=re.M)
-        parts += [f"# ---- mode {mode.describe()}", source]
+        parts += [f"# ---- mode {escaped(mode.describe())}", source]
         functions = ", ".join(
             f"{name!r}: m{k}_{name}" for name in _FUNCTIONS if f"def m{k}_{name}(" in source
         )

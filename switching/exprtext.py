@@ -156,7 +156,7 @@ def _ordered(args):
 
 def _symbol(node) -> str:
     name = node.name
-    if not NAME_PATTERN.match(name) or name in _RESERVED:
+    if not NAME_PATTERN.fullmatch(name) or name in _RESERVED:
         raise ExpressionTextError(
             f"the symbol {name!r} cannot be written as text: names are letters, digits and '_' "
             f"(hierarchy with '/'), and not one of {', '.join(sorted(_RESERVED))}",

@@ -73,7 +73,8 @@ from bondgraph.symbols import rate_symbol
 from bondgraph.symbols import t as TIME
 from codegen.cache import CacheWarning, fingerprint, warn_not_writable
 from codegen.jit import guard_cache, load_module, tree_expression
-from codegen.source import Argument, FunctionSpec, function_source
+from codegen.safety import GeneratedCodeError
+from codegen.source import Argument, FunctionSpec, docstring, escaped, function_source
 
 from .automaton import A_POSTERIORI
 from .expression_input import ExpressionInput
@@ -91,7 +92,7 @@ KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
 STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff", 7: "workspace"}
 _MAX_CODE = 2**62
 _NO_TIMES = np.empty(0)  # no requested output times
-GENERATOR_VERSION = "14"  # part of the cache key: change it when the generated functions change
+GENERATOR_VERSION = "15"  # part of the cache key: change it when the generated functions change
 _KERNEL = []  # switching.kernel once imported, its numba caches guarded
 
 
@@ -318,7 +319,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
         Argument("p", tuple(model.parameter_symbols), doc="parameters"),
         Argument("u", input_parameters, doc="the inputs' parameters"),
     )
-    label = me.mode.describe()
+    label = escaped(me.mode.describe())  # (shown in comments)
     dependent = [s for s in states if s in me.equations.dependent]
 
     relations: list = []
@@ -445,6 +446,11 @@ def _returning_int(line: str) -> str:
     return line
 
 
+#: the imports a mode function's module holds (and the only ones :func:`codegen.safety.check_source` lets it hold)
+MODE_IMPORTS = (("math", None, None), ("math", "*", None), ("numpy", None, "np"), ("numba", "carray", None),
+                ("switching.kernel", "decide", "_dec"), ("switching.kernel", "larger", "_larger"))
+
+
 def mode_function_source(model, mode) -> str:
     """The module of ``mode``'s compiled function: one numba ``cfunc`` of
     :data:`switching.kernel.MODE_SIGNATURE` whose operation ``op`` selects
@@ -465,7 +471,7 @@ def mode_function_source(model, mode) -> str:
     # the function's parameters, renamed (…_, …__) where a local name of the statements takes theirs
     P = _parameter_names(branches)
     lines = [
-        f'"""Compiled function of mode {label} of model {model.name!r} (generated; do not edit)."""',
+        docstring([f"Compiled function of mode {label} of model {model.name!r} (generated; do not edit)."], ""),
         "import math",
         "from math import *",
         "import numpy as np",
@@ -476,10 +482,10 @@ def mode_function_source(model, mode) -> str:
         "",
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
         f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
-        f'    """Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
-        "    guard hold during flow, 3 the jump map (0: numerical), 4 the transitions firing at an instant",
-        f'    (``{P["which_"]}``: quiet), 5 guard ``{P["which_"]}`` from its parts\' truths (see switching.kernel).',
-        f'    Array sizes: {", ".join(f"{k} {v}" for k, v in sizes.items())}."""',
+        docstring([f'Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
+                   "guard hold during flow, 3 the jump map (0: numerical), 4 the transitions firing at an instant",
+                   f'(``{P["which_"]}``: quiet), 5 guard ``{P["which_"]}`` from its parts\' truths (see switching.kernel).',
+                   f'Array sizes: {", ".join(f"{k} {v}" for k, v in sizes.items())}.']),
         f"    p = carray({P['p_']}, ({sizes['NPAR']},))",
         f"    u = carray({P['u_']}, ({sizes['NU']},))",
     ]
@@ -588,9 +594,11 @@ def _native_function(model, mode, name: str, source: str):
                 pass
     if function is None:
         try:
-            function = native.compile_function(source, "mode", *native_signature(), name)
+            function = native.compile_function(source, "mode", *native_signature(), name, imports=MODE_IMPORTS)
         except native.Untranslatable:
             return None
+        except GeneratedCodeError:
+            raise
         except Exception as exc:  # a fault of the translator: numba's front end still compiles the mode
             warnings.warn(f"translating mode {mode.describe()} of model {model.name!r} to machine code failed "
                           f"({type(exc).__name__}: {exc}); numba compiles it instead (slower to compile, the same "
@@ -620,7 +628,7 @@ def mode_function(model, mode):
 
     MODE_SIGNATURE = kernel().MODE_SIGNATURE
     key = _mode_key(model, mode)
-    source = model.cache.load(key)
+    source = model.cache.load(key, imports=MODE_IMPORTS)  # (checked: an altered entry is discarded)
     if source is None:
         source = mode_function_source(model, mode)
         model.cache.store(key, source)
@@ -630,7 +638,7 @@ def mode_function(model, mode):
         if function is not None:
             return function
     directory = model.cache.directory / "jit" if model.cache.directory else None
-    module = load_module(name, source, directory)
+    module = load_module(name, source, directory, MODE_IMPORTS)
     function = getattr(module, "compiled", None)
     if function is None:
         function = CFunc(module.mode, (MODE_SIGNATURE.args, MODE_SIGNATURE.return_type), locals={},

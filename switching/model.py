@@ -684,6 +684,7 @@ class HybridModel:
         """Generated ``fn(x, t, p, u, out)`` giving the finite parts of the
         named signals in one mode; ``x`` may be an ``(n, N)`` array of N
         samples (numpy functions are used)."""
+        from codegen.safety import execute
         from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
         mode = self.mode(mode)
@@ -707,7 +708,7 @@ class HybridModel:
             source = function_source(spec)
             self.cache.store(key, source)
         namespace = module_namespace(vectorized=True)
-        exec(compile(source, f"<hbg signals {mode.label}>", "exec"), namespace)  # our own generated code
+        execute(source, namespace, f"<hbg signals {mode.label}>")
         return namespace["signals"]
 
     def export_module(self, path, modes="visited") -> list:

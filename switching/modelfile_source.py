@@ -100,7 +100,7 @@ class Source:
     def name(self, value, keys, what: str, expression: bool = False) -> str:
         """``value`` checked to be a valid name; ``expression``: a name that
         expressions use, which must not be a word of the expression grammar."""
-        if not isinstance(value, str) or not NAME_PATTERN.match(value):
+        if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
             raise self.error(
                 f"{value!r} is not a valid {what}: use letters, digits and '_' (not starting with a digit), "
                 "'/' between hierarchy levels",

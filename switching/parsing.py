@@ -139,21 +139,26 @@ _TOKEN = re.compile(
     r"(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
     r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:/[A-Za-z_][A-Za-z0-9_]*)*)"
     r"|(?P<op><=|>=|==|!=|\*\*|&&|\|\||[-+*/^()<>,!])"
-    r")"
+    r")",
+    re.ASCII,  # digits and spaces are ASCII ones: '١' (an Arabic-Indic one) is refused, not read as 1
 )
+_SPACES = " \t\n\r\f\v"  # the spaces between tokens: ASCII ones (what re.ASCII's \s matches)
 _KEYWORDS = {"and", "or", "not", "true", "false", "pi"}
 _RELATIONS = {"<": sp.Lt, "<=": sp.Le, ">": sp.Gt, ">=": sp.Ge, "==": sp.Eq, "!=": sp.Ne}
 
 
 def _tokenize(text: str, names: Mapping[str, sp.Basic]) -> list[tuple[str, str, int]]:
     tokens, pos = [], 0
-    text = text.rstrip()
+    text = text.rstrip(_SPACES)
     # the most parts of a known hierarchical name: bounds the search below
     longest = max((name.count("/") + 1 for name in names if "/" in name), default=1)
     while pos < len(text):
         m = _TOKEN.match(text, pos)
         if not m or m.end() == pos:
-            raise GuardSyntaxError(f"unexpected character {text[pos]!r}", text, pos)
+            bad = len(text) - len(text[pos:].lstrip(_SPACES))  # (the culprit, not the spaces before it)
+            raise GuardSyntaxError(f"unexpected character {text[bad]!r}"
+                                   + (" (numbers are written with the digits 0-9)" if text[bad].isdigit() else ""),
+                                   text, bad)
         start = m.start(m.lastgroup)
         kind, value = m.lastgroup, m.group(m.lastgroup)
         if kind == "name" and "/" in value and value not in names:

@@ -114,6 +114,7 @@ from sympy.logic.boolalg import And
 from bondgraph.errors import HybridBondGraphError
 from codegen.roundoff import roundoff_scale
 from codegen.runtime import decide
+from codegen.safety import execute
 from codegen.source import module_namespace
 
 from .compiled import decide_tree
@@ -464,7 +465,7 @@ class _ModeSampler:
             for _, k, _, text in _walk(g["tree"]):
                 self.boundaries.append(_Boundary(k, text, label))
         namespace = module_namespace(vectorized=True)
-        exec(compile(cm.source, f"<hbg mode {mode.label}, vectorized>", "exec"), namespace)  # our own generated code
+        execute(cm.source, namespace, f"<hbg mode {mode.label}>")
         self._sides_many, self._phi_many = namespace["sides"], namespace["phi"]
 
     # ---------------------------------------------------------- projection

@@ -295,29 +295,32 @@ TINY = textwrap.dedent(
     """
     from numba import njit
 
-    @njit(cache=True)
-    def twice(x):
+    def twice_py(x):
         return 2.0 * x
 
-    @njit(cache=True)
-    def thrice(x):
+    twice = njit(twice_py, cache=True)
+
+    def thrice_py(x):
         return 3.0 * twice(x) / 2.0
+
+    thrice = njit(thrice_py, cache=True)
     """
 )
+TINY_IMPORTS = (("numba", "njit", None),)  # (a generated module may hold only the imports it is allowed)
 
 
 def _tiny(directory):
     from codegen.jit import load_module
 
     name = f"hbg_test_tiny_{uuid.uuid4().hex[:12]}"
-    return name, load_module(name, TINY, directory)
+    return name, load_module(name, TINY, directory, TINY_IMPORTS)
 
 
 def _reload(name, directory):
     from codegen.jit import load_module
 
     del sys.modules[name]
-    return load_module(name, TINY, directory)
+    return load_module(name, TINY, directory, TINY_IMPORTS)
 
 
 def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tmp_path):

@@ -28,12 +28,16 @@ import models  # noqa: E402
 from codegen import native  # noqa: E402
 from codegen.cache import SourceCache, cache_entries  # noqa: E402
 from codegen.native import Untranslatable, compile_function  # noqa: E402
+from codegen.safety import GeneratedCodeError  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 _NUMBA = {"f": types.float64, "i": types.int64, "u": types.uint8}
 _CTYPES = {"f": ctypes.c_double, "i": ctypes.c_int64, "u": ctypes.c_uint8}
 HEADER = "import math\nfrom math import *\nimport numpy as np\nfrom numba import carray\n\n"
 _serial = iter(range(10**9))
+#: the imports of the sources below (those of a generated mode function: the only ones the check lets through)
+IMPORTS = (("math", None, None), ("math", "*", None), ("numpy", None, "np"), ("numba", "carray", None),
+           ("switching.kernel", "decide", "_dec"), ("switching.kernel", "larger", "_larger"))
 
 
 def numba_type(kind):
@@ -46,7 +50,8 @@ def c_type(kind):
 
 def both(source: str, entry: str, signature: list, result: str):
     """The C functions of ``entry`` compiled by codegen.native and by numba (ctypes callables)."""
-    compiled = compile_function(source, entry, signature, result, f"hbg_test_native_{next(_serial)}")
+    compiled = compile_function(source, entry, signature, result, f"hbg_test_native_{next(_serial)}",
+                                imports=IMPORTS)
     namespace: dict = {}
     exec(compile(source, "<test source>", "exec"), namespace)
     reference = CFunc(namespace[entry], (tuple(numba_type(k) for k in signature), _NUMBA[result]), locals={},
@@ -124,7 +129,7 @@ def test_zero_to_a_negative_literal_power_is_infinite():
     written; here it is ``inf`` (IEEE, as numba's ``error_model="numpy"`` gives
     for ``1/0.0``), which the kernel reports as a non-finite state."""
     source = HEADER + "def p(a):\n    return a**(-2) + a**(-3)\n"
-    compiled = compile_function(source, "p", ["f"], "f", f"hbg_test_native_{next(_serial)}")
+    compiled = compile_function(source, "p", ["f"], "f", f"hbg_test_native_{next(_serial)}", imports=IMPORTS)
     power = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double)(compiled.address)
     assert power(0.0) == np.inf and np.isnan(power(-0.0))  # inf + (-inf)
     assert power(2.0) == 0.25 + 0.125
@@ -170,7 +175,8 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
         def d(op, li, lf, ri, rf, sc, sc2, rtol, atol):
             return 1 if _dec(op, li, lf, ri, rf, _larger(sc, sc2), rtol, atol) else 0
         """)
-    compiled = compile_function(source, "d", ["i"] + ["f"] * 8, "i", f"hbg_test_native_{next(_serial)}")
+    compiled = compile_function(source, "d", ["i"] + ["f"] * 8, "i", f"hbg_test_native_{next(_serial)}",
+                                imports=IMPORTS)
     function = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * 8)(compiled.address)
     rtol, atol = 1e-9, 1e-12
     finite = [0.0, 1.0, 1.0 + 5e-10, 1.0 + 2e-9, -1.0, 1e-13, -3e-12, math.inf, -math.inf, math.nan]
@@ -181,8 +187,6 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 
 
 @pytest.mark.parametrize("body, message", [
-    ("    while a > 0:\n        a = a - 1\n    return 0", "While statement"),
-    ("    print(a)\n    return 0", "call of 'print'"),
     ("    x = carray(x_, (1,))\n    x[0] = 's'\n    return 0", "constant 's'"),
     ("    x_ = 1.0\n    return 0", "pointer parameter 'x_' reassigned"),
     ("    if a > 0:\n        y = carray(x_, (1,))\n    else:\n        y = 1.0\n    return 1 if y else 0",
@@ -197,9 +201,22 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 def test_what_is_outside_the_subset_is_refused_by_name(body, message):
     source = HEADER + "def h(a, x_):\n" + body + "\n"
     with pytest.raises(Untranslatable, match=message.replace("(", r"\(")) as raised:
-        compile_function(source, "h", ["f", ("ptr", "f")], "i", f"hbg_test_native_{next(_serial)}")
+        compile_function(source, "h", ["f", ("ptr", "f")], "i", f"hbg_test_native_{next(_serial)}",
+                         imports=IMPORTS)
     if "line" in str(raised.value):
         assert "line " in str(raised.value)
+
+
+@pytest.mark.parametrize("body, message", [
+    ("    while a > 0:\n        a = a - 1\n    return 0", "a statement of kind While (line 7)"),
+    ("    print(a)\n    return 0", "the builtin 'print' (line 7)"),
+    ("    import os\n    return 0", "a statement of kind Import (line 7)"),
+])
+def test_what_the_generator_never_writes_is_refused_before_translation(body, message):
+    source = HEADER + "def h(a, x_):\n" + body + "\n"
+    with pytest.raises(GeneratedCodeError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        compile_function(source, "h", ["f", ("ptr", "f")], "i", f"hbg_test_native_{next(_serial)}",
+                         imports=IMPORTS)
 
 
 # ------------------------------------------------------------------ the shipped models' mode functions
@@ -226,7 +243,8 @@ def assert_modes_agree_with_numba(model, trials: int = 60):
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)
     for mode in model.visited_modes:
         source = mode_function_source(model, mode)
-        compiled = compile_function(source, "mode", *native_signature(), f"hbg_test_native_{next(_serial)}")
+        compiled = compile_function(source, "mode", *native_signature(), f"hbg_test_native_{next(_serial)}",
+                                    imports=IMPORTS)
         namespace: dict = {}
         exec(compile(source, "<mode source>", "exec"), namespace)
         reference = CFunc(namespace["mode"], signature, locals={}, options={"error_model": "numpy"})
