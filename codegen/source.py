@@ -22,8 +22,14 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-__all__ = ["Argument", "FunctionSpec", "PrintMemo", "common_subexpressions", "composed_source", "docstring",
+from bondgraph.errors import HybridBondGraphError
+
+__all__ = ["Argument", "FunctionSpec", "UnprintableExpressionError", "PrintMemo", "common_subexpressions", "composed_source", "docstring",
            "escaped", "function_source", "sanitize", "module_namespace"]
+
+
+class UnprintableExpressionError(HybridBondGraphError, ValueError):
+    """An expression that numerical code cannot compute (``sp.Function('foo')(x)``, a matrix...)."""
 
 
 @dataclass(frozen=True)
@@ -119,6 +125,11 @@ class _Printer(PythonCodePrinter):
     def _module_format(self, fqn, register=True):
         leaf = fqn.split(".")[-1]
         return f"H.{leaf}" if self._raw else leaf
+
+    def _print_not_supported(self, expr):
+        raise UnprintableExpressionError(
+            f"the expression {expr} has no numerical definition (a function sympy knows only by name, or an "
+            "object that is not a number); write it with sympy's functions (sp.exp, sp.Piecewise, ...)")
 
     def _print_Symbol(self, expr):
         return self._names.get(expr, super()._print_Symbol(expr))

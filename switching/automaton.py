@@ -26,6 +26,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
 import sympy as sp
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import BooleanAtom, BooleanFunction
@@ -71,6 +72,29 @@ class Transition:
         return f"{self.source} → {self.target} when {self.guard} ({self.when}{'' if self.pulses else ', no pulses'})"
 
 
+def _setting_items(setting, automaton: str, state: str) -> list:
+    """The ``(junction, on)`` pairs of one state's setting (a mapping of junction names)."""
+    if not isinstance(setting, Mapping):
+        raise ModelDefinitionError(
+            f"automaton {automaton!r}: state {state!r} must map junction names to True (on) or False (off), "
+            f"got {setting!r}", [automaton])
+    for junction in setting:
+        if not isinstance(junction, str):
+            raise ModelDefinitionError(
+                f"automaton {automaton!r}: state {state!r} sets {junction!r}, which is not a junction name", [automaton])
+    return list(setting.items())
+
+
+def _on_off(value, automaton: str, state: str, junction: str) -> bool:
+    """A junction setting: ``True`` (on) or ``False`` (off) — numpy's booleans too, nothing else (the text
+    ``'off'`` is true to Python, and 1/0 hide a misplaced value)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ModelDefinitionError(
+        f"automaton {automaton!r}: state {state!r} sets junction {junction!r} to {value!r}; give True (on) or "
+        "False (off)", [automaton])
+
+
 class Automaton:
     """A local finite state automaton driving controlled junctions.
 
@@ -110,7 +134,7 @@ class Automaton:
         junctions = None
         for state, setting in states.items():
             check_name(state, f"state name of automaton {name!r}")
-            setting = {str(j): bool(v) for j, v in dict(setting).items()}
+            setting = {j: _on_off(v, name, state, j) for j, v in _setting_items(setting, name, state)}
             if junctions is None:
                 junctions = set(setting)
             elif set(setting) != junctions:

@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
@@ -115,6 +116,17 @@ def _canonical(expr) -> str:
 class InitialStateProjected(UserWarning):
     """The given initial state violated the initial mode's constraints and was
     projected onto them with the mode's jump map."""
+
+
+def _computable(expr, what: str, culprit: str):
+    """``expr`` if it holds no function sympy knows only by name (``sp.Function('foo')(x)``: it has no
+    numerical value), else a :class:`ModelDefinitionError` naming ``what`` and the function."""
+    undefined = sorted({str(f.func) for f in expr.atoms(AppliedUndef)}) if isinstance(expr, sp.Basic) else []
+    if undefined:
+        raise ModelDefinitionError(
+            f"{what} uses the function(s) {', '.join(map(repr, undefined))}, which have no numerical definition; "
+            "write them with sympy's functions (sp.exp, sp.Piecewise, ...) or make them signals", [culprit])
+    return expr
 
 
 class HybridModel:
@@ -298,6 +310,7 @@ class HybridModel:
                 inner = expr.expression
                 names = {**self._names, **parsed}
                 value = parse_expression(inner, names) if isinstance(inner, str) else sp.sympify(inner)
+                _computable(value, f"signal {name!r}", name)
                 self._cross[name] = (value, dict(expr.states))
                 parsed[name] = sp.Symbol(name)
                 continue
@@ -307,7 +320,7 @@ class HybridModel:
                 value = expr.xreplace({sp.Symbol(k): v for k, v in parsed.items()})
             else:
                 raise ModelDefinitionError(f"signal {name!r} must be a sympy expression or a text, not {expr!r}", [name])
-            parsed[name] = value
+            parsed[name] = _computable(value, f"signal {name!r}", name)
         return parsed
 
     def _parse_guards(self) -> dict:
@@ -321,6 +334,8 @@ class HybridModel:
                 else:
                     condition = tr.guard.xreplace({sp.Symbol(k): v for k, v in self._signals.items()})
                     text = str(tr.guard)
+                    _computable(condition, f"the guard of {automaton.name}: {tr.source} → {tr.target}",
+                                automaton.name)
                 guards[(automaton.name, tr)] = (condition, text)
         return guards
 
