@@ -21,12 +21,13 @@ takes a MODEL it also takes the path of a model file (``hbg run my.toml``;
 see :mod:`switching.modelfile`); ``--set`` then overrides the file's
 parameters, and the file's ``[run]`` table gives the default run.
 
-Output of ``hbg run``: ``--samples N`` (default 500, at least 2) writes at
-most ``N`` rows to the CSV/NPZ/plot, at ``N`` equally spaced times from 0 to
+Output of ``hbg run``: ``--samples N`` (default 500, at least 2, at most
+:data:`MAX_SAMPLES`) writes at most ``N`` rows to the CSV/NPZ/plot, at ``N`` equally spaced times from 0 to
 ``t_end`` (a run that ends early: the times it reached and its last state).
 ``--with-instants`` adds the two samples (just before, just after) of every
 instant, so each instant adds two rows.  ``--samples 0`` writes every
-integrator step and every instant (no cap).  ``--no-keep-instants`` does not
+integrator step and every instant (no cap).  Two outputs may not name one
+file.  ``hbg sweep`` makes at most :data:`MAX_RUNS` runs.  ``--no-keep-instants`` does not
 keep the record of each instant (memory stays flat on long runs; the summary
 then only counts instants).  ``--on-zeno stop`` ends a Zeno run at the
 accumulation point instead of failing.  ``--no-stiffness-check`` turns off
@@ -202,6 +203,29 @@ def _npz_target(path):
     return path if path.endswith(".npz") else path + ".npz"
 
 
+#: the most samples ``hbg run --samples`` writes (8 bytes a number: 80 MB per column of the output)
+MAX_SAMPLES = 10_000_000
+#: the most runs ``hbg sweep --grid`` makes (the product of the grid's counts)
+MAX_RUNS = 1_000_000
+
+
+def _megabytes(count: int) -> str:
+    return f"{8 * count / 1e6:,.0f} MB"
+
+
+def _distinct_outputs(outputs) -> None:
+    """A usage error if two output options name the same file (the last written would replace the other)."""
+    seen: dict = {}
+    for option, path in outputs:
+        if not path:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise _UsageError(f"{seen[key]} and {option} both name {path}: the second would overwrite the first; "
+                              "give each output its own file")
+        seen[key] = option
+
+
 def _check_output(option: str, path: str, plot: bool = False) -> None:
     """Usage errors, before anything runs, for an output file that cannot be
     written: an unsupported plot format, a missing or read-only directory."""
@@ -348,6 +372,10 @@ def _cmd_run(args) -> int:
     t_end, method, options = _run_options(args, module)
     if args.samples < 0 or args.samples == 1:
         raise _UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
+    if args.samples > MAX_SAMPLES:
+        raise _UsageError(f"--samples {args.samples}: at most {MAX_SAMPLES:,} samples (the run would hold about "
+                          f"{_megabytes(args.samples)} per state); give fewer, or --samples 0 for the solver's steps")
+    _distinct_outputs((("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)))
     if args.with_instants and not args.keep_instants:
         raise _UsageError("--with-instants needs the instants: drop --no-keep-instants")
     for option, path in (("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)):
@@ -575,6 +603,8 @@ def _grid_axis(item, defaults) -> tuple[str, list]:
         if n < 1:
             raise _UsageError(f"--grid {item}: the count after the second ':' must be a whole number >= 1, "
                               f"got {count.strip()!r}")
+        if n > MAX_RUNS:
+            raise _UsageError(f"--grid {item}: {n:,} values; a sweep makes at most {MAX_RUNS:,} runs")
         import numpy as np
 
         return name, [float(v) for v in np.linspace(number(start), number(stop), n)]
@@ -617,6 +647,10 @@ def _cmd_sweep(args) -> int:
         if name in axes or name in base:
             raise _UsageError(f"--grid {item}: {name!r} is already given ({'--grid' if name in axes else '--set'})")
         axes[name] = values
+    runs = math.prod(len(values) for values in axes.values())
+    if runs > MAX_RUNS:
+        raise _UsageError(f"--grid: {' × '.join(str(len(v)) for v in axes.values())} = {runs:,} runs; a sweep makes "
+                          f"at most {MAX_RUNS:,}: use fewer points")
     t_end, method, options = _run_options(args, module)
     options["on_zeno"] = args.on_zeno
     if args.workers is not None and args.workers < 1:
@@ -628,6 +662,7 @@ def _cmd_sweep(args) -> int:
     _check_output("--csv", args.csv)
     if args.plot:
         _check_output("--plot", args.plot, plot=True)
+    _distinct_outputs((("--csv", args.csv), ("--plot", args.plot)))
     _pandas()  # a missing pandas is said before the sweep, not after
     model = module.build(**base)  # checks --set, and names the states and signals metrics may use
     names = args.metric or ["events"]

@@ -48,7 +48,7 @@ from bondgraph.errors import HybridBondGraphError, ParameterValueError
 from .errors import SweepInterrupted
 from .simulator import check_option_names
 
-__all__ = ["MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model", "simulate_many"]
+__all__ = ["BuildError", "MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model", "simulate_many"]
 
 #: the extra that installs what sweeps on Dask need
 DASK_EXTRA = "pip install '.[dask]'"
@@ -150,6 +150,35 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
+class BuildError(ParameterValueError):
+    """The ``build`` function of a sweep raised for a parameter set, or gave
+    something that is not a model; ``name`` is the build's name, ``value`` the set."""
+
+
+def _build_name(build) -> str:
+    return getattr(build, "__qualname__", None) or getattr(getattr(build, "func", None), "__qualname__", None) \
+        or type(build).__name__
+
+
+def _built(build, parameters):
+    """``build(**parameters)``, a :class:`~switching.model.HybridModel`; any
+    failure is a :class:`BuildError` naming the build and the set (the
+    build's own error is its cause), so that the sweep goes on without it."""
+    from .model import HybridModel
+
+    name = _build_name(build)
+    try:
+        model = build(**parameters)
+    except HybridBondGraphError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's build fails this set, not the sweep
+        raise BuildError(f"{name}(**{parameters!r}) raised {type(exc).__name__}: {exc}", name, parameters) from exc
+    if not isinstance(model, HybridModel):
+        raise BuildError(f"{name}(**{parameters!r}) returned {type(model).__name__}, not a HybridModel; a sweep's "
+                         "build function must return the model it built", name, parameters)
+    return model
+
+
 @contextmanager
 def shared_model(build, parameters):
     """Context giving ``build(**parameters)``, or an equivalent model that
@@ -162,7 +191,7 @@ def shared_model(build, parameters):
     is recomputed).  A model is used by one run at a time: a run in another
     thread meanwhile gets its own new model.  At most :data:`SHARED_MODELS`
     are kept."""
-    fresh = build(**parameters)
+    fresh = _built(build, parameters)
     key = (type(fresh), fresh.fingerprint)
     with _lock:
         model = _models.get(key)
@@ -294,6 +323,10 @@ def _connected(client, workers: int | None, runs: int, retries: int):
     processes, at most one per run (closed after, with the cluster)."""
     distributed = _distributed()
     if isinstance(client, distributed.Client):
+        if client.status in ("closing", "closed"):
+            raise ParameterValueError(
+                f"simulate_many: the Dask client given is {client.status} (it was closed, or its cluster "
+                "stopped); connect a new one, or pass client=None to start a local cluster", "client", client)
         yield client
         return
     if isinstance(client, str):

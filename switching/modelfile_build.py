@@ -179,11 +179,18 @@ class LoadedModel:
         numbers = {sp.Symbol(k): sp.Float(v) for k, v in values.items()}
         out = {}
         for name, expr in self.part.initial.items():
-            value = float(expr.xreplace(numbers).evalf()) if expr.free_symbols else float(expr)
-            if not math.isfinite(value):
-                raise ModelFileError(f"the initial value of {name!r} is {value} with these parameters",
-                                     self.source.display)
-            out[name] = value
+            value = sp.sympify(expr.xreplace(numbers).evalf()) if expr.free_symbols else sp.sympify(expr)
+            if not (value.is_real and value.is_finite):
+                why = "not a real number" if value.is_finite else "not finite"
+                given = ", ".join(f"{s} = {float(numbers[s]):g}" for s in sorted(expr.free_symbols, key=str)
+                                  if s in numbers)
+                message = (f"it is {value}" + (f" with {given}" if given else "") + f", {why}; give parameter "
+                           "values for which it is a finite real number, or another expression")
+                if name in self.part.initial_where:
+                    src, keys = self.part.initial_where[name]
+                    raise src.error(message, keys, f"initial value of {name!r}")
+                raise ModelFileError(message, self.source.display, culprit=f"initial value of {name!r}")
+            out[name] = float(value)
         return out
 
     # ------------------------------------------------------------ build

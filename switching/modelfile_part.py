@@ -112,6 +112,7 @@ class Part:
     automata: list = field(default_factory=list)  # AutomatonSpec
     signals: dict = field(default_factory=dict)  # name → sympy expression or InModeSpec
     initial: dict = field(default_factory=dict)  # state name → sympy expression of parameters
+    initial_where: dict = field(default_factory=dict)  # state name → (Source, keys) of its initial value
     constants: set = field(default_factory=set)  # mode-constant names
     settings: dict = field(default_factory=dict)  # name, description, jump_law, … (used for the top file)
 
@@ -617,6 +618,8 @@ class _PartBuilder:
                     part.inputs[target.name] = expr.xreplace(symbol_map)
             for name, expr in sub.initial.items():
                 part.initial[mapping[name].name] = expr.xreplace(symbol_map)
+                if name in sub.initial_where:
+                    part.initial_where[mapping[name].name] = sub.initial_where[name]
             part.constants |= {mapping[c].name for c in sub.constants}
 
     def _renamed_automaton(self, spec: AutomatonSpec, entry, symbol_map) -> AutomatonSpec:
@@ -785,6 +788,7 @@ class _PartBuilder:
             self.part.initial[name] = self.reader.parse(src, keys, f"initial value of {name!r}", value, symbols,
                                                         self.names.parameters, "the initial value",
                                                         expected="a declared parameter")
+            self.part.initial_where[name] = (src, keys)
 
 
 def build_part(reader, src: Source, part: Part, depth: int) -> None:
