@@ -31,6 +31,8 @@ from .elements import Se as Se
 from .elements import Sf as Sf
 from .elements import Storage as Storage
 from .elements import Zero as Zero
+from .drawing import draw_bond_graph as draw_bond_graph
+from .drawing import layout_bond_graph as layout_bond_graph
 from .equations import ConfigurationEquations as ConfigurationEquations
 from .equations import derive_equations as derive_equations
 from .errors import AlgebraicLoopError as AlgebraicLoopError

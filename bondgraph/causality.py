@@ -33,9 +33,8 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .algebra import dependency_components
-from .elements import GY, TF, Junction, R, Se, Sf, Storage, Zero
+from .elements import GY, TF, Junction, OpenPort, R, Se, Sf, Storage, Zero
 from .errors import CausalityConflictError
-from .graph import OpenPort
 
 __all__ = ["Causality", "assign_causality", "causality_violations"]
 

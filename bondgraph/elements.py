@@ -54,6 +54,7 @@ __all__ = [
     "Junction",
     "Zero",
     "One",
+    "OpenPort",
 ]
 
 SymbolMap = Mapping[sp.Symbol, sp.Expr]
@@ -416,3 +417,20 @@ class One(Junction):
     Switched off it imposes zero flow on every bond."""
 
     kind: ClassVar[str] = "1"
+
+
+@dataclass(frozen=True)
+class OpenPort(OnePort):
+    """The outside world at an open port, seen when a graph with ports is
+    derived on its own (never part of a user's graph).
+
+    It contributes no equation: whichever of its bond's variables the rest of
+    the graph does not fix stays a free symbol, an *input* of the equations,
+    and the other is an *output*.  ``imposes`` fixes which variable the
+    outside imposes (``"effort"`` or ``"flow"``); ``None`` lets the causality
+    of the rest of the graph decide.
+    """
+
+    port: str = ""
+    imposes: str | None = None
+    kind: ClassVar[str] = "port"

@@ -106,6 +106,11 @@ class ConfigurationEquations:
             substitutions={**{k: sp.sympify(v).xreplace(values) for k, v in self.substitutions.items()}, **values},
         )
 
+    def derived_again(self, causality) -> "ConfigurationEquations":
+        """The equations of this configuration derived anew from ``causality``
+        (e.g. with sources' relations replaced by inputs), with this one's substitutions."""
+        return derive_equations(self.graph, self.configuration, causality).substituted(self.substitutions)
+
     def state_space(self, outputs=None, inputs=None):
         """State-space matrices ``ẋ = A x + B u``, ``y = C x + D u`` of this
         (linear) configuration, as a :class:`bondgraph.state_space.StateSpace`

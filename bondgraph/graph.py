@@ -22,11 +22,10 @@ from __future__ import annotations
 import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import ClassVar
 
 import sympy as sp
 
-from .elements import Element, Junction, OnePort, Storage, TwoPort
+from .elements import Element, Junction, OnePort, OpenPort, Storage, TwoPort
 from .errors import (
     DuplicateNameError,
     HybridBondGraphError,
@@ -82,23 +81,6 @@ class Displacement:
     symbol: sp.Symbol
     bond: str
     sign: int = 1
-
-
-@dataclass(frozen=True)
-class OpenPort(OnePort):
-    """The outside world at an open port, seen when a graph with ports is
-    derived on its own (never part of a user's graph).
-
-    It contributes no equation: whichever of its bond's variables the rest of
-    the graph does not fix stays a free symbol, an *input* of the equations,
-    and the other is an *output*.  ``imposes`` fixes which variable the
-    outside imposes (``"effort"`` or ``"flow"``); ``None`` lets the causality
-    of the rest of the graph decide.
-    """
-
-    port: str = ""
-    imposes: str | None = None
-    kind: ClassVar[str] = "port"
 
 
 class Instance:
@@ -711,9 +693,22 @@ class BondGraph:
         return last[1]
 
     def _island_graph(self, graph, island, ports: str):
-        from .islands import island_graph
+        return self._memo(("island graph", ports, island.key), lambda: graph.island_graph(island))
 
-        return self._memo(("island graph", ports, island.key), lambda: island_graph(graph, island))
+    def island_graph(self, island) -> "BondGraph":
+        """The island (:class:`bondgraph.islands.Island`) as a graph of its own:
+        its elements (off junctions holding only the island's bonds), bonds and
+        displacements in this graph's order; every declared input; the open
+        ports whose bond it holds.  Not validated (an off junction may keep a single bond)."""
+        sub = BondGraph(self.name)
+        held = set(island.bonds)
+        sub.elements = {n: self.elements[n] for n in island.elements}
+        sub.bonds = {b: self.bonds[b] for b in island.bonds}
+        sub._bonds_of = {n: [b for b in self._bonds_of[n] if b in held] for n in island.elements}
+        sub.displacements = {s: d for s, d in self.displacements.items() if d.bond in held}
+        sub.inputs = dict(self.inputs)
+        sub.open_ports = {p: (outside, b) for p, (outside, b) in self.open_ports.items() if b in held}
+        return sub
 
     def _island_causality(self, graph, island, ports: str):
         """The causality of one island, kept for every configuration holding it."""

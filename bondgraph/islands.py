@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 from .elements import Junction, TwoPort
 
-__all__ = ["Island", "element_couplings", "has_modulated_two_port", "island_graph", "islands", "merge_causality",
+__all__ = ["Island", "element_couplings", "has_modulated_two_port", "islands", "merge_causality",
            "merge_equations"]
 
 
@@ -122,24 +122,6 @@ def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
 def _controlled(graph) -> frozenset:
     """The names of the graph's controlled junctions."""
     return graph._memo("controlled junction set", lambda: frozenset(graph.controlled_junctions))
-
-
-def island_graph(graph, island: Island):
-    """The island as a graph of its own: its elements (off junctions holding
-    only the island's bonds), bonds and displacements in the graph's order;
-    every declared input of the graph; the open ports whose bond it holds.
-    Not validated (an off junction may keep a single bond)."""
-    from .graph import BondGraph
-
-    sub = BondGraph(graph.name)
-    held = set(island.bonds)
-    sub.elements = {n: graph.elements[n] for n in island.elements}
-    sub.bonds = {b: graph.bonds[b] for b in island.bonds}
-    sub._bonds_of = {n: [b for b in graph._bonds_of[n] if b in held] for n in island.elements}
-    sub.displacements = {s: d for s, d in graph.displacements.items() if d.bond in held}
-    sub.inputs = dict(graph.inputs)
-    sub.open_ports = {p: (outside, b) for p, (outside, b) in graph.open_ports.items() if b in held}
-    return sub
 
 
 def has_modulated_two_port(graph) -> bool:

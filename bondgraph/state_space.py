@@ -72,7 +72,6 @@ def _source_inputs(eqs, taken: set):
     """Re-derive ``eqs`` with every (non-feedback) source's value replaced by an
     input symbol; returns ``(equations, input symbols)``."""
     from .elements import Se, Source
-    from .equations import derive_equations
     from .relations import Relation
 
     graph = eqs.graph
@@ -101,7 +100,7 @@ def _source_inputs(eqs, taken: set):
                 s = graph.bonds_of(name)[0].sign_at(name)
                 new[var] = Relation(var, u if isinstance(el, Se) else -s * u, name)
     causality = replace(eqs.causality, relations=replace(rel, relations=new))
-    derived = derive_equations(graph, eqs.configuration, causality).substituted(eqs.substitutions)
+    derived = eqs.derived_again(causality)
     for x, phi in derived.constraints.items():
         fixed = sorted(str(u) for u in symbols if phi.has(u))
         if fixed:

@@ -316,7 +316,8 @@ def _write_outputs(args, trajectory, signals) -> list[str]:
         attempt("npz", _npz_target(args.npz), data(lambda sig: trajectory.to_npz(args.npz, signals=sig)))
     if args.plot:
         def plot():
-            from switching.plotting import _plt, plot_trajectory
+            from bondgraph.drawing import pyplot
+            from switching.plotting import plot_trajectory
 
             if len(trajectory.t) == 0:
                 raise ValueError("no samples to plot")
@@ -324,7 +325,7 @@ def _write_outputs(args, trajectory, signals) -> list[str]:
             try:
                 fig.savefig(args.plot, dpi=110)
             finally:
-                _plt().close(fig)
+                pyplot().close(fig)
 
         attempt("plot", _plot_target(args.plot), plot)
     return failures
@@ -523,11 +524,11 @@ def _cmd_save(args) -> int:
 
 def _cmd_draw(args) -> int:
     """``hbg draw``: the bond graph of one mode as textbooks draw it (see
-    :mod:`switching.drawing`), written as PNG, SVG, PDF, … by the extension."""
+    :mod:`bondgraph.drawing`), written as PNG, SVG, PDF, … by the extension."""
     import matplotlib
 
     matplotlib.use("Agg")
-    from switching.plotting import _plt, draw_bond_graph
+    from bondgraph.drawing import draw_bond_graph, pyplot
 
     _check_output("-o/--output", args.output, plot=True)
     _, model = _build(args)
@@ -540,7 +541,7 @@ def _cmd_draw(args) -> int:
     try:
         ax.figure.savefig(args.output, dpi=110)
     finally:
-        _plt().close(ax.figure)
+        pyplot().close(ax.figure)
     print(f"wrote {_plot_target(args.output)}")
     return 0
 
@@ -698,7 +699,7 @@ def _cmd_sweep(args) -> int:
         import matplotlib
 
         matplotlib.use("Agg")
-        from switching.plotting import _plt
+        from bondgraph.drawing import pyplot
 
         ax = plot_sweep(frame, names[0], varying)
         ax.set_title(f"{model.name}: {ax.get_title()}", fontsize=10)
@@ -709,7 +710,7 @@ def _cmd_sweep(args) -> int:
             print(f"hbg: error: could not write plot {args.plot}: {exc}", file=sys.stderr)
             status = EXIT_FAILED
         finally:
-            _plt().close(ax.figure)
+            pyplot().close(ax.figure)
     return status
 
 

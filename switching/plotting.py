@@ -8,7 +8,7 @@
 * :func:`mode_graph` — the modes actually traversed and the transitions
   between them (networkx), edges labelled with how often they were taken;
 * :func:`draw_bond_graph` — the bond graph as textbooks draw it, with the
-  causal stroke of every bond in one mode (:mod:`switching.drawing`).
+  causal stroke of every bond in one mode (:mod:`bondgraph.drawing`).
 """
 
 from __future__ import annotations
@@ -17,27 +17,14 @@ from collections import Counter
 
 import numpy as np
 
-from .drawing import draw_bond_graph
+from bondgraph.drawing import draw_bond_graph, pyplot
 
 __all__ = ["plot_trajectory", "phase_portrait", "mode_graph", "draw_bond_graph", "mode_colors"]
 
 
-def _plt():
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
-        try:
-            import matplotlib.pyplot as plt  # noqa: F401
-        except Exception:  # pragma: no cover - headless fallback
-            matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def mode_colors(modes) -> dict:
     """A stable colour per mode (in order of first appearance)."""
-    plt = _plt()
+    plt = pyplot()
     cmap = plt.get_cmap("tab10")
     return {mode: cmap(k % 10) for k, mode in enumerate(dict.fromkeys(modes))}
 
@@ -60,7 +47,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     """One axis per signal (default: every state), mode intervals shaded,
     instants marked (when there are at most ``max_instants`` of them).
     Returns the figure."""
-    plt = _plt()
+    plt = pyplot()
     signals = list(signals or trajectory.state_names)
     if axes is None:
         fig, axes = plt.subplots(len(signals), 1, sharex=True, figsize=(8, 1.9 * len(signals) + 0.8), squeeze=False)
@@ -97,7 +84,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
 def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):
     """``y`` against ``x``, each mode in its colour (or all in ``color``, to
     compare runs on one axis), jumps dotted.  Returns the axis."""
-    plt = _plt()
+    plt = pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 4))
     xs, ys = trajectory.signal(x), trajectory.signal(y)
@@ -124,7 +111,7 @@ def mode_graph(trajectory, ax=None):
     taken at instants, labelled with their count."""
     import networkx as nx
 
-    plt = _plt()
+    plt = pyplot()
     graph = nx.DiGraph()
     counts: Counter = Counter()
     kinds: dict = {}

@@ -164,7 +164,7 @@ def plot_sweep(frame, metric: str, parameters, ax=None):
     ``parameters`` (one name: a line against it; two: a heat map, the first
     along x).  Failed runs are marked with a red ×, not plotted as values.
     Returns the matplotlib Axes."""
-    from .plotting import _plt
+    from bondgraph.drawing import pyplot
 
     parameters = [parameters] if isinstance(parameters, str) else list(parameters)
     if len(parameters) not in (1, 2):
@@ -184,7 +184,7 @@ def plot_sweep(frame, metric: str, parameters, ax=None):
     if frame.duplicated(subset=parameters).any():
         raise ParameterValueError(f"plot_sweep: several runs share values of {', '.join(parameters)}: "
                                   "give every parameter that varies", "parameters", parameters)
-    plt = _plt()
+    plt = pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(6.4, 4.4))
     xs, x_edges, x_numeric = _axis(frame[parameters[0]])

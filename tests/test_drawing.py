@@ -1,4 +1,4 @@
-"""Bond graph drawings as textbooks draw them (switching.drawing): the
+"""Bond graph drawings as textbooks draw them (bondgraph.drawing): the
 geometry of every mark is checked against the graph and its causality."""
 
 import matplotlib
@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 import models  # noqa: E402
 from bondgraph import C, BondGraph, I, One, R, Se, Zero  # noqa: E402
 from models import cli  # noqa: E402
-from switching.drawing import _segment_meets_box, draw_bond_graph, element_label, layout_bond_graph  # noqa: E402
+from bondgraph.drawing import _segment_meets_box, draw_bond_graph, element_label, layout_bond_graph  # noqa: E402
 from switching.plotting import draw_bond_graph as draw_from_plotting  # noqa: E402
 
 #: every shipped model, and the large variants
@@ -324,7 +324,7 @@ def test_the_layout_is_the_same_in_every_process():
     import sys
 
     code = ("import sys; sys.path.insert(0, 'tests'); from test_drawing import branched; "
-            "from switching.drawing import layout_bond_graph; import models; "
+            "from bondgraph.drawing import layout_bond_graph; import models; "
             "print(sorted(layout_bond_graph(branched(4)).cells.items()), "
             "sorted(layout_bond_graph(models.load('falling_rod').build().graph).cells.items()))")
     root = __import__("pathlib").Path(__file__).resolve().parents[1]

@@ -214,7 +214,7 @@ def test_progress_bar_is_dasks(client, capsys):
 def test_plot_sweep_draws_a_line_for_one_parameter_and_a_heat_map_for_two():
     from matplotlib.collections import QuadMesh
 
-    from switching.plotting import _plt
+    from bondgraph.drawing import pyplot
 
     frame = pd.DataFrame({"e": [0.5, 0.6, 0.7] * 2, "law": ["paper"] * 3 + ["newton"] * 3,
                           "status": ["failed", "ok", "ok", "ok", "ok", "ok"], "events": [30, 12, 9, 31, 11, 8]})
@@ -223,13 +223,13 @@ def test_plot_sweep_draws_a_line_for_one_parameter_and_a_heat_map_for_two():
     np.testing.assert_array_equal(line.get_xdata(), [0.5, 0.6, 0.7])
     np.testing.assert_array_equal(line.get_ydata(), [np.nan, 12, 9])  # the failed run is no value
     assert any(line.get_label() == "failed" for line in ax.get_lines())
-    _plt().close(ax.figure)
+    pyplot().close(ax.figure)
     ax = plot_sweep(frame, "events", ["e", "law"])
     (mesh,) = [c for c in ax.collections if isinstance(c, QuadMesh)]
     cells = mesh.get_array()
     assert cells.shape == (2, 3) and cells.mask[0, 0] and cells[1, 0] == 31  # rows: laws in order of appearance
     assert [t.get_text() for t in ax.get_yticklabels()] == ["paper", "newton"]
-    _plt().close(ax.figure)
+    pyplot().close(ax.figure)
     with pytest.raises(Exception, match="several runs share"):
         plot_sweep(frame, "events", ["law"])
 

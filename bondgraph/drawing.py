@@ -46,7 +46,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["draw_bond_graph", "layout_bond_graph", "element_label", "GridLayout"]
+__all__ = ["draw_bond_graph", "layout_bond_graph", "element_label", "GridLayout", "pyplot"]
+
+
+def pyplot():
+    """``matplotlib.pyplot``, on the headless Agg backend where no display can be opened."""
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
+        try:
+            import matplotlib.pyplot as plt  # noqa: F401
+        except Exception:  # pragma: no cover - headless fallback
+            matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 #: the folded main chain: a chain longer than this, without branches, is folded
 WRAP_AFTER = 16
@@ -557,9 +571,7 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         >>> ax = draw_bond_graph(rod.graph, rod.configuration_of(rod.mode("contact|stuck")))
         >>> ax.figure.savefig("rod.svg")  # doctest: +SKIP
     """
-    from .plotting import _plt
-
-    plt = _plt()
+    plt = pyplot()
     if ax is None:
         ax = plt.figure(figsize=(6, 4)).add_axes([0, 0, 1, 1])
         own = True
