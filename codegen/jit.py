@@ -166,7 +166,7 @@ def _import(name: str, source: str, directory: Path, imports=()):
     is compiled from ``source`` itself, so no ``.pyc`` is written or read."""
     from numba.core.dispatcher import Dispatcher
 
-    tree = check_source(source, f"<{name}>", imports)
+    check_source(source, f"<{name}>", imports)
     path = directory / f"{name}.py"
     for attempt in range(3):
         try:
@@ -186,7 +186,7 @@ def _import(name: str, source: str, directory: Path, imports=()):
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         try:
-            exec(compile(tree, str(path), "exec"), module.__dict__)  # checked above: only what the generator writes
+            exec(compile(source, str(path), "exec"), module.__dict__)  # checked above: only what the generator writes
         except (OSError, RuntimeError):
             # the file vanished (another process evicted it) before numba saw it: write it again
             del sys.modules[name]

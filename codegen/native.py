@@ -954,7 +954,8 @@ def compile_function(source: str, entry: str, signature: list, result: str, name
     anything the code generator never writes (``imports``: the imports it may hold)."""
     from numba.core.compiler_lock import global_compiler_lock
 
-    tree = check_source(source, f"<{name}>", imports)  # (its imports run below: only those allowed)
+    check_source(source, f"<{name}>", imports)  # (its imports run below: only those allowed)
+    tree = ast.parse(source)
     definitions = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry]
     if len(definitions) != 1:
         raise Untranslatable(f"no single function {entry!r} in the source")

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import ast
 import builtins
-import functools
+import hashlib
 
 from bondgraph.errors import HybridBondGraphError
 
@@ -149,8 +149,7 @@ def _check_expression(root, where: str) -> None:
             raise _refuse(where, node, "a call with **keywords")
 
 
-@functools.lru_cache(maxsize=1024)
-def _checked(source: str, where: str, imports: frozenset) -> ast.Module:
+def _checked(source: str, where: str, imports: frozenset) -> None:
     try:
         tree = ast.parse(source, filename=where)
     except SyntaxError as exc:
@@ -174,16 +173,28 @@ def _checked(source: str, where: str, imports: frozenset) -> ast.Module:
         else:  # a docstring or another constant expression
             if not isinstance(node.value, ast.Constant):
                 raise _refuse(where, node, f"a module-level expression {ast.unparse(node)[:60]!r}")
-    return tree
 
 
-def check_source(source: str, where: str = "<generated>", imports=()) -> ast.Module:
+#: digests of the (source, allowed imports) that passed, so that a source is parsed once per process
+_PASSED: set = set()
+_PASSED_MAX = 100_000
+
+
+def check_source(source: str, where: str = "<generated>", imports=()) -> None:
     """Parse ``source`` and check it holds only what the code generator writes
     (see the module docstring); ``imports`` lists the allowed imports as
     ``(module, name, asname)`` triples (``name`` ``None`` for ``import
-    module``).  Returns the parsed module; raises :class:`GeneratedCodeError`
-    naming the line and what was found.  Results are memoized by source text."""
-    return _checked(source, where, frozenset(imports))
+    module``).  Raises :class:`GeneratedCodeError` naming the line and what
+    was found.  A source that passed (with the same imports) is not parsed again."""
+    imports = frozenset(imports)
+    digest = hashlib.blake2b(source.encode("utf-8", "surrogatepass"), digest_size=20,
+                             person=b"hbg-check").digest() + repr(sorted(imports, key=repr)).encode()
+    if digest in _PASSED:
+        return
+    _checked(source, where, imports)
+    if len(_PASSED) >= _PASSED_MAX:
+        _PASSED.clear()
+    _PASSED.add(digest)
 
 
 def execute(source: str, namespace: dict, where: str = "<generated>", imports=(), first_line: int = 1) -> dict:
