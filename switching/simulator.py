@@ -610,7 +610,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             raise _FlowFailure(
                 StepSizeError,
                 f"{method} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
-                "The step size collapsed: the problem may be stiff here (try method='Radau' or 'BDF'), "
+                f"The step size collapsed: the problem may be stiff here ({_stiff_advice(method)}), "
                 "or a state may be running into a singularity.", t, x, steps,
             ) from None
         steps += 1
@@ -637,6 +637,16 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             return None, t, x, steps
         if save:
             recorder.sample(t, x, mode)
+
+
+_IMPLICIT = ("Radau", "BDF", "LSODA")  # the methods advised where the step size collapses
+
+
+def _stiff_advice(method: str) -> str:
+    """Advice after ``method`` failed with a collapsed step: the stiff
+    methods to try instead, never ``method`` itself."""
+    others = [repr(m) for m in _IMPLICIT if m != method.removesuffix("-jit")]
+    return "try method=" + ", ".join(others[:-1]) + " or " + others[-1]
 
 
 def _stiffness_message(model, cm, mode, exc) -> str:
@@ -736,7 +746,7 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
             return (t, x), t, x, mode, steps, False
         if status == "collapsed":
             raise _FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
-                               "step size collapsed (stiff here? try Radau or BDF)", t, x, steps, mode)
+                               f"step size collapsed (stiff here? {_stiff_advice(method)})", t, x, steps, mode)
         if status == "stiff":
             h_lambda, h, _, limit, component = result.info[:5]
             cm = model.compiled_mode(mode)
