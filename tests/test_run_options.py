@@ -4,7 +4,8 @@ option of the wrong kind is named before anything runs.
 * A step that cannot advance ``t`` in floating point, options implying more
   steps (or guard tests, or sample memory) than ``max_steps`` allows, are
   refused up front — by the Python and the compiled methods alike, the
-  compiled ones without compiling anything.
+  compiled ones without compiling anything — and ``hbg run`` refuses them as
+  usage errors (exit 2).
 * ``max_steps`` is also a running count: a run taking more steps stops with
   :class:`StepLimitError`, its partial trajectory attached.
 * Every option of the wrong kind or out of its bounds raises an error of the
@@ -24,7 +25,7 @@ import numpy as np
 import pytest
 
 from bondgraph.errors import HybridBondGraphError
-from models import bouncing_ball, diode_circuit, two_tanks
+from models import bouncing_ball, cli, diode_circuit, two_tanks
 from switching.errors import (OptionError, OptionTypeError, OptionValueError, SimulationError, StepLimitError,
                               StepSizeError, WorkLimitError)
 from switching.run_options import DEFAULT_MAX_STEPS, MAX_OUTPUT_BYTES
@@ -287,3 +288,72 @@ def test_numpy_scalars_are_numbers():
                               first_step=np.float16(0.01), t_eval=np.array([0, 1], dtype=np.int64),
                               progress=lambda t: None)
     assert adaptive.t[0] == 0.0 and adaptive.t[-1] == 1.0
+
+
+# ------------------------------------------------------------------ hbg run
+
+
+def hbg(capsys, *args):
+    """``hbg args`` in this process: (exit status, stdout, stderr)."""
+    status = cli.main([str(a) for a in args])
+    out = capsys.readouterr()
+    assert "Traceback" not in out.err
+    return status, out.out, out.err
+
+
+@pytest.fixture
+def nothing_compiles(monkeypatch):
+    """The CLI's model compiles nothing (a refusal up front needs no kernel)."""
+    from switching import HybridModel
+
+    def compiles(*args, **kwargs):
+        raise AssertionError("the run compiled code before refusing its options")
+
+    monkeypatch.setattr(HybridModel, "compiled_mode", compiles)
+    monkeypatch.setattr(HybridModel, "compiled_model", compiles)
+
+
+@pytest.mark.parametrize("method", ["euler", "rk4-jit"])
+def test_hbg_refuses_a_step_below_the_resolution_of_t_as_a_usage_error(capsys, request, method):
+    if method.endswith("-jit"):
+        request.getfixturevalue("nothing_compiles")
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--method", method, "--dt", "1e-300")
+    assert status == cli.EXIT_USAGE
+    assert "hbg: error: --dt: dt = 1e-300 s is too small" in err and "t + dt == t" in err
+    assert out == ""
+
+
+def test_hbg_refuses_a_step_needing_more_than_max_steps_and_names_the_flag(capsys):
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--method", "euler", "--dt", "1e-9")
+    assert status == cli.EXIT_USAGE
+    assert "--dt: dt = 1e-09 s needs 2.5e+09 steps" in err and "max_steps = 10000000" in err
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--method", "euler", "--dt", "0.01", "--max-steps", "100")
+    assert status == cli.EXIT_USAGE and "needs 250 steps" in err and "max_steps = 100" in err
+
+
+def test_hbg_sweep_refuses_a_step_no_run_could_take_before_starting_any(capsys, tmp_path):
+    status, out, err = hbg(capsys, "sweep", "bouncing-ball", "--grid", "e=0.5,0.6", "--method", "euler",
+                           "--dt", "1e-300", "--csv", tmp_path / "sweep.csv")
+    assert status == cli.EXIT_USAGE and "--dt: dt = 1e-300 s is too small" in err
+    assert "sweep of" not in out and not (tmp_path / "sweep.csv").exists()
+
+
+def test_hbg_refuses_sample_times_beyond_the_memory_cap_before_making_them(capsys):
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--samples", "1000000000")
+    assert status == cli.EXIT_USAGE
+    assert "--samples asks for 1000000000 sample times × 2 states × 8 bytes = 14.9 GiB" in err
+
+
+@pytest.mark.parametrize("value", ["0", "-5"])
+def test_hbg_max_steps_must_be_positive(capsys, value):
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--max-steps", value)
+    assert status == cli.EXIT_USAGE
+    assert f"--max-steps: max_steps must be a whole number of steps ≥ 1, got {value}" in err
+
+
+def test_hbg_max_steps_stops_a_run_and_saves_its_partial_run(capsys, tmp_path):
+    data = tmp_path / "ball.csv"
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--max-steps", "8", "--samples", "0", "--csv", data)
+    assert status == cli.EXIT_FAILED
+    assert "the run took max_steps = 8 steps" in err and "the files hold the partial run up to t = " in err
+    assert "partial trajectory" in out and data.stat().st_size > 0
