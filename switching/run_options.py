@@ -94,11 +94,19 @@ def _show(value) -> str:
 
 def _is_number(value) -> bool:
     """A real number: int, float or a numpy scalar, not a bool."""
+    kind = type(value)
+    if kind is float or kind is int:  # the common case, without the abstract classes' slower checks
+        return True
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
-def _number(option: str, value, expected: str) -> float:
-    """``value`` as a float, or :class:`OptionTypeError` saying ``expected``."""
+def _of(unit: str) -> str:
+    return f" of {unit}" if unit else ""
+
+
+def _number(option: str, value, expected) -> float:
+    """``value`` as a float, or :class:`OptionTypeError` saying ``expected()``
+    (a function: the text is made only for the error)."""
     if _is_number(value):
         return float(value)
     hint = ""
@@ -106,39 +114,47 @@ def _number(option: str, value, expected: str) -> float:
         hint = " (True and False are not numbers)"
     elif isinstance(value, (str, bytes)):
         hint = " (text is not read as a number: write the number without quotes)"
-    raise OptionTypeError(f"{option} must be {expected}, got {_show(value)}{hint}", option, value)
+    raise OptionTypeError(f"{option} must be {expected()}, got {_show(value)}{hint}", option, value)
 
 
 def positive_finite(option: str, value, unit: str = "") -> float:
     """``value`` [``unit``] as a float if it is a finite number > 0."""
-    expected = f"a positive finite number{unit and ' of ' + unit}"
+    def expected():
+        return f"a positive finite number{_of(unit)}"
+
     number = _number(option, value, expected)
     if not (number > 0 and math.isfinite(number)):
-        raise OptionValueError(f"{option} must be {expected}, got {_show(value)}", option, value)
+        raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
     return number
 
 
 def positive(option: str, value, unit: str = "") -> float:
     """``value`` [``unit``] as a float if it is a number > 0 (``inf`` included)."""
-    expected = f"a positive number{unit and ' of ' + unit} (inf for no limit)"
+    def expected():
+        return f"a positive number{_of(unit)} (inf for no limit)"
+
     number = _number(option, value, expected)
     if not number > 0:
-        raise OptionValueError(f"{option} must be {expected}, got {_show(value)}", option, value)
+        raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
     return number
 
 
 def not_negative(option: str, value, unit: str = "") -> float:
     """``value`` [``unit``] as a float if it is a number ≥ 0 (``inf`` included, not NaN)."""
-    expected = f"a number ≥ 0{unit and ' of ' + unit}"
+    def expected():
+        return f"a number ≥ 0{_of(unit)}"
+
     number = _number(option, value, expected)
     if not number >= 0:
-        raise OptionValueError(f"{option} must be {expected}, got {_show(value)}", option, value)
+        raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
     return number
 
 
 def whole(option: str, value, low: int, high: int | None = None, unit: str = "") -> int:
     """``value`` as an int if it is an integer (not a float, not a bool) in ``[low, high]``."""
-    expected = f"a whole number{unit and ' of ' + unit} ≥ {low}" + ("" if high is None else f" and ≤ {high}")
+    if type(value) is int and value >= low and (high is None or value <= high):
+        return value  # the common case, at once
+    expected = f"a whole number{_of(unit)} ≥ {low}" + ("" if high is None else f" and ≤ {high}")
     if not isinstance(value, numbers.Integral) or isinstance(value, (bool, np.bool_)):
         hint = " (True and False are not numbers)" if isinstance(value, (bool, np.bool_)) else ""
         raise OptionTypeError(f"{option} must be {expected}, got {_show(value)}{hint}", option, value)
@@ -223,7 +239,7 @@ def check_ends(t0, t_end) -> None:
     """Finite ends [s], ``t_end`` after ``t0``."""
     for name, value in (("t0", t0), ("t_end", t_end)):
         advice = "; a run needs an end: give the time you want to see" if name == "t_end" else ""
-        number = _number(name, value, "a finite number of seconds")
+        number = _number(name, value, lambda: "a finite number of seconds")
         if not math.isfinite(number):
             raise OptionValueError(f"{name} must be a finite number of seconds, got {_show(value)}{advice}",
                                    name, value)
