@@ -276,6 +276,8 @@ def _count(t_eval) -> int:
     """How many sample times ``t_eval`` holds (without converting it)."""
     if isinstance(t_eval, np.ndarray):
         return int(t_eval.size)
+    if _is_number(t_eval):
+        return 1
     try:
         return len(t_eval)
     except TypeError:

@@ -288,6 +288,7 @@ def test_numpy_scalars_are_numbers():
                               first_step=np.float16(0.01), t_eval=np.array([0, 1], dtype=np.int64),
                               progress=lambda t: None)
     assert adaptive.t[0] == 0.0 and adaptive.t[-1] == 1.0
+    assert 0.5 in model.simulate(1.0, "RK45", t_eval=np.float64(0.5)).t  # one time, as a scalar
 
 
 # ------------------------------------------------------------------ hbg run
