@@ -11,44 +11,46 @@ names the option, the value given and the value expected.  A number is an
 ``int``, a ``float`` or a numpy scalar; ``True``/``False`` are not numbers and
 text is never read as one.
 
-==================  ========  ============================================================
-option              unit      kind and bounds
-==================  ========  ============================================================
-``t0``, ``t_end``   s         number, finite; ``t_end > t0``
-``method``          —         one of :data:`METHODS` or ``"auto"``
-``dt``              s         euler, rk4 (and their ``-jit``) only, and needed there: number,
-                              finite, > 0; at least one ulp of ``max(|t0|, |t_end|)`` (else
-                              ``t + dt == t`` somewhere in the run: it could not advance);
-                              ``(t_end − t0)/dt`` at most ``max_steps``
-``rtol``            1         number, finite, > 0
-``atol``            state     number, finite, > 0
-``max_step``        s         number > 0 (``inf``: no limit); adaptive methods: at least 10
-                              ulps of ``max(|t0|, |t_end|)`` (their smallest step) and
-                              ``(t_end − t0)/max_step`` at most ``max_steps``
-``first_step``      s         ``None`` or number, finite, > 0
-``x0``              state     ``None`` or one finite number per state
-``t_eval``          s         ``None`` or finite numbers in ``[t0, t_end]``; their samples
-                              (``len(t_eval) × states × 8`` bytes) at most
-                              :data:`MAX_OUTPUT_BYTES` (1 GiB)
-``max_steps``       steps     integer ≥ 1, default :data:`DEFAULT_MAX_STEPS` (10 000 000): a
-                              bound on the steps the options imply, checked up front, and on
-                              the steps the run takes (beyond it the run stops with
-                              :class:`~switching.errors.StepLimitError`, its partial
-                              trajectory attached)
-``event_samples``   1/step    integer, 0 … :data:`MAX_EVENT_SAMPLES` (1000); the guard tests
-                              the options imply, ``steps × (event_samples + 1)``, at most
-                              ``(DEFAULT_EVENT_SAMPLES + 1) × max_steps``
-``max_events``      instants  integer ≥ 1
-``zeno_window``     ratios    integer, 2 … :data:`MAX_ZENO_WINDOW` (1000)
-``zeno_min_gap``    s         ``None`` (1e-9 of the run) or number ≥ 0, not NaN
-``on_zeno``         —         ``"raise"`` or ``"stop"``
-``output``          —         ``"steps"`` or ``"events"``
-``keep_instants``   —         ``True`` or ``False`` (numpy's too)
-``stiffness_check`` —         ``True`` or ``False`` (numpy's too)
-``progress``        —         ``None`` or a callable, called with the time [s]
-``sensitivity_rtol``  1       number, finite, > 0; only with ``sensitivities``
-``sensitivity_atol``  state   number, finite, > 0; only with ``sensitivities``
-==================  ========  ============================================================
+======================  =========  ==========================================================
+option                  unit       kind and bounds
+======================  =========  ==========================================================
+``t0``, ``t_end``       s          number, finite; ``t_end > t0``
+``method``              —          one of :data:`METHODS` or ``"auto"``
+``dt``                  s          euler, rk4 (and their ``-jit``) only, and needed there:
+                                   number, finite, > 0; at least one ulp of
+                                   ``max(|t0|, |t_end|)`` (else ``t + dt == t`` somewhere in
+                                   the run: it could not advance); ``(t_end − t0)/dt`` at
+                                   most ``max_steps``
+``rtol``                1          number, finite, > 0
+``atol``                state      number, finite, > 0
+``max_step``            s          number > 0 (``inf``: no limit); adaptive methods: at least
+                                   10 ulps of ``max(|t0|, |t_end|)`` (their smallest step)
+                                   and ``(t_end − t0)/max_step`` at most ``max_steps``
+``first_step``          s          ``None`` or number, finite, > 0
+``x0``                  state      ``None`` or one finite number per state
+``t_eval``              s          ``None`` or finite numbers in ``[t0, t_end]``; their
+                                   samples (``len(t_eval) × states × 8`` bytes) at most
+                                   :data:`MAX_OUTPUT_BYTES` (1 GiB)
+``max_steps``           steps      integer ≥ 1, default :data:`DEFAULT_MAX_STEPS`
+                                   (10 000 000): a bound on the steps the options imply,
+                                   checked up front, and on the steps the run takes (beyond
+                                   it the run stops with
+                                   :class:`~switching.errors.StepLimitError`, its partial
+                                   trajectory attached)
+``event_samples``       1/step     integer, 0 … :data:`MAX_EVENT_SAMPLES` (1000); the guard
+                                   tests the options imply, ``steps × (event_samples + 1)``,
+                                   at most ``(DEFAULT_EVENT_SAMPLES + 1) × max_steps``
+``max_events``          instants   integer ≥ 1
+``zeno_window``         ratios     integer, 2 … :data:`MAX_ZENO_WINDOW` (1000)
+``zeno_min_gap``        s          ``None`` (1e-9 of the run) or number ≥ 0, not NaN
+``on_zeno``             —          ``"raise"`` or ``"stop"``
+``output``              —          ``"steps"`` or ``"events"``
+``keep_instants``       —          ``True`` or ``False`` (numpy's too)
+``stiffness_check``     —          ``True`` or ``False`` (numpy's too)
+``progress``            —          ``None`` or a callable, called with the time [s]
+``sensitivity_rtol``    1          number, finite, > 0; only with ``sensitivities``
+``sensitivity_atol``    state      number, finite, > 0; only with ``sensitivities``
+======================  =========  ==========================================================
 
 "Steps" are the integrator's accepted steps: ``(t_end − t0)/dt`` for a fixed
 step, at least ``(t_end − t0)/max_step`` for an adaptive one (how many more
