@@ -4,7 +4,7 @@
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
-                  [--no-stiffness-check]
+                  [--no-stiffness-check] [--max-steps N]
     hbg modes MODEL [--mode LABEL] [--latex] [--state-space]  f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR                  export the generated per-mode functions
@@ -32,7 +32,11 @@ keep the record of each instant (memory stays flat on long runs; the summary
 then only counts instants).  ``--on-zeno stop`` ends a Zeno run at the
 accumulation point instead of failing.  ``--no-stiffness-check`` turns off
 the explicit methods' stiffness test (``stiffness_check=False``: the run
-goes on whatever the stability of its step).  The data files are written first,
+goes on whatever the stability of its step).  ``--max-steps N`` (default
+10 000 000) bounds the integrator's steps: a ``--dt`` that needs more, or
+one below the resolution of ``t``, is a usage error before anything runs
+(the checks of :mod:`switching.run_options`), and a run that takes more
+stops (exit 1, the partial run saved).  The data files are written first,
 then the plot, each on its own: one that cannot be written does not stop the
 others.
 
@@ -175,6 +179,40 @@ def _run_options(args, module) -> tuple[float, str, dict]:
         if args.rtol is not None:
             options["rtol"] = args.rtol
     return t_end, method, options
+
+
+#: the command line's flag for an option of ``simulate``
+_FLAGS = {"dt": "--dt", "rtol": "--rtol", "max_steps": "--max-steps", "t_end": "--t-end", "t_eval": "--samples"}
+
+
+def _check_run(model, t_end, method, options) -> None:
+    """The checks ``simulate`` makes of its options, before anything runs
+    (:func:`switching.run_options.check_run`), as usage errors naming the flag."""
+    from switching.errors import OptionError
+    from switching.run_options import check_run
+
+    try:
+        check_run(model, t_end, method, options)
+    except OptionError as exc:
+        flag = _FLAGS.get(exc.option)
+        raise _UsageError(f"{flag}: {exc}" if flag else str(exc)) from None
+
+
+def _sample_times(model, t_end, samples):
+    """The ``--samples`` times (``None`` for every step), refused before they
+    are made when they would not fit (:func:`switching.run_options.check_output_size`)."""
+    import numpy as np
+
+    from switching.errors import OptionError
+    from switching.run_options import check_output_size
+
+    if not samples:
+        return None
+    try:
+        check_output_size(samples, len(model.states), "--samples")
+    except OptionError as exc:
+        raise _UsageError(str(exc)) from None
+    return np.linspace(0.0, t_end, samples)
 
 
 # ------------------------------------------------------------------ output files
@@ -389,12 +427,15 @@ def _cmd_run(args) -> int:
             b.flow.name for b in model.graph.bonds.values()
         }:
             raise _UsageError(f"unknown signal {s!r}; signals: {', '.join(model.signal_names)}")
-    t_eval = np.linspace(0.0, t_end, args.samples) if args.samples else None
+    if args.max_steps is not None:
+        options["max_steps"] = args.max_steps
+    t_eval = _sample_times(model, t_end, args.samples)
     if t_eval is not None:
         options["t_eval"] = t_eval
     options.update(on_zeno=args.on_zeno, keep_instants=args.keep_instants)
     if not args.stiffness_check:
         options["stiffness_check"] = False
+    _check_run(model, t_end, method, options)
     wants_files = bool(args.csv or args.npz or args.plot)
 
     progress = _Progress(t_end)
@@ -666,6 +707,7 @@ def _cmd_sweep(args) -> int:
     _distinct_outputs((("--csv", args.csv), ("--plot", args.plot)))
     _pandas()  # a missing pandas is said before the sweep, not after
     model = module.build(**base)  # checks --set, and names the states and signals metrics may use
+    _check_run(model, t_end, method, options)  # a --dt no run could take: refused once, not by every run
     names = args.metric or ["events"]
     metrics = _sweep_metrics(names, model)
     sets = [{**base, **point} for point in parameter_grid(axes)]
@@ -751,6 +793,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="stop with advice when the explicit method's step is beyond its stability (default); "
                         "--no-stiffness-check runs on whatever the stability (e.g. rates that jump inside an "
                         "input function)")
+    p.add_argument("--max-steps", type=int, dest="max_steps",
+                   help="the most integrator steps the run may take (default 10000000): options that need more "
+                        "are refused up front, a run that takes more stops with its partial run saved")
     p.set_defaults(run=_cmd_run)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")

@@ -19,6 +19,9 @@ from .errors import StiffnessError as StiffnessError
 from .errors import SimulationInterrupted as SimulationInterrupted
 from .errors import SweepInterrupted as SweepInterrupted
 from .errors import UnknownOptionError as UnknownOptionError
+from .errors import OptionError as OptionError
+from .errors import StepLimitError as StepLimitError
+from .errors import WorkLimitError as WorkLimitError
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper

@@ -19,6 +19,11 @@ __all__ = [
     "SimulationInterrupted",
     "SweepInterrupted",
     "UnknownOptionError",
+    "OptionError",
+    "OptionValueError",
+    "OptionTypeError",
+    "WorkLimitError",
+    "StepLimitError",
 ]
 
 
@@ -129,3 +134,48 @@ class UnknownOptionError(SimulationError, TypeError):
     """``simulate`` (or a sweep) was given an option it does not know; the
     message names the closest known ones.  A ``TypeError`` too, as Python
     reports an unexpected keyword argument."""
+
+
+class OptionError(SimulationError):
+    """An option of a run (``simulate``) that cannot be taken, refused before
+    anything runs (no trajectory): ``option`` names it, ``value`` is what was
+    given; the message says the value expected (see
+    :mod:`switching.run_options`)."""
+
+    def __init__(self, message: str, option: str | None = None, value=None):
+        super().__init__(message)
+        self.option = option
+        self.value = value
+
+
+class OptionValueError(OptionError, ValueError):
+    """An option's value out of its bounds (a negative step, ``zeno_window=0``).
+    A ``ValueError`` too."""
+
+
+class OptionTypeError(OptionError, TypeError):
+    """An option's value of the wrong kind: text where a number is expected
+    (``dt="0.1"``), ``True`` for a number, a number for a flag.  A
+    ``TypeError`` too."""
+
+
+class WorkLimitError(OptionValueError):
+    """The options ask for more work or memory than a run may take: more steps
+    than ``max_steps`` (a step ``dt`` or ``max_step`` far below the run's
+    length), a step below the resolution of ``t`` (``t + dt == t``), more
+    sample times than memory allows.  ``figure`` is what the options imply,
+    ``limit`` the bound it exceeds."""
+
+    def __init__(self, message: str, option: str | None = None, value=None, figure=None, limit=None):
+        super().__init__(message, option, value)
+        self.figure = figure
+        self.limit = limit
+
+
+class StepLimitError(SimulationError):
+    """A run took ``max_steps`` steps without reaching its end; ``trajectory``
+    holds what it computed, ``t`` where it stopped, ``max_steps`` the bound."""
+
+    def __init__(self, message: str, trajectory=None, t=None, mode=None, max_steps=None):
+        super().__init__(message, trajectory, t, mode)
+        self.max_steps = max_steps

@@ -46,6 +46,7 @@ from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
 from .jit_model import CompiledModel, remembered_modes
 from .law_automata import branches_at, law_automaton
+from .run_options import check_sensitivity_options
 from .simulator import check_option_names, simulate
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
@@ -858,6 +859,14 @@ class HybridModel:
         spent in each mode, ``time_in_modes()``): with ``t_eval`` or
         ``output="events"`` the memory of a long run then stays bounded.
         ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run.
+        ``max_steps`` (default 10 000 000) bounds the steps of a run: options
+        implying more (``(t_end − t0)/dt``, ``(t_end − t0)/max_step``), a
+        step below the resolution of ``t`` (``t + dt == t``), too many guard
+        samples or sample times are refused before anything runs
+        (:class:`~switching.errors.WorkLimitError`), and a run that takes
+        more steps stops with :class:`~switching.errors.StepLimitError`.
+        Every option is checked, its kind and bounds, before anything runs
+        (:mod:`switching.run_options` lists them with their units).
         A failed run raises a :class:`~switching.errors.SimulationError`
         carrying the trajectory computed so far (``error.trajectory``);
         Ctrl-C raises :class:`~switching.errors.SimulationInterrupted`, a
@@ -888,12 +897,11 @@ class HybridModel:
         check_option_names(options)
         sensitivities = options.pop("sensitivities", None)
         rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
+        check_sensitivity_options(sensitivities, rtol, atol)
         if sensitivities is not None:
             from .sensitivity import simulate_with_sensitivities
 
             return simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
-        if rtol is not None or atol is not None:
-            raise TypeError("sensitivity_rtol and sensitivity_atol need sensitivities=[...]")
         return simulate(self, t_end, method, **options)
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):

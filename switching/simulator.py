@@ -30,22 +30,20 @@ import numpy as np
 from bondgraph.errors import HybridBondGraphError
 from codegen.jit import available as _jit_available
 
-from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepSizeError, StiffnessError,
-                     UnknownOptionError, ZenoError)
+from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepLimitError, StepSizeError,
+                     StiffnessError, UnknownOptionError, ZenoError)
 from .events import _GuardScan, _locate
-from .integrators import ADAPTIVE, FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
+from .integrators import FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
 from .jit_model import KINDS, CompiledInstant
 from .jit_model import STATUS as _KERNEL_STATUS
 from .jit_model import choose_method as _choose_method
 from .jit_model import input_problem as _input_problem
 from .jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
+from .run_options import COMPILED, DEFAULT_MAX_STEPS, METHODS, check_run
 from .trajectory import Trajectory
 
 __all__ = ["simulate", "METHODS", "check_option_names"]
-
-COMPILED = ("euler-jit", "rk4-jit", "RK45-jit")
-METHODS = FIXED_STEP + ADAPTIVE + COMPILED
 
 
 class _Recorder:
@@ -196,42 +194,6 @@ def check_option_names(options, what: str = "simulate") -> None:
                 + f" The options are: {', '.join(known)}")
 
 
-def _check_options(method, dt, rtol, atol):
-    if method not in METHODS:
-        raise SimulationError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}")
-    if method in FIXED_STEP or method in ("euler-jit", "rk4-jit"):
-        if dt is None or not (dt > 0 and math.isfinite(dt)):
-            raise SimulationError(f"method {method!r} is fixed-step: give a positive step dt=…")
-    elif dt is not None:
-        raise SimulationError(f"method {method!r} is adaptive: give rtol/atol, not dt (dt is for euler and rk4)")
-    if not (rtol > 0 and atol > 0 and math.isfinite(rtol) and math.isfinite(atol)):
-        raise SimulationError(f"rtol and atol must be positive and finite, got rtol={rtol!r}, atol={atol!r}")
-
-
-def _check_times(t0, t_end, t_eval, max_step, first_step):
-    """Times of a run: finite ends, ``t_eval`` finite and inside ``[t0, t_end]``."""
-    for name, value in (("t0", t0), ("t_end", t_end)):
-        if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value):
-            raise SimulationError(f"{name} must be a finite number of seconds, got {value!r}"
-                                  + ("; a run needs an end: give the time you want to see" if name == "t_end" else ""))
-    if not t_end > t0:
-        raise SimulationError(f"t_end ({t_end}) must be after t0 ({t0})")
-    if not max_step > 0:
-        raise SimulationError(f"max_step must be positive (inf for no limit), got {max_step!r}")
-    if first_step is not None and not (first_step > 0 and math.isfinite(first_step)):
-        raise SimulationError(f"first_step must be positive and finite, got {first_step!r}")
-    if t_eval is None:
-        return None
-    times = np.asarray(t_eval, dtype=float).ravel()
-    bad = np.flatnonzero(~np.isfinite(times) | (times < t0) | (times > t_end))
-    if len(bad):
-        k = int(bad[0])
-        raise SimulationError(
-            f"t_eval[{k}] = {float(times[k])!r} is outside the run [{t0}, {t_end}] s ({len(bad)} value(s) are); "
-            "give sample times inside the run")
-    return np.sort(times)
-
-
 def simulate(
     model,
     t_end: float,
@@ -252,27 +214,26 @@ def simulate(
     zeno_min_gap: float | None = None,
     keep_instants: bool = True,
     max_events: int = 1_000_000,
+    max_steps: int = DEFAULT_MAX_STEPS,
     progress=None,
     event_samples: int = 3,
     stiffness_check: bool = True,
 ) -> Trajectory:
-    """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`."""
+    """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
+    (the options, their units and bounds: :mod:`switching.run_options`)."""
+    t_eval, x0 = check_run(model, t_end, method, dict(
+        dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, output=output, t_eval=t_eval, max_step=max_step,
+        first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window, zeno_min_gap=zeno_min_gap,
+        keep_instants=keep_instants, max_events=max_events, max_steps=max_steps, progress=progress,
+        event_samples=event_samples, stiffness_check=stiffness_check))
     auto = None
     if method == "auto":  # RK45 compiled or not (switching.jit_model.choose_method); the stats say which and why
         auto = _choose_method(model, t0, t_end, rtol, dt)
         method = auto.method
-    _check_options(method, dt, rtol, atol)
-    if on_zeno not in ("raise", "stop"):
-        raise SimulationError("on_zeno must be 'raise' or 'stop'")
-    if not isinstance(stiffness_check, bool):
-        raise SimulationError(f"stiffness_check must be True or False, not {stiffness_check!r}")
-    if output not in ("steps", "events"):
-        raise SimulationError("output must be 'steps' or 'events' (give t_eval=… for chosen times)")
-    t_eval = _check_times(t0, t_end, t_eval, max_step, first_step)
     if t_eval is not None:
         output = "events"
     started = _time.perf_counter()
-    x = model.initial_state() if x0 is None else _check_x0(model, x0)
+    x = model.initial_state() if x0 is None else x0
     current = model.starting_mode(x, t0, mode)
     recorder = _Recorder(model, output, t_eval, keep_instants)
     recorder.start(t0)
@@ -336,7 +297,7 @@ def simulate(
 
         options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
                        save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g,
-                       stiffness_check=stiffness_check)
+                       stiffness_check=stiffness_check, max_steps=max_steps, steps_left=max_steps)
 
         def after_event(instant) -> bool:
             """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
@@ -358,6 +319,7 @@ def simulate(
             return True
 
         while t < t_end:
+            options["steps_left"] = max_steps - n_steps  # the running count: a run stops after max_steps steps
             try:
                 if compiled is not None and compiled.covers(current):
                     event, t, x, current, steps, stop = _run_kernel(model, compiled, method, current, x, t, t_end,
@@ -599,6 +561,8 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
     zero = np.zeros(cm.n)
     steps = 0
     while True:
+        if steps >= o["steps_left"]:
+            raise _step_limit(o, t, t_end, mode, x, steps)
         t_prev = stepper.t
         try:
             t_new, y_new = stepper.step()
@@ -610,7 +574,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             raise _FlowFailure(
                 StepSizeError,
                 f"{method} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
-                "The step size collapsed: the problem may be stiff here (try method='Radau' or 'BDF'), "
+                f"The step size collapsed: the problem may be stiff here ({_stiff_advice(method)}), "
                 "or a state may be running into a singularity.", t, x, steps,
             ) from None
         steps += 1
@@ -639,6 +603,27 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             recorder.sample(t, x, mode)
 
 
+_IMPLICIT = ("Radau", "BDF", "LSODA")  # the methods advised where the step size collapses
+_KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
+
+
+def _stiff_advice(method: str) -> str:
+    """Advice after ``method`` failed with a collapsed step: the stiff
+    methods to try instead, never ``method`` itself."""
+    others = [repr(m) for m in _IMPLICIT if m != method.removesuffix("-jit")]
+    return "try method=" + ", ".join(others[:-1]) + " or " + others[-1]
+
+
+def _step_limit(o, t, t_end, mode, x, steps) -> "_FlowFailure":
+    """The failure of a flow that reached the run's ``max_steps`` before ``t_end``."""
+    max_steps = o["max_steps"]
+    return _FlowFailure(
+        functools.partial(StepLimitError, max_steps=max_steps),
+        f"the run took max_steps = {max_steps} steps and reached only t = {t:.12g} s of t_end = {t_end:g} s "
+        f"(mode {mode.describe()}): raise max_steps if a run that long is meant, or take a larger step (dt, "
+        "max_step) or looser tolerances (rtol, atol)", t, x, steps, mode)
+
+
 def _stiffness_message(model, cm, mode, exc) -> str:
     state = ""
     if exc.component is not None and exc.component < len(cm.independent):
@@ -659,17 +644,6 @@ def _stiffness_message(model, cm, mode, exc) -> str:
             f"h = {exc.h:.3g} s gives |h·λ| ≈ {exc.h_lambda:.3g} (estimated; the limit is {exc.limit:g}{held}; "
             f"|λ| ≈ {exc.h_lambda / exc.h:.3g} /s{state}). The problem is stiff here for an explicit method: use "
             f"method='Radau', 'BDF' or 'LSODA'{advice}.")
-
-
-def _check_x0(model, x0) -> np.ndarray:
-    x = np.array(x0, dtype=float).ravel()
-    if len(x) != len(model.states):
-        raise SimulationError(f"x0 has {len(x)} value(s); the model has {len(model.states)} states "
-                              f"({', '.join(s.name for s in model.states)})")
-    bad = np.flatnonzero(~np.isfinite(x))
-    if len(bad):
-        raise SimulationError("x0 is not finite: " + ", ".join(f"{model.states[k].name} = {x[k]}" for k in bad))
-    return x
 
 
 def _nonfinite_jump_message(model, instant) -> str:
@@ -697,10 +671,13 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
     kind = KINDS[method]
     steps = 0
     while True:
+        if steps >= o["steps_left"]:
+            raise _step_limit(o, t, t_end, mode, x, steps)
         dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
         result = compiled.run(kind, mode, x, t, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
                               max_step=o["max_step"], first_step=o["first_step"], samples=o["samples"],
                               save=o["save"], resolve_first=initial, t_eval=dense,
+                              max_steps=min(o["steps_left"] - steps, _KERNEL_MAX_STEPS),
                               stiffness_check=o["stiffness_check"])
         recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
         if initial and _KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
@@ -736,7 +713,7 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
             return (t, x), t, x, mode, steps, False
         if status == "collapsed":
             raise _FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
-                               "step size collapsed (stiff here? try Radau or BDF)", t, x, steps, mode)
+                               f"step size collapsed (stiff here? {_stiff_advice(method)})", t, x, steps, mode)
         if status == "stiff":
             h_lambda, h, _, limit, component = result.info[:5]
             cm = model.compiled_mode(mode)
