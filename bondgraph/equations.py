@@ -37,7 +37,7 @@ from .algebra import solve_explicit
 from .errors import DerivationError
 from .symbols import rate_symbol, t
 
-__all__ = ["ConfigurationEquations", "derive_equations"]
+__all__ = ["ConfigurationEquations", "derive_equations", "tidy"]
 
 
 @dataclass(frozen=True)
@@ -261,7 +261,7 @@ def latex_names(symbols) -> dict:
 SIMPLIFY_MAX_OPS = 400
 
 
-def _tidy(expr: sp.Expr) -> sp.Expr:
+def tidy(expr: sp.Expr) -> sp.Expr:
     """A readable form of a derived expression: a rational function of its
     symbols (a collision of point masses) as one cancelled fraction, which
     ``cancel`` finds at a fraction of ``simplify``'s cost; anything else
@@ -334,7 +334,7 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
         subs = {s: rate_values[s] for s in expr.free_symbols if s in rate_values}
         expr = expr.xreplace(subs) if subs else expr
         expr = expr.xreplace(constraints) if constraints else expr
-        return _tidy(expr) if subs else expr
+        return tidy(expr) if subs else expr
 
     rates = {}
     for x in graph.states:

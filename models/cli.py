@@ -190,9 +190,10 @@ def _check_run(model, t_end, method, options) -> None:
     (:func:`switching.run_options.check_run`), as usage errors naming the flag."""
     from switching.errors import OptionError
     from switching.run_options import check_run
+    from switching.simulator import option_defaults
 
     try:
-        check_run(model, t_end, method, options)
+        check_run(model, t_end, method, {**option_defaults(), **options})
     except OptionError as exc:
         flag = _FLAGS.get(exc.option)
         raise _UsageError(f"{flag}: {exc}" if flag else str(exc)) from None

@@ -3,12 +3,12 @@
 A guard is a boolean combination of comparisons; each comparison splits into
 one-sided *parts* (``==`` into two, ``!=`` into one that holds off the band)
 whose *margin* is ``sign·(left − right)`` measured against the tolerance
-band.  :class:`_GuardScan` tests the guards at the step's end and at sample
+band.  :class:`GuardScan` tests the guards at the step's end and at sample
 points inside it; between points it searches for a guard that holds only
 briefly — an extremum of a margin that comes within reach of its threshold
 (a parabola through three points, refined by Brent's method,
 :func:`_maximize`), or two or more parts of one guard changing truth — and
-:func:`_locate` bisects the step's interpolant down to adjacent
+:func:`locate_event` bisects the step's interpolant down to adjacent
 floating-point numbers for the first time a guard holds.  The compiled
 kernel (:mod:`switching.kernel`) ports the same search.
 """
@@ -19,7 +19,7 @@ import functools
 import math
 import weakref
 
-__all__ = ["guard_parts"]
+__all__ = ["GuardScan", "guard_parts", "locate_event"]
 
 _FLIPPED = {">=": "<", ">": "<=", "<=": ">", "<": ">=", "==": "!=", "!=": "=="}
 # one-sided parts of an (effective) comparison: (sign, inclusive); the part holds when
@@ -131,7 +131,7 @@ class _Point:
         self.tau, self.margins, self.truths, self.holds = tau, margins, truths, holds
 
 
-class _GuardScan:
+class GuardScan:
     """Event detection over the steps of one flow.
 
     Per step the guards are evaluated at ``samples`` interior points and the
@@ -149,7 +149,7 @@ class _GuardScan:
       them is seen.
 
     ``first_hold`` returns the first pair ``(a, b)`` of times with no guard
-    holding at ``a`` and one holding at ``b`` (for :func:`_locate`)."""
+    holding at ``a`` and one holding at ``b`` (for :func:`locate_event`)."""
 
     def __init__(self, cm, sides, stepper, state_at, t0, x0, rtol, atol, samples):
         self.cm, self.stepper, self.state_at = cm, stepper, state_at
@@ -205,7 +205,7 @@ class _GuardScan:
     def locate(self, a, b):
         """``(lo, tau)``: bisection of ``(a, b]`` (``a`` a point where no guard
         holds, ``b`` one where one does) down to adjacent floating-point
-        numbers, ``lo`` the last point seen not holding — as :func:`_locate`."""
+        numbers, ``lo`` the last point seen not holding — as :func:`locate_event`."""
         lo, hi = a, b.tau
         for _ in range(200):
             mid = 0.5 * (lo.tau + hi)
@@ -219,7 +219,7 @@ class _GuardScan:
         return lo, hi
 
     def verified(self, a, b, lo, tau):
-        """The bracket ``(lo, tau)`` for :func:`_locate`, ``tau`` checked with
+        """The bracket ``(lo, tau)`` for :func:`locate_event`, ``tau`` checked with
         ``CompiledMode.holds`` itself (else the plain bracket ``(a, b)``)."""
         if self.cm.holds(self.state(tau), tau, self.rtol, self.atol):
             return lo.tau, tau
@@ -397,7 +397,7 @@ def _maximize(f, a, b, max_evaluations=60) -> float:
     return x
 
 
-def _locate(cm, stepper, state_at, a, b, rtol, atol) -> float:
+def locate_event(cm, stepper, state_at, a, b, rtol, atol) -> float:
     """The first time in ``(a, b]`` at which a guard holds on the interpolant
     (bisection down to adjacent floating-point numbers)."""
     for _ in range(200):

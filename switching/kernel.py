@@ -9,7 +9,7 @@ installation and kept by numba's disk cache (``cache=True``).
   initial step, error norm, step factors and dense output, so both take the
   same steps up to round-off);
 * at every accepted step, event detection as the Python path's
-  ``switching.events._GuardScan`` (the reference: this is its translation):
+  ``switching.events.GuardScan`` (the reference: this is its translation):
   the guards at ``samples`` interior points and at the step's end; besides, a
   guard holding only between two points — a comparison part whose margin has
   an extremum between points within reach of its threshold (parabola through
@@ -362,7 +362,7 @@ def _interp(kind, t_old, h, A, tau, out):
             out[i] = y_old[i] + h * acc
 
 
-# event detection (switching.events._GuardScan): the points of a step are slots of the arrays
+# event detection (switching.events.GuardScan): the points of a step are slots of the arrays
 # ptau [slots], pmg [slots, parts] (margins), ptr [slots, parts] (truths), phd [slots] (a guard holds);
 # slot 0: the flow's last point (the step's start), 1: the previous step's point before its end,
 # 2: the bisection's last point not holding, 3: unused, 4: a hold found between the changes of parts,
@@ -449,8 +449,8 @@ def _parabola_peak(t0, t1, t2, m0, m1, m2):
 
 @_dispatch
 def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT, SC):
-    """First time in (t_old, t_new] a guard holds, or -1.0: switching.events._GuardScan.first_hold (the
-    sample points, refined extrema of the parts' margins, holds between parts changing truth) and _locate.
+    """First time in (t_old, t_new] a guard holds, or -1.0: switching.events.GuardScan.first_hold (the
+    sample points, refined extrema of the parts' margins, holds between parts changing truth) and locate_event.
     ``scan[0]``: the previous step's point before its end is in slot 1 (reset at every flow start)."""
     y_new = A[2]  # the step's end (an argument of _point where it is not read)
     template, z, dbuf, s, tmp = E
@@ -484,7 +484,7 @@ def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT
         if hd:
             last = cnt - 1
 
-    # extrema of the parts' margins between points (_GuardScan.extrema)
+    # extrema of the parts' margins between points (GuardScan.extrema)
     first = 0
     count = 0
     if scan[0] != 0:
@@ -571,7 +571,7 @@ def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT
                     jj -= 1
                 order[jj] = slot
 
-    # the first hold, or one between the changes of parts (_GuardScan.first_hold)
+    # the first hold, or one between the changes of parts (GuardScan.first_hold)
     lo_a = -1.0
     hi_b = -1.0
     for j in range(1, total):
@@ -607,7 +607,7 @@ def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT
             _copy_point(order[total - 1], _S_START, ptau, pmg, ptr, phd)
             scan[0] = 1
         return -1.0
-    # switching.events._locate
+    # switching.events.locate_event
     return _first_hold(lo_a, hi_b, kind, m, t_old, h, A, M, s, tmp, rtol, atol)[1]
 
 
@@ -629,7 +629,7 @@ def _first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
 
 @_dispatch
 def _bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
-    """_GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
+    """GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
     adjacent floating-point numbers; ``(lo, hi)``, ``lo`` the slot of the last point seen not holding."""
     template, z, dbuf, s, tmp = E
     ptau, pmg, ptr, phd = PT
@@ -645,7 +645,7 @@ def _bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
 
 @_dispatch
 def _pieces(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC):
-    """_GuardScan.pieces: the slot of a point inside (a, b) where a guard holds although it holds at neither
+    """GuardScan.pieces: the slot of a point inside (a, b) where a guard holds although it holds at neither
     end, found from parts changing truth in between; -1 if none.  iscr [2·parts], fscr [parts], q [parts]."""
     y_new = A[2]  # the step's end (an argument of _point where it is not read)
     template, z, dbuf, s, tmp = E

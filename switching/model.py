@@ -899,7 +899,7 @@ class HybridModel:
         rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
         check_sensitivity_options(sensitivities, rtol, atol)
         if sensitivities is not None:
-            from .sensitivity import simulate_with_sensitivities
+            from .sensitivity_run import simulate_with_sensitivities
 
             return simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
         return simulate(self, t_end, method, **options)

@@ -59,7 +59,6 @@ it takes depends on the tolerances: the running count bounds those).
 
 from __future__ import annotations
 
-import functools
 import math
 import numbers
 
@@ -375,23 +374,13 @@ def check_sensitivity_options(sensitivities, rtol, atol) -> None:
 # ------------------------------------------------------------------ the whole run
 
 
-@functools.cache
-def _defaults() -> dict:
-    """The keyword options of :func:`switching.simulator.simulate` with their defaults."""
-    import inspect
-
-    from .simulator import simulate
-
-    return {name: p.default for name, p in inspect.signature(simulate).parameters.items()
-            if p.kind is inspect.Parameter.KEYWORD_ONLY}
-
-
 def check_run(model, t_end, method, options: dict):
     """Every check of a run of ``model`` up to ``t_end`` [s] with ``method``
-    and the keyword ``options`` of ``simulate`` (those missing take their
-    defaults), before anything runs; returns ``(t_eval, x0)``: the sample
-    times sorted and the initial state as an array (``None`` when not given)."""
-    o = {**_defaults(), **options}
+    and the keyword ``options`` of ``simulate``, every one (their defaults:
+    :func:`switching.simulator.option_defaults`), before anything
+    runs; returns ``(t_eval, x0)``: the sample times sorted and the initial
+    state as an array (``None`` when not given)."""
+    o = options
     check_ends(o["t0"], t_end)
     check_steps(o)
     check_events(o)

@@ -32,7 +32,7 @@ from codegen.jit import available as _jit_available
 
 from .errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepLimitError, StepSizeError,
                      StiffnessError, UnknownOptionError, ZenoError)
-from .events import _GuardScan, _locate
+from .events import GuardScan, locate_event
 from .integrators import FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
 from .jit_model import KINDS, CompiledInstant
 from .jit_model import STATUS as _KERNEL_STATUS
@@ -43,7 +43,7 @@ from .preflight import nonfinite_at_start
 from .run_options import COMPILED, DEFAULT_MAX_STEPS, METHODS, check_run
 from .trajectory import Trajectory
 
-__all__ = ["simulate", "METHODS", "check_option_names"]
+__all__ = ["simulate", "METHODS", "check_option_names", "option_defaults"]
 
 
 class _Recorder:
@@ -176,6 +176,15 @@ def _known_options() -> tuple:
 
     return tuple(name for name, p in inspect.signature(simulate).parameters.items()
                  if p.kind is inspect.Parameter.KEYWORD_ONLY) + _MODEL_OPTIONS
+
+
+@functools.cache
+def option_defaults() -> dict:
+    """The keyword options of :func:`simulate` with their defaults."""
+    import inspect
+
+    return {name: p.default for name, p in inspect.signature(simulate).parameters.items()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY}
 
 
 def check_option_names(options, what: str = "simulate") -> None:
@@ -553,7 +562,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
     stepper = make_stepper(method, fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
                            max_step=o["max_step"], first_step=o["first_step"], autonomous=not model.input_symbols,
                            fun_list=on_lists, stiffness_check=o["stiffness_check"])
-    scan = (_GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o["rtol_g"], o["atol_g"], o["samples"])
+    scan = (GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o["rtol_g"], o["atol_g"], o["samples"])
             if cm.guards else None)
     save = recorder.output == "steps"
     dense = recorder.t_eval is not None
@@ -586,7 +595,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
         if scan is not None:
             bracket = scan.first_hold(t_prev, t_new, x_new)
             if bracket is not None:
-                t_ev = _locate(cm, stepper, state_at, *bracket, o["rtol_g"], o["atol_g"])
+                t_ev = locate_event(cm, stepper, state_at, *bracket, o["rtol_g"], o["atol_g"])
                 # the state the guard was seen to hold on: the step's end itself, or the interpolant
                 x_ev = x_new if t_ev == t_new else state_at(t_ev, stepper.interpolate(t_ev))
                 if dense:

@@ -48,7 +48,7 @@ def visited():
 def reference_mode(model, mode, monkeypatch):
     """The mode's equations derived afresh along the plain path."""
     monkeypatch.setattr(algebra, "dependency_components", networkx_components)
-    monkeypatch.setattr(equations, "_tidy", simplified)
+    monkeypatch.setattr(equations, "tidy", simplified)
     graph = model.derivation_graph
     graph._cache.clear()  # derive again, not from the graph's own cache
     try:
