@@ -671,7 +671,7 @@ def _cmd_sweep(args) -> int:
     import contextlib
 
     from switching import simulate_many
-    from switching.sweep_frame import _pandas, parameter_grid, plot_sweep, to_frame
+    from switching.sweep_frame import require_pandas, parameter_grid, plot_sweep, to_frame
 
     module = _module(args.model)
     base = _parse_sets(args.set or [], module.DEFAULTS)
@@ -697,7 +697,7 @@ def _cmd_sweep(args) -> int:
     if args.plot:
         _check_output("--plot", args.plot, plot=True)
     _distinct_outputs((("--csv", args.csv), ("--plot", args.plot)))
-    _pandas()  # a missing pandas is said before the sweep, not after
+    require_pandas()  # a missing pandas is said before the sweep, not after
     model = module.build(**base)  # checks --set, and names the states and signals metrics may use
     _check_run(model, t_end, method, options)  # a --dt no run could take: refused once, not by every run
     names = args.metric or ["events"]

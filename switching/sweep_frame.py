@@ -22,7 +22,7 @@ from bondgraph.errors import DuplicateNameError, ParameterValueError, UnknownNam
 
 from .batch import DASK_EXTRA, MissingDependencyError
 
-__all__ = ["parameter_grid", "SignalMetrics", "to_frame", "plot_sweep", "RUN_COLUMNS"]
+__all__ = ["parameter_grid", "SignalMetrics", "to_frame", "plot_sweep", "require_pandas", "RUN_COLUMNS"]
 
 #: columns of :func:`to_frame` besides the parameters, final states and metrics
 RUN_COLUMNS = ("status", "error", "events", "first_event", "t_final", "wall_time")
@@ -94,7 +94,7 @@ class SignalMetrics:
         return f"SignalMetrics({', '.join(map(repr, self.names))})"
 
 
-def _pandas():
+def require_pandas():
     try:
         import pandas
     except ImportError as exc:
@@ -113,7 +113,7 @@ def to_frame(results):
     ``t_final``, in its own units), each metric (by name), ``wall_time`` [s].
     A failed run's ``events``, ``t_final`` and final states are those of the
     part computed; its metrics are empty."""
-    pd = _pandas()
+    pd = require_pandas()
     results = list(results)
     parameters = list(dict.fromkeys(name for r in results for name in r.parameters))
     states = list(dict.fromkeys(name for r in results for name in r.state_names))
