@@ -44,7 +44,7 @@ import time
 import warnings
 from pathlib import Path
 
-from .safety import GeneratedCodeError, check_source
+from .safety import PYTHON, Dialect, GeneratedCodeError, check_source
 
 __all__ = ["CacheWarning", "SourceCache", "cache_entries", "default_cache", "default_max_bytes", "fingerprint",
            "warn_not_writable"]
@@ -157,10 +157,10 @@ class SourceCache:
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.py"
 
-    def load(self, key: str, imports=()) -> str | None:
+    def load(self, key: str, dialect: Dialect = PYTHON) -> str | None:
         """The source stored under ``key``: from memory, else from disk if its
-        header matches and it passes :func:`codegen.safety.check_source` (with
-        the ``imports`` it may hold); ``None`` for a miss.  An entry on disk
+        header matches and it passes :func:`codegen.safety.check_source` (in
+        its ``dialect``); ``None`` for a miss.  An entry on disk
         that fails the check was altered: it is deleted, with a
         :class:`CacheWarning`, and its caller builds it again."""
         if key in self.memory:
@@ -179,7 +179,7 @@ class SourceCache:
             self.hits["rejected"] += 1
             return None
         try:
-            check_source(body, str(path), imports)
+            check_source(body, str(path), dialect)
         except GeneratedCodeError as exc:
             self.hits["rejected"] += 1
             warnings.warn(f"cache entry {path} was altered and is not run ({exc}); deleted it, building it again",

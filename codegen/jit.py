@@ -32,7 +32,7 @@ import warnings
 from pathlib import Path
 
 from .cache import CacheWarning, warn_not_writable
-from .safety import check_source
+from .safety import PYTHON, Dialect, compile_checked
 
 __all__ = ["available", "guard_cache", "load_module", "tree_expression"]
 
@@ -160,14 +160,14 @@ def _guard_cache(module_name: str, dispatcher) -> None:
     cache.save_overload = save_overload
 
 
-def _import(name: str, source: str, directory: Path, imports=()):
+def _import(name: str, source: str, directory: Path, dialect: Dialect):
     """Write ``source`` to ``directory/name.py`` (unless it is there already)
     and execute it as module ``name``, its numba caches guarded.  The code
     is compiled from ``source`` itself, so no ``.pyc`` is written or read."""
     from numba.core.dispatcher import Dispatcher
 
-    check_source(source, f"<{name}>", imports)
     path = directory / f"{name}.py"
+    code = compile_checked(source, str(path), dialect)  # (nothing of it has run: refused here if it is not ours)
     for attempt in range(3):
         try:
             current = path.read_text() if path.exists() else None
@@ -186,7 +186,7 @@ def _import(name: str, source: str, directory: Path, imports=()):
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         try:
-            exec(compile(source, str(path), "exec"), module.__dict__)  # checked above: only what the generator writes
+            exec(code, module.__dict__)  # checked above: only what the generator writes
         except (OSError, RuntimeError):
             # the file vanished (another process evicted it) before numba saw it: write it again
             del sys.modules[name]
@@ -205,7 +205,7 @@ def _import(name: str, source: str, directory: Path, imports=()):
 guard_cache = _guard_cache
 
 
-def load_module(name: str, source: str, directory: str | os.PathLike | None, imports=()):
+def load_module(name: str, source: str, directory: str | os.PathLike | None, dialect: Dialect = PYTHON):
     """Write ``source`` as module ``name`` under ``directory`` and import it;
     numba's ``cache=True`` then keeps the machine code in
     ``directory/__pycache__`` (``name.*.nbi``/``.nbc``), which later processes
@@ -218,9 +218,9 @@ def load_module(name: str, source: str, directory: str | os.PathLike | None, imp
     but is compiled again by every process — unless the read-only directory
     holds its machine code already, which is then copied and loaded.
 
-    ``source`` is checked first (:func:`codegen.safety.check_source`, with the
-    ``imports`` it may hold) and refused with a
-    :class:`~codegen.safety.GeneratedCodeError` if it holds anything else."""
+    ``source`` is checked first (:func:`codegen.safety.check_code`, in its
+    ``dialect``) and refused with a :class:`~codegen.safety.GeneratedCodeError`
+    if it holds anything else."""
     if not available():
         raise ImportError("the compiled methods need numba: pip install '.[fast]' (or pip install numba)")
     if name in sys.modules:
@@ -230,12 +230,12 @@ def load_module(name: str, source: str, directory: str | os.PathLike | None, imp
         error = _unwritable(directory)
         if error is None:
             try:
-                return _import(name, source, directory, imports)
+                return _import(name, source, directory, dialect)
             except OSError as exc:  # e.g. the disk is full
                 error = exc
         warn_not_writable(directory, error)
-        return _import(name, source, _adopt(name, source, directory, _private_directory()), imports)
-    return _import(name, source, _private_directory(), imports)
+        return _import(name, source, _adopt(name, source, directory, _private_directory()), dialect)
+    return _import(name, source, _private_directory(), dialect)
 
 
 def _adopt(name: str, source: str, directory: Path, private: Path) -> Path:

@@ -55,7 +55,7 @@ import textwrap
 import types as pytypes
 from dataclasses import dataclass, field
 
-from .safety import check_source
+from .safety import PYTHON, Dialect, check_source
 
 __all__ = ["CorruptFile", "NativeFunction", "Untranslatable", "compile_function", "file_matches_machine",
            "load_function", "machine_key", "read_file", "write_file"]
@@ -943,7 +943,7 @@ def machine_key() -> str:
 
 
 def compile_function(source: str, entry: str, signature: list, result: str, name: str,
-                     namespace: dict | None = None, imports=()) -> NativeFunction:
+                     namespace: dict | None = None, dialect: Dialect = PYTHON) -> NativeFunction:
     """Translate function ``entry`` of module ``source`` (executed in
     ``namespace``, or its own imports run in a fresh one) to LLVM IR and
     compile it as the C function ``name`` of parameter kinds ``signature``
@@ -951,10 +951,10 @@ def compile_function(source: str, entry: str, signature: list, result: str, name
     float64/int64/uint8) returning ``result``.  Raises
     :class:`Untranslatable` for anything outside the subset (see the module),
     and :class:`~codegen.safety.GeneratedCodeError` for a source that holds
-    anything the code generator never writes (``imports``: the imports it may hold)."""
+    anything the code generator never writes in its ``dialect`` (:mod:`codegen.safety`)."""
     from numba.core.compiler_lock import global_compiler_lock
 
-    check_source(source, f"<{name}>", imports)  # (its imports run below: only those allowed)
+    check_source(source, f"<{name}>", dialect)  # (its imports run below: only those allowed)
     tree = ast.parse(source)
     definitions = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry]
     if len(definitions) != 1:

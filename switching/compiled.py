@@ -44,7 +44,7 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
 from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
-from codegen.safety import check_source, execute
+from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree",
@@ -406,7 +406,6 @@ class CompiledMode:
         self.mode = mode
         self.source = source
         self._where = f"<hbg mode {mode.label}>"
-        check_source(source, self._where)  # before any of it is compiled (a cached source may have been altered)
         self._namespace = module_namespace()
         self._chunks = _function_chunks(source)
         missing = {"META", "phi", "rates", "sides", "sides_raw"} - set(self._chunks)
@@ -415,6 +414,7 @@ class CompiledMode:
         meta_text = self._chunks.pop("META")
         meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
         self.meta = meta
+        self._functions = frozenset(self._chunks)  # (each compiled apart, checked to call only these)
         self.independent = np.array(meta["independent"], dtype=int)
         self.dependent = np.array(meta["dependent"], dtype=int)
         self.moved = np.array(meta["moved"], dtype=int)
@@ -434,7 +434,7 @@ class CompiledMode:
             first_line, text = self._chunks[name]
             if name in ("sides", "sides_raw"):
                 self._place_blocks(text)
-            execute(text, self._namespace, self._where, first_line=first_line)  # (a function of the checked source)
+            execute(text, self._namespace, self._where, first_line=first_line, also=self._functions)
             found = self._namespace[name]
         return found
 

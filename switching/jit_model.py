@@ -73,7 +73,7 @@ from bondgraph.symbols import rate_symbol
 from bondgraph.symbols import t as TIME
 from codegen.cache import CacheWarning, fingerprint, warn_not_writable
 from codegen.jit import guard_cache, load_module, tree_expression
-from codegen.safety import GeneratedCodeError
+from codegen.safety import Dialect, GeneratedCodeError
 from codegen.source import Argument, FunctionSpec, docstring, escaped, function_source
 
 from .automaton import A_POSTERIORI
@@ -446,9 +446,11 @@ def _returning_int(line: str) -> str:
     return line
 
 
-#: the imports a mode function's module holds (and the only ones :func:`codegen.safety.check_source` lets it hold)
-MODE_IMPORTS = (("math", None, None), ("math", "*", None), ("numpy", None, "np"), ("numba", "carray", None),
-                ("switching.kernel", "decide", "_dec"), ("switching.kernel", "larger", "_larger"))
+#: what a mode function's module holds besides arithmetic (and all :mod:`codegen.safety` lets it hold):
+#: its imports and ``for k in range(...)`` loops
+MODE_DIALECT = Dialect(imports=(("math", None, None), ("math", "*", None), ("numpy", None, "np"),
+                                ("numba", "carray", None), ("switching.kernel", "decide", "_dec"),
+                                ("switching.kernel", "larger", "_larger")), loops=True)
 
 
 def mode_function_source(model, mode) -> str:
@@ -594,7 +596,7 @@ def _native_function(model, mode, name: str, source: str):
                 pass
     if function is None:
         try:
-            function = native.compile_function(source, "mode", *native_signature(), name, imports=MODE_IMPORTS)
+            function = native.compile_function(source, "mode", *native_signature(), name, dialect=MODE_DIALECT)
         except native.Untranslatable:
             return None
         except GeneratedCodeError:
@@ -628,7 +630,7 @@ def mode_function(model, mode):
 
     MODE_SIGNATURE = kernel().MODE_SIGNATURE
     key = _mode_key(model, mode)
-    source = model.cache.load(key, imports=MODE_IMPORTS)  # (checked: an altered entry is discarded)
+    source = model.cache.load(key, MODE_DIALECT)  # (checked: an altered entry is discarded)
     if source is None:
         source = mode_function_source(model, mode)
         model.cache.store(key, source)
@@ -638,7 +640,7 @@ def mode_function(model, mode):
         if function is not None:
             return function
     directory = model.cache.directory / "jit" if model.cache.directory else None
-    module = load_module(name, source, directory, MODE_IMPORTS)
+    module = load_module(name, source, directory, MODE_DIALECT)
     function = getattr(module, "compiled", None)
     if function is None:
         function = CFunc(module.mode, (MODE_SIGNATURE.args, MODE_SIGNATURE.return_type), locals={},

@@ -151,7 +151,7 @@ def tree_bytes(directory) -> int:
 
 
 def _text(key: str, kb: int = 100) -> str:
-    return f"X = {key!r}\n" + "#" * (kb * 1000) + "\n"
+    return f"RECORD = {key!r}\n" + "#" * (kb * 1000) + "\n"  # (a module the check lets through)
 
 
 def _fake_entry(directory: Path, key: str, kb: int, age: float, kernel: bool = False) -> list:
@@ -260,7 +260,7 @@ def test_processes_storing_loading_and_evicting_at_once_never_fail(tmp_path):
         c.GRACE_SECONDS = 0.0
         cache = c.SourceCache(sys.argv[1], max_bytes=200_000)
         rng = random.Random(int(sys.argv[2]))
-        text = lambda k: f"K = {k!r}\\n" + "#" * 20_000 + "\\n"
+        text = lambda k: f"RECORD = {k!r}\\n" + "#" * 20_000 + "\\n"
         hits = misses = 0
         end = time.time() + 2.0
         while time.time() < end:
@@ -291,36 +291,36 @@ def test_processes_storing_loading_and_evicting_at_once_never_fail(tmp_path):
 # ------------------------------------------------------------------ numba's files: one small module
 
 
+from codegen.safety import Dialect  # noqa: E402
+
 TINY = textwrap.dedent(
     """
     from numba import njit
 
-    def twice_py(x):
+    @njit(cache=True)
+    def twice(x):
         return 2.0 * x
 
-    twice = njit(twice_py, cache=True)
-
-    def thrice_py(x):
+    @njit(cache=True)
+    def thrice(x):
         return 3.0 * twice(x) / 2.0
-
-    thrice = njit(thrice_py, cache=True)
     """
 )
-TINY_IMPORTS = (("numba", "njit", None),)  # (a generated module may hold only the imports it is allowed)
+TINY_DIALECT = Dialect(imports=(("numba", "njit", None),))  # (a generated module may hold only what it is allowed)
 
 
 def _tiny(directory):
     from codegen.jit import load_module
 
     name = f"hbg_test_tiny_{uuid.uuid4().hex[:12]}"
-    return name, load_module(name, TINY, directory, TINY_IMPORTS)
+    return name, load_module(name, TINY, directory, TINY_DIALECT)
 
 
 def _reload(name, directory):
     from codegen.jit import load_module
 
     del sys.modules[name]
-    return load_module(name, TINY, directory, TINY_IMPORTS)
+    return load_module(name, TINY, directory, TINY_DIALECT)
 
 
 def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tmp_path):

@@ -145,10 +145,10 @@ def test_disk_cache_is_reused_by_a_second_process(tmp_path):
 
 def test_corrupted_cache_file_is_detected_and_rebuilt(tmp_path):
     cache = SourceCache(tmp_path)
-    cache.store("k1", "X = 1\n")
-    assert SourceCache(tmp_path).load("k1") == "X = 1\n"
+    cache.store("k1", "RECORD = 1\n")
+    assert SourceCache(tmp_path).load("k1") == "RECORD = 1\n"
     path = tmp_path / "k1.py"
-    path.write_text(path.read_text().replace("X = 1", "X = 2"))  # tampered: checksum mismatch
+    path.write_text(path.read_text().replace("RECORD = 1", "RECORD = 2"))  # tampered: checksum mismatch
     fresh = SourceCache(tmp_path)
     assert fresh.load("k1") is None and fresh.hits["rejected"] == 1
     path.write_text("garbage without header")

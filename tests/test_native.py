@@ -29,15 +29,15 @@ from codegen import native  # noqa: E402
 from codegen.cache import SourceCache, cache_entries  # noqa: E402
 from codegen.native import Untranslatable, compile_function  # noqa: E402
 from codegen.safety import GeneratedCodeError  # noqa: E402
+from switching.jit_model import MODE_DIALECT  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 _NUMBA = {"f": types.float64, "i": types.int64, "u": types.uint8}
 _CTYPES = {"f": ctypes.c_double, "i": ctypes.c_int64, "u": ctypes.c_uint8}
 HEADER = "import math\nfrom math import *\nimport numpy as np\nfrom numba import carray\n\n"
 _serial = iter(range(10**9))
-#: the imports of the sources below (those of a generated mode function: the only ones the check lets through)
-IMPORTS = (("math", None, None), ("math", "*", None), ("numpy", None, "np"), ("numba", "carray", None),
-           ("switching.kernel", "decide", "_dec"), ("switching.kernel", "larger", "_larger"))
+#: what the sources below may hold: what a generated mode function holds (imports, loops)
+IMPORTS = MODE_DIALECT
 
 
 def numba_type(kind):
@@ -51,7 +51,7 @@ def c_type(kind):
 def both(source: str, entry: str, signature: list, result: str):
     """The C functions of ``entry`` compiled by codegen.native and by numba (ctypes callables)."""
     compiled = compile_function(source, entry, signature, result, f"hbg_test_native_{next(_serial)}",
-                                imports=IMPORTS)
+                                dialect=IMPORTS)
     namespace: dict = {}
     exec(compile(source, "<test source>", "exec"), namespace)
     reference = CFunc(namespace[entry], (tuple(numba_type(k) for k in signature), _NUMBA[result]), locals={},
@@ -129,7 +129,7 @@ def test_zero_to_a_negative_literal_power_is_infinite():
     written; here it is ``inf`` (IEEE, as numba's ``error_model="numpy"`` gives
     for ``1/0.0``), which the kernel reports as a non-finite state."""
     source = HEADER + "def p(a):\n    return a**(-2) + a**(-3)\n"
-    compiled = compile_function(source, "p", ["f"], "f", f"hbg_test_native_{next(_serial)}", imports=IMPORTS)
+    compiled = compile_function(source, "p", ["f"], "f", f"hbg_test_native_{next(_serial)}", dialect=IMPORTS)
     power = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double)(compiled.address)
     assert power(0.0) == np.inf and np.isnan(power(-0.0))  # inf + (-inf)
     assert power(2.0) == 0.25 + 0.125
@@ -176,7 +176,7 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
             return 1 if _dec(op, li, lf, ri, rf, _larger(sc, sc2), rtol, atol) else 0
         """)
     compiled = compile_function(source, "d", ["i"] + ["f"] * 8, "i", f"hbg_test_native_{next(_serial)}",
-                                imports=IMPORTS)
+                                dialect=IMPORTS)
     function = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * 8)(compiled.address)
     rtol, atol = 1e-9, 1e-12
     finite = [0.0, 1.0, 1.0 + 5e-10, 1.0 + 2e-9, -1.0, 1e-13, -3e-12, math.inf, -math.inf, math.nan]
@@ -187,6 +187,7 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 
 
 @pytest.mark.parametrize("body, message", [
+    ("    while a > 0:\n        a = a - 1\n    return 0", "While statement"),
     ("    x = carray(x_, (1,))\n    x[0] = 's'\n    return 0", "constant 's'"),
     ("    x_ = 1.0\n    return 0", "pointer parameter 'x_' reassigned"),
     ("    if a > 0:\n        y = carray(x_, (1,))\n    else:\n        y = 1.0\n    return 1 if y else 0",
@@ -202,21 +203,21 @@ def test_what_is_outside_the_subset_is_refused_by_name(body, message):
     source = HEADER + "def h(a, x_):\n" + body + "\n"
     with pytest.raises(Untranslatable, match=message.replace("(", r"\(")) as raised:
         compile_function(source, "h", ["f", ("ptr", "f")], "i", f"hbg_test_native_{next(_serial)}",
-                         imports=IMPORTS)
+                         dialect=IMPORTS)
     if "line" in str(raised.value):
         assert "line " in str(raised.value)
 
 
 @pytest.mark.parametrize("body, message", [
-    ("    while a > 0:\n        a = a - 1\n    return 0", "a statement of kind While (line 7)"),
-    ("    print(a)\n    return 0", "the builtin 'print' (line 7)"),
-    ("    import os\n    return 0", "a statement of kind Import (line 7)"),
+    ("    print(a)\n    return 0", "the name(s) 'print' (in 'h', from line 6)"),
+    ("    import os\n    return 0", "the name(s) 'os' (in 'h', from line 6)"),
+    ("    return np.save(a)", "the name(s) 'save' (in 'h', from line 6)"),
 ])
 def test_what_the_generator_never_writes_is_refused_before_translation(body, message):
     source = HEADER + "def h(a, x_):\n" + body + "\n"
     with pytest.raises(GeneratedCodeError, match=message.replace("(", r"\(").replace(")", r"\)")):
         compile_function(source, "h", ["f", ("ptr", "f")], "i", f"hbg_test_native_{next(_serial)}",
-                         imports=IMPORTS)
+                         dialect=IMPORTS)
 
 
 # ------------------------------------------------------------------ the shipped models' mode functions
@@ -244,7 +245,7 @@ def assert_modes_agree_with_numba(model, trials: int = 60):
     for mode in model.visited_modes:
         source = mode_function_source(model, mode)
         compiled = compile_function(source, "mode", *native_signature(), f"hbg_test_native_{next(_serial)}",
-                                    imports=IMPORTS)
+                                    dialect=IMPORTS)
         namespace: dict = {}
         exec(compile(source, "<mode source>", "exec"), namespace)
         reference = CFunc(namespace["mode"], signature, locals={}, options={"error_model": "numpy"})
