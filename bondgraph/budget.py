@@ -65,8 +65,9 @@ class OverBudget(DerivationError):
     :class:`~bondgraph.errors.DerivationError` naming the element."""
 
     def __init__(self, step: str, seconds: float):
+        shown = f"{seconds:g}" if isinstance(seconds, (int, float)) else seconds
         super().__init__(
-            f"{step} took longer than its budget of {seconds:g} s and was stopped "
+            f"{step} took longer than its budget of {shown} s and was stopped "
             f"(set {ENVIRONMENT_VARIABLE} or bondgraph.budget.SECONDS for a larger budget)"
         )
         self.step = step
