@@ -255,7 +255,8 @@ def _storage_law(kind, name, parameter, law, placeholder, default_param):
         raise InvalidGraphError(f"{kind} {name!r}: give either a linear parameter or a law, not both", [name])
     if law is not None:
         return _law_from(law, placeholder, f"law of {kind} {name!r}")
-    param = as_expr(default_param if parameter is None else parameter, f"parameter of {kind} {name!r}")
+    what = f"{'capacitance' if kind == 'C' else 'inertance'} of {kind} {name!r}"
+    param = as_expr(default_param if parameter is None else parameter, what)
     return placeholder / param
 
 
