@@ -24,9 +24,11 @@ the main thread it comes even from inside C-level arithmetic on huge
 integers (which checks for signals; sympy gets there when it raises
 ``10¹²`` to a large power).  Off the main thread it comes at the next Python
 call: a single C-level operation runs to its end there, which is why
-:mod:`bondgraph.solving` takes the numbers out of a law before solving, and
-why a bare ``except:`` inside sympy that swallows the stop (a trace function
-is removed once it raises) lets the step run on.
+:mod:`bondgraph.solving` takes the numbers out of a law before solving.  A
+trace function is removed once it raises, so the stop is raised only in a
+plain function (not a generator the garbage collector closes, nor a
+``__del__``, where Python ignores it); a bare ``except:`` inside sympy that
+swallowed it would let the step run on.
 
 The budget, in seconds per step: :data:`SECONDS` when set (``None`` by
 default), else the environment variable ``HBG_SYMBOLIC_BUDGET``, else
@@ -35,6 +37,7 @@ default), else the environment variable ``HBG_SYMBOLIC_BUDGET``, else
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import signal
@@ -57,6 +60,11 @@ SECONDS: float | None = None
 #: after the budget, the alarm repeats at this interval until the step has stopped
 #: (in case a bare ``except:`` inside sympy swallowed the first one)
 _REPEAT = 0.05
+
+
+#: generators and coroutines: a trace function's exception there may be ignored (one closed by the
+#: garbage collector), and a trace function that raises is removed, so the stop waits for a plain call
+_RESUMABLE = inspect.CO_GENERATOR | inspect.CO_COROUTINE | inspect.CO_ASYNC_GENERATOR | inspect.CO_ITERABLE_COROUTINE
 
 
 class OverBudget(DerivationError):
@@ -137,9 +145,9 @@ def _with_alarm(token, seconds, function, args, kwargs):
 
     start = time.monotonic()
     previous_handler = signal.signal(signal.SIGALRM, alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)
     outcome = token
     try:
+        signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)  # armed inside: it may fire at once
         outcome = function(*args, **kwargs)
         active[0] = False  # from here on the alarm is a no-op (no check of signals before this store)
     except _Expired as stop:
@@ -168,7 +176,8 @@ def _with_trace(token, seconds, function, args, kwargs):
     previous = sys.gettrace()
 
     def check(frame, event, arg):
-        if event == "call" and time.monotonic() > deadline:
+        if (event == "call" and time.monotonic() > deadline and not frame.f_code.co_flags & _RESUMABLE
+                and frame.f_code.co_name != "__del__"):
             raise _Expired(token)
         return previous(frame, event, arg) if previous is not None else None
 

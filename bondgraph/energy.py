@@ -40,8 +40,8 @@ def _integrated(law: sp.Expr, state: sp.Symbol) -> sp.Expr:
     s = sp.Dummy("s")
     try:
         energy = budget.run(f"integrating {law} over {state}", sp.integrate, law.xreplace({state: s}), (s, 0, state))
-    except budget.OverBudget:
-        return sp.Integral(law.xreplace({state: s}), (s, 0, state))  # refused below, as sympy's own unevaluated one
+    except Exception:  # over budget, or sympy's NotImplementedError: refused below, as its own unevaluated one
+        return sp.Integral(law.xreplace({state: s}), (s, 0, state))
     return simplified(energy, "simplifying a stored energy") if energy.has(sp.Piecewise) else energy
 
 
