@@ -23,8 +23,8 @@ import sympy as sp
 
 from .errors import ComplexValueError
 
-__all__ = ["complex_failure", "complex_laws", "complex_law_message", "failure_point",
-           "is_complex_failure"]
+__all__ = ["ComplexValueError", "complex_failure", "complex_laws", "complex_law_message", "failure_point",
+           "is_complex_failure"]  # ComplexValueError: defined with the other errors, raised from here
 
 #: an imaginary part counts when it exceeds this fraction of the value's size (and of 1)
 _IMAGINARY_TOLERANCE = 1e-12
