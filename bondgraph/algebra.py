@@ -6,7 +6,8 @@ components, taken in topological order: an acyclic unknown is a plain
 substitution of already-solved ones (no matrices, linear cost for a chain);
 a component with a cycle (an algebraic loop) is solved on its own as a small
 linear system ``A v = b``.  A nonlinear loop is handed to ``sympy.solve`` and
-must have exactly one solution.
+must have exactly one solution, found within the budget of
+:mod:`bondgraph.budget` (with its numbers as symbols, :mod:`bondgraph.solving`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from collections.abc import Callable, Mapping
 
 import sympy as sp
 
+from .budget import ENVIRONMENT_VARIABLE
 from .errors import AlgebraicLoopError
+from .solving import SolveFailure, solve, vanishes
 
 __all__ = ["dependency_components", "solve_explicit"]
 
@@ -101,7 +104,7 @@ def _solve_loop(members, equations, solved, owner, what) -> dict:
         A = None
     if A is not None:
         det = A.det(method="berkowitz")
-        if sp.simplify(det) == 0:
+        if vanishes(det, f"deciding whether the {what} through {', '.join(elements)} is singular"):
             raise AlgebraicLoopError(
                 f"{what} through {', '.join(elements)} is singular (its equations are linearly dependent): "
                 "the junction structure leaves these variables undetermined. Add a storage or resistive element "
@@ -152,14 +155,22 @@ def _solve_nonlinear_loop(residuals, members, elements, what) -> dict:
                         elements,
                     )
         try:
-            solutions = sp.solve(residuals, remaining, dict=True)
-        except NotImplementedError:
-            solutions = []
+            solutions = solve(residuals, remaining, f"solving the {what} through {', '.join(elements)}")
+            found = f"has {len(solutions)} closed-form solution(s), not exactly one"
+            over_budget = False
+        except SolveFailure as failure:
+            solutions, found = [], f"has no closed-form solution that sympy finds: {failure.reason}"
+            over_budget = failure.over_budget
         if len(solutions) != 1 or set(solutions[0]) != set(remaining):
+            numbers = ("; giving the numbers of its laws as parameters (symbols, with values among the model's "
+                       "parameters) helps sympy find one" if any(r.atoms(sp.Number) - {sp.S.One, sp.S.NegativeOne}
+                                                                 for r in residuals) else "")
+            if over_budget:
+                numbers += f"; or raise the budget ({ENVIRONMENT_VARIABLE})"
             raise AlgebraicLoopError(
-                f"nonlinear {what} through {', '.join(elements)} has {len(solutions)} closed-form solution(s), "
-                "not exactly one, so it cannot be solved symbolically. Break the loop with a storage element, "
-                "or give the resistive law in the causality the loop needs.",
+                f"nonlinear {what} through {', '.join(elements)} {found}, so it cannot be solved symbolically "
+                f"(equations: {', '.join(f'{r} = 0' for r in residuals)}). Break the loop with a storage element, "
+                f"or give the resistive law in the causality the loop needs{numbers}.",
                 elements,
             )
         solution = solutions[0]

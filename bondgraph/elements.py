@@ -35,7 +35,9 @@ from typing import ClassVar
 
 import sympy as sp
 
+from . import budget
 from .errors import DerivationError, InvalidGraphError
+from .solving import SolveFailure, solve
 from .symbols import as_expr, check_name
 
 __all__ = [
@@ -156,24 +158,39 @@ def _law_from(law, placeholder: sp.Symbol, what: str) -> sp.Expr:
 
 @functools.lru_cache(maxsize=4096)
 def _inverse(expr: sp.Expr, var: sp.Symbol) -> tuple:
-    """``(y, solutions)``: every ``var`` with ``expr(var) = y`` (``y`` a dummy).
-    Cached: each mode with the element in derivative causality asks again."""
+    """``(y, solutions, failure)``: every ``var`` with ``expr(var) = y`` (``y``
+    a dummy), or ``failure`` (a :class:`~bondgraph.solving.SolveFailure`)
+    when sympy cannot find them within the budget.  Cached, failures too:
+    each mode with the element in derivative causality asks again."""
     y = sp.Dummy("y")
     slope = sp.diff(expr, var)
     if slope != 0 and not slope.has(var) and expr.xreplace({var: 0}) == 0:  # linear: no solver needed
-        return y, (y / slope,)
-    return y, tuple(sp.solve(sp.Eq(expr, y), var, dict=False))
+        return y, (y / slope,), None
+    try:
+        solutions = solve([expr - y], [var], f"inverting {expr} for {var}")
+    except SolveFailure as failure:
+        return y, (), failure
+    return y, tuple(s[var] for s in solutions if var in s), None
 
 
 def _invert(expr: sp.Expr, var: sp.Symbol, value: sp.Expr, element: str, what: str) -> sp.Expr:
-    """Solve ``expr(var) = value`` for ``var``; it must have one solution."""
-    y, solutions = _inverse(expr, var)
-    if len(solutions) != 1:
+    """Solve ``expr(var) = value`` for ``var``; it must have one solution,
+    found within the budget of :mod:`bondgraph.budget`."""
+    y, solutions, failure = _inverse(expr, var)
+    if failure is not None or len(solutions) != 1:
         shown = expr.xreplace({var: sp.Symbol(var.name)})
+        found = failure.reason if failure is not None else f"it has {len(solutions)} solutions, not one"
+        other = {"R flow": "effort_law=", "R effort": "flow_law="}.get(what)
+        advice = (f"Give the law in the causality the graph needs ({other}...), " if other
+                  else "Give the law in the other causality, ")
+        if failure is not None and failure.over_budget:
+            advice += ("give its numbers as parameters (symbols, with their values among the model's "
+                       "parameters: sympy inverts those far faster), or raise the budget "
+                       f"({budget.ENVIRONMENT_VARIABLE}); ")
         raise DerivationError(
-            f"cannot invert the {what} law of {element!r} ({shown} = y) for {var.name} uniquely "
-            f"({len(solutions)} solutions); the graph forces the other causality on it. "
-            "Give the inverse law as well, or change the graph so the element keeps its preferred causality.",
+            f"cannot invert the {what} law of {element!r} ({shown} = y) for {var.name}: {found}. "
+            f"The graph forces the other causality on {element!r}. {advice}"
+            "or change the graph so the element keeps its preferred causality.",
             [element],
         )
     return solutions[0].xreplace({y: value})
@@ -239,7 +256,8 @@ def _storage_law(kind, name, parameter, law, placeholder, default_param):
         raise InvalidGraphError(f"{kind} {name!r}: give either a linear parameter or a law, not both", [name])
     if law is not None:
         return _law_from(law, placeholder, f"law of {kind} {name!r}")
-    param = as_expr(default_param if parameter is None else parameter, f"parameter of {kind} {name!r}")
+    what = f"{'capacitance' if kind == 'C' else 'inertance'} of {kind} {name!r}"
+    param = as_expr(default_param if parameter is None else parameter, what)
     return placeholder / param
 
 

@@ -23,8 +23,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
+from . import budget
 from .elements import Storage
 from .errors import DerivationError
+from .solving import simplified
 from .symbols import t as TIME
 
 __all__ = ["storage_energy", "stored_energy", "energy_function"]
@@ -36,8 +38,11 @@ def _integrated(law: sp.Expr, state: sp.Symbol) -> sp.Expr:
     if not slope.has(state) and law.xreplace({state: 0}) == 0:  # linear: no integrator needed
         return law * state / 2
     s = sp.Dummy("s")
-    energy = sp.integrate(law.xreplace({state: s}), (s, 0, state))
-    return sp.simplify(energy) if energy.has(sp.Piecewise) else energy
+    try:
+        energy = budget.run(f"integrating {law} over {state}", sp.integrate, law.xreplace({state: s}), (s, 0, state))
+    except Exception:  # over budget, or sympy's NotImplementedError: refused below, as its own unevaluated one
+        return sp.Integral(law.xreplace({state: s}), (s, 0, state))
+    return simplified(energy, "simplifying a stored energy") if energy.has(sp.Piecewise) else energy
 
 
 def storage_energy(element: Storage) -> sp.Expr:
@@ -49,7 +54,8 @@ def storage_energy(element: Storage) -> sp.Expr:
     if energy.has(sp.Integral):
         raise DerivationError(
             f"cannot integrate the law of {element} ({element.law} in {element.state}) symbolically, "
-            "so its stored energy is unknown; give a law sympy can integrate",
+            f"within the budget of {budget.budget_seconds()} s, so its stored energy is unknown; give a law sympy "
+            "can integrate (its numbers as parameters help sympy)",
             [element.name],
         )
     return energy

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import sympy as sp
 
 from .algebra import solve_explicit
+from .solving import simplified
 from .errors import DerivationError
 from .symbols import rate_symbol, t
 
@@ -270,12 +271,15 @@ def tidy(expr: sp.Expr) -> sp.Expr:
     (``cancel`` with ``sin² = 1 − cos²`` and the common factors taken out
     would halve the falling rod's derivation too, but it changes the
     rounding of the rod's rates enough to turn one grazing contact of the
-    full grid of ``tests/test_model_ranges.py`` into a divergence of time.)"""
+    full grid of ``tests/test_model_ranges.py`` into a divergence of time.)
+
+    Each runs in the budget of :mod:`bondgraph.budget`; past it the
+    expression is kept as it stands."""
     if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
         return expr
     if expr.is_rational_function():
-        return sp.cancel(expr)
-    return sp.simplify(expr)
+        return simplified(expr, "cancelling a derived expression", sp.cancel)
+    return simplified(expr, "simplifying a derived expression")
 
 
 def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:

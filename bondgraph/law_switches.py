@@ -45,6 +45,7 @@ from sympy.core.relational import Relational
 
 from .elements import _E, _F, R, _copy_with
 from .errors import DerivationError
+from .solving import SolveFailure, simplified, solve
 
 __all__ = ["LawSwitch", "law_switches", "DISCONTINUOUS"]
 
@@ -124,11 +125,14 @@ def _is_continuous(law: sp.Expr, sigma: sp.Symbol, surface: sp.Expr) -> bool:
     for symbol in sorted(surface.free_symbols, key=lambda s: s.name):
         if sp.diff(surface, symbol, 2) != 0 or sp.diff(surface, symbol) == 0:
             continue
-        roots = sp.solve(sp.Eq(surface, 0), symbol)
-        if len(roots) == 1:
-            on_surface = jump.xreplace({symbol: roots[0]})
+        try:
+            roots = solve([surface], [symbol], f"solving the switching surface {surface} = 0 for {symbol}")
+        except SolveFailure:  # undecided: a switch where the law may be continuous costs only events
+            return False
+        if len(roots) == 1 and symbol in roots[0]:
+            on_surface = jump.xreplace({symbol: roots[0][symbol]})
             on_surface = on_surface.replace(sp.Abs, lambda a: sp.sqrt(a**2))
-            return sp.simplify(on_surface) == 0
+            return simplified(on_surface, "deciding whether a law is continuous on its switching surface") == 0
     return False
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 import sympy as sp
 
 from .errors import DerivationError
+from .solving import simplified
 from .symbols import t
 
 __all__ = ["StateSpace", "state_space"]
@@ -132,7 +133,7 @@ def _linear_row(expr, states, inputs, what):
         raise DerivationError(
             f"{what} = {expr} is not linear in the states and inputs: {problem}; "
             "no state-space matrices for this configuration.", [what])
-    row = [sp.simplify(c) for c in row]
+    row = [simplified(c, f"simplifying a coefficient of {what}") for c in row]
     return row[:len(states)], row[len(states):]
 
 

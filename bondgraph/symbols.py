@@ -15,6 +15,7 @@ from sympy.core.relational import Relational
 from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
 from .errors import InvalidGraphError
+from .reals import real_expression
 
 __all__ = ["t", "as_expr", "parameter", "rate_symbol", "check_name", "NAME_PATTERN"]
 
@@ -47,16 +48,17 @@ def as_expr(value, what: str = "value") -> sp.Expr:
 
     numbers → sympy numbers (floats stay floats); a string → the parameter
     symbol of that name (it must be a plain name, not a formula); sympy
-    expressions pass unchanged.
+    expressions pass unchanged.  Complex values (``1j``, ``sp.I``, a law
+    with ``I`` in it) are refused (:mod:`bondgraph.reals`).
     """
     if isinstance(value, sp.Basic):
         if isinstance(value, (Relational, BooleanFunction, BooleanAtom)):
             raise InvalidGraphError(f"{what} must be an expression, not a condition: {value}")
-        return value
+        return real_expression(value, what)
     if isinstance(value, bool):
         raise InvalidGraphError(f"{what} must be a number, a parameter name or a sympy expression, not {value!r}")
     if isinstance(value, Number):
-        return sp.sympify(value)  # numbers only: no text reaches sympify
+        return real_expression(sp.sympify(value), what, value)  # numbers only: no text reaches sympify
     if isinstance(value, str):
         if not NAME_PATTERN.fullmatch(value):
             raise InvalidGraphError(

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from bondgraph.errors import InvalidGraphError, ParameterValueError, PhysicalRangeWarning, UnknownParameterError
+from bondgraph.reals import real_number
 
 __all__ = ["merged", "Range", "positive", "nonnegative"]
 
@@ -67,6 +68,8 @@ def merged(defaults: Mapping, overrides: Mapping, ranges: Mapping[str, Range] | 
     values = dict(defaults)
     for name, value in overrides.items():
         default = defaults[name]
+        if not isinstance(default, (str, bool)):
+            value = real_number(value, f"parameter {name!r} of {model}", name)
         try:
             if isinstance(default, str):
                 if not isinstance(value, str):

@@ -8,6 +8,7 @@ from .automaton import A_POSTERIORI as A_POSTERIORI
 from .automaton import A_PRIORI as A_PRIORI
 from .automaton import Automaton as Automaton
 from .automaton import Transition as Transition
+from .errors import ComplexValueError as ComplexValueError
 from .errors import DivergenceOfTimeError as DivergenceOfTimeError
 from .errors import GuardSyntaxError as GuardSyntaxError
 from .errors import ImpulseError as ImpulseError

@@ -14,6 +14,7 @@ __all__ = [
     "SimulationError",
     "ZenoError",
     "NonFiniteStateError",
+    "ComplexValueError",
     "StepSizeError",
     "StiffnessError",
     "SimulationInterrupted",
@@ -88,6 +89,17 @@ class ZenoError(SimulationError):
 
 class NonFiniteStateError(SimulationError):
     """The state became NaN or infinite during flow."""
+
+
+class ComplexValueError(NonFiniteStateError):
+    """An element law gave a complex value (or none: a domain error) for
+    real inputs during a run (``sqrt`` of a charge that turned negative):
+    ``elements`` names the culprits, ``x`` is the state there."""
+
+    def __init__(self, message: str, trajectory=None, t=None, mode=None, elements=(), x=None):
+        super().__init__(message, trajectory, t, mode)
+        self.elements = tuple(elements)
+        self.x = x
 
 
 class StepSizeError(SimulationError):

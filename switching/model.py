@@ -34,6 +34,7 @@ from bondgraph import BondGraph, t as TIME
 from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
 from bondgraph.jump import JUMP_LAWS
 from bondgraph.law_switches import law_switches
+from bondgraph.reals import real_number
 from bondgraph.symbols import check_name, rate_symbol
 
 from .automaton import Automaton
@@ -388,6 +389,7 @@ class HybridModel:
             raise MissingParameterError(missing, self._text_only_names(missing))
         out = {}
         for name, v in given.items():
+            v = real_number(v, f"parameter {name!r} of model {self.name!r}", name)
             try:
                 value = float(v)
             except (TypeError, ValueError, OverflowError):
@@ -434,6 +436,7 @@ class HybridModel:
                 raise UnknownNameError(
                     f"initial value for unknown state {key!r}; states are: {', '.join(by_name)}", key
                 )
+            value = real_number(value, f"initial value of state {key!r}", key)
             try:
                 x[by_name[key]] = float(value)
             except (TypeError, ValueError, OverflowError):

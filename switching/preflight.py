@@ -5,8 +5,10 @@ infinite cannot go anywhere: an adaptive integrator chooses a NaN step and
 never reaches its end, a guard whose side is NaN silently never fires.
 :func:`nonfinite_at_start` names each such rate or side with the parameters
 its expression reads, those that are zero or non-finite first (a zero
-inductance ``L`` in ``ẋ = v/L``), so the error says what to fix.  The check
-costs one evaluation of ``f`` and of the guard sides per flow started.
+inductance ``L`` in ``ẋ = v/L``), and each element law that leaves the real
+numbers there (``sqrt`` of a negative charge, which numpy makes NaN), so the
+error says what to fix.  The check costs one evaluation of ``f`` and of the
+guard sides per flow started.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .compiled import _tree
+from .real_values import complex_law_message
 
 __all__ = ["nonfinite_at_start"]
 
@@ -90,6 +93,10 @@ def nonfinite_at_start(model, cm, x, t) -> str | None:
         expr = relations[k].lhs if side == "left" else relations[k].rhs
         lines.append(f"  {side} side of {text!r} in guard {guard['text']!r} of automaton {guard['automaton']!r} "
                      f"({guard['source']} → {guard['target']}) = {value}{_parameters_read(model, me.finite(expr))}")
+    if bad_rates:
+        complex_laws = complex_law_message(model, cm.mode, x, t)  # NaN from numpy where a law left the reals
+        if complex_laws:
+            lines.append(complex_laws)
     lines.append("Check the values named: storage parameters (capacitance, inductance, mass) and divisors must be "
                  "finite and nonzero, and the initial state inside the model's range.")
     return "\n".join(lines)

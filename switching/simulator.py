@@ -40,6 +40,7 @@ from .jit_model import choose_method as _choose_method
 from .jit_model import input_problem as _input_problem
 from .jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
+from .real_values import ComplexValueError, complex_failure
 from .run_options import COMPILED, DEFAULT_MAX_STEPS, METHODS, check_run
 from .trajectory import Trajectory
 
@@ -386,6 +387,9 @@ def simulate(
             exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
         raise
     except Exception as exc:  # an input function, a callback, a library: still nothing computed is lost
+        complex_value = complex_failure(model, current, exc)  # a law that left the reals: name it
+        if complex_value is not None:
+            raise fail(ComplexValueError, complex_value.pop("message"), **complex_value) from exc
         raise fail(SimulationError,
                    f"the run failed at t = {t:.12g} s in mode {current.describe()} with {type(exc).__name__}: {exc} "
                    "(the trajectory up to there is attached; the original error and its traceback are its cause)"

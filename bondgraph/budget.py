@@ -1,0 +1,193 @@
+"""A time budget for one symbolic step of a derivation.
+
+sympy cannot be interrupted cooperatively: ``solve`` of a law with floats in
+it (a diode ``Is*(exp(e/VT) - 1)`` with ``Is = 1e-12``) may run for hours.
+:func:`run` calls a step and stops it once it has run for longer than the
+budget, raising :class:`OverBudget`; the caller then falls back (the
+unsimplified form, a conservative answer) or raises an error of the
+hierarchy that names the element and the law.
+
+How a step is stopped:
+
+* in the main thread of a Unix process, by ``SIGALRM`` from an interval
+  timer (``setitimer``).  Any handler and timer already set (``pytest-timeout``,
+  the user's own alarm) are put back afterwards, the timer with what was left
+  of it; an outer alarm due before the budget ends is left to fire itself.
+* in any other thread (a Dask worker thread, a GUI's worker), by a trace
+  function (``sys.settrace``) that checks the clock at each Python call: the
+  step runs a little slower, and any trace function set before (a debugger,
+  coverage) is put back afterwards.
+
+Either way the stop is an exception (a ``BaseException``, so sympy's own
+``except Exception`` clauses do not swallow it) raised inside the step.  In
+the main thread it comes even from inside C-level arithmetic on huge
+integers (which checks for signals; sympy gets there when it raises
+``10¹²`` to a large power).  Off the main thread it comes at the next Python
+call: a single C-level operation runs to its end there, which is why
+:mod:`bondgraph.solving` takes the numbers out of a law before solving.  A
+trace function is removed once it raises, so the stop is raised only in a
+plain function (not a generator the garbage collector closes, nor a
+``__del__``, where Python ignores it); a bare ``except:`` inside sympy that
+swallowed it would let the step run on.
+
+The budget, in seconds per step: :data:`SECONDS` when set (``None`` by
+default), else the environment variable ``HBG_SYMBOLIC_BUDGET``, else
+:data:`DEFAULT_SECONDS`.  ``0``, ``off`` or ``none`` turns the budget off.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable
+
+from .errors import DerivationError
+
+__all__ = ["DEFAULT_SECONDS", "ENVIRONMENT_VARIABLE", "SECONDS", "OverBudget", "budget_seconds", "run"]
+
+#: the budget of one symbolic step when neither :data:`SECONDS` nor the environment sets it
+DEFAULT_SECONDS = 5.0
+#: the environment variable that sets the budget (seconds; ``0``/``off``/``none`` for none)
+ENVIRONMENT_VARIABLE = "HBG_SYMBOLIC_BUDGET"
+#: the budget set in code (seconds, ``0`` for none); ``None``: the environment or the default
+SECONDS: float | None = None
+
+#: after the budget, the alarm repeats at this interval until the step has stopped
+#: (in case a bare ``except:`` inside sympy swallowed the first one)
+_REPEAT = 0.05
+
+
+#: generators and coroutines: a trace function's exception there may be ignored (one closed by the
+#: garbage collector), and a trace function that raises is removed, so the stop waits for a plain call
+_RESUMABLE = inspect.CO_GENERATOR | inspect.CO_COROUTINE | inspect.CO_ASYNC_GENERATOR | inspect.CO_ITERABLE_COROUTINE
+
+
+class OverBudget(DerivationError):
+    """A symbolic step ran past its time budget.  ``step`` says which and
+    ``seconds`` what the budget was; callers turn it into a fallback or a
+    :class:`~bondgraph.errors.DerivationError` naming the element."""
+
+    def __init__(self, step: str, seconds: float):
+        shown = f"{seconds:g}" if isinstance(seconds, (int, float)) else seconds
+        super().__init__(
+            f"{step} took longer than its budget of {shown} s and was stopped "
+            f"(set {ENVIRONMENT_VARIABLE} or bondgraph.budget.SECONDS for a larger budget)"
+        )
+        self.step = step
+        self.seconds = seconds
+
+
+class _Expired(BaseException):
+    """Raised inside the step by the alarm; ``args[0]`` is the budget's token."""
+
+
+def budget_seconds() -> float | None:
+    """The budget of one step in seconds, ``None`` when it is off."""
+    value = SECONDS
+    if value is None:
+        text = os.environ.get(ENVIRONMENT_VARIABLE, "").strip().lower()
+        if not text:
+            value = DEFAULT_SECONDS
+        elif text in ("off", "none"):
+            return None
+        else:
+            try:
+                value = float(text)
+            except ValueError:
+                raise DerivationError(
+                    f"{ENVIRONMENT_VARIABLE}={os.environ[ENVIRONMENT_VARIABLE]!r} is not a number of seconds; "
+                    "give e.g. 5, or 0 (or off) for no budget"
+                ) from None
+    value = float(value)
+    if math.isnan(value) or value <= 0 or math.isinf(value):
+        return None
+    return value
+
+
+def run(step: str, function: Callable, *args, **kwargs):
+    """``function(*args, **kwargs)`` stopped after the budget: raises
+    :class:`OverBudget` (naming ``step``) if it has not returned by then."""
+    seconds = budget_seconds()
+    if seconds is None:
+        return function(*args, **kwargs)
+    token = object()
+    if _can_alarm():
+        outcome = _with_alarm(token, seconds, function, args, kwargs)
+    else:
+        outcome = _with_trace(token, seconds, function, args, kwargs)
+    if outcome is token:
+        raise OverBudget(step, seconds)
+    return outcome
+
+
+def _can_alarm() -> bool:
+    """Whether this thread can use ``SIGALRM`` (main thread, Unix, a handler
+    that Python can put back)."""
+    return (hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGALRM) is not None)
+
+
+def _with_alarm(token, seconds, function, args, kwargs):
+    """The step under an interval timer; ``token`` if it ran out of time."""
+    previous_delay, previous_interval = signal.getitimer(signal.ITIMER_REAL)
+    if 0 < previous_delay <= seconds:  # an outer alarm comes first: it stops the step itself
+        return function(*args, **kwargs)
+    active = [True]
+
+    def alarm(signum, frame):
+        if active[0]:
+            raise _Expired(token)
+
+    start = time.monotonic()
+    previous_handler = signal.signal(signal.SIGALRM, alarm)
+    outcome = token
+    try:
+        signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)  # armed inside: it may fire at once
+        outcome = function(*args, **kwargs)
+        active[0] = False  # from here on the alarm is a no-op (no check of signals before this store)
+    except _Expired as stop:
+        active[0] = False
+        if stop.args[0] is not token:
+            raise
+    finally:
+        active[0] = False
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        _let_pending_signals_run()  # a SIGALRM of ours still pending meets the no-op handler, not the previous one
+        signal.signal(signal.SIGALRM, previous_handler)
+        if previous_delay > 0:
+            left = previous_delay - (time.monotonic() - start)
+            signal.setitimer(signal.ITIMER_REAL, max(left, 1e-6), previous_interval)
+    return outcome
+
+
+def _let_pending_signals_run() -> None:
+    """Python runs pending signal handlers on entering a function: this one."""
+
+
+def _with_trace(token, seconds, function, args, kwargs):
+    """The step under a trace function that checks the clock at each call;
+    ``token`` if it ran out of time."""
+    deadline = time.monotonic() + seconds
+    previous = sys.gettrace()
+
+    def check(frame, event, arg):
+        if (event == "call" and time.monotonic() > deadline and not frame.f_code.co_flags & _RESUMABLE
+                and frame.f_code.co_name != "__del__"):
+            raise _Expired(token)
+        return previous(frame, event, arg) if previous is not None else None
+
+    sys.settrace(check)
+    try:
+        try:
+            return function(*args, **kwargs)
+        finally:
+            sys.settrace(previous)
+    except _Expired as stop:
+        if stop.args[0] is not token:
+            raise
+        return token

@@ -1,0 +1,92 @@
+"""sympy's solver and simplifier as derivation steps: in a time budget, with
+the numbers of a law taken out first.
+
+``sympy.solve`` of ``1e-12*(exp(e/0.025) - 1) = y`` turns the floats into
+rationals (``exp(40 e)``, ``1/10¹²``) and then searches for hours; the same
+law with symbols ``Is*(exp(e/VT) - 1) = y`` is solved in a fraction of a
+second (``e = VT·log(1 + y/Is)``).  So :func:`solve` first replaces every
+non-integral float ``c`` of the equations by a symbol ``κ``, solves, and
+puts ``c`` back for ``κ``: the solution of the law with symbols, evaluated at
+the numbers, is a solution of the law with numbers.  Integral floats
+(``x**2.0``) stay: they decide the structure (a square has two roots).
+Each call runs in the budget of :mod:`bondgraph.budget`.
+"""
+
+from __future__ import annotations
+
+import random
+
+import sympy as sp
+
+from . import budget
+
+__all__ = ["SolveFailure", "solve", "simplified", "vanishes"]
+
+
+class SolveFailure(Exception):
+    """``sympy.solve`` gave up (``NotImplementedError`` or another error of
+    its own) or ran out of budget; ``reason`` says which, in words."""
+
+    def __init__(self, reason: str, over_budget: bool = False):
+        super().__init__(reason)
+        self.reason = reason
+        self.over_budget = over_budget
+
+
+def _floats_as_symbols(expressions) -> tuple[list, dict]:
+    """``(expressions', {κ: c})``: every non-integral float ``c`` replaced by a symbol ``κ``."""
+    floats = set()
+    for expr in expressions:
+        floats |= {a for a in expr.atoms(sp.Float) if a != int(a)}
+    back = {sp.Dummy(f"c{k}"): c for k, c in enumerate(sorted(floats))}
+    forward = {c: k for k, c in back.items()}
+    return [expr.xreplace(forward) for expr in expressions], back
+
+
+def solve(equations, unknowns, step: str) -> list[dict]:
+    """Every solution of ``equations = 0`` for ``unknowns`` (``sympy.solve``
+    with ``dict=True``), found with the numbers replaced by symbols (see the
+    module docstring), each step in the budget.  Raises :class:`SolveFailure`."""
+    equations = [sp.sympify(e) for e in equations]
+    symbolic, back = _floats_as_symbols(equations)
+    try:
+        solutions = budget.run(step, sp.solve, symbolic, list(unknowns), dict=True)
+    except budget.OverBudget as exc:
+        raise SolveFailure(f"sympy found no solution within the budget of {exc.seconds:g} s", True) from None
+    except Exception as exc:  # NotImplementedError and sympy's own errors: no closed form
+        raise SolveFailure(f"sympy cannot solve it ({type(exc).__name__}: {exc})") from None
+    return [{v: value.xreplace(back) for v, value in solution.items()} for solution in solutions]
+
+
+def simplified(expr: sp.Expr, step: str, how=sp.simplify) -> sp.Expr:
+    """``how(expr)`` (``sympy.simplify`` by default) in the budget; ``expr``
+    as it stands when that runs out (simplifying only tidies)."""
+    try:
+        return budget.run(step, how, expr)
+    except budget.OverBudget:
+        return expr
+
+
+def vanishes(expr: sp.Expr, step: str) -> bool:
+    """Whether ``expr`` is identically zero: ``simplify(expr) == 0`` in the
+    budget, else (budget run out) ``expr`` evaluated at three random points
+    of its symbols, each within ``1e-9`` of zero relative to its top-level
+    terms (a non-zero analytic function vanishes at a random point with
+    probability 0)."""
+    try:
+        return budget.run(step, sp.simplify, expr) == 0
+    except budget.OverBudget:
+        pass
+    rng = random.Random(20240601)
+    symbols = sorted(expr.free_symbols, key=str)
+    terms = sp.Add.make_args(expr)
+    for _ in range(3):
+        point = {s: sp.Float(rng.uniform(0.5, 2.0)) for s in symbols}
+        try:
+            value = complex(expr.xreplace(point).evalf())
+            scale = max([abs(complex(term.xreplace(point).evalf())) for term in terms] + [1.0])
+        except (TypeError, ValueError, ArithmeticError):
+            return False  # not a number there: not identically zero as far as can be told
+        if abs(value) > 1e-9 * scale:
+            return False
+    return True
