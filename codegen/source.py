@@ -127,9 +127,17 @@ class _Printer(PythonCodePrinter):
         return f"H.{leaf}" if self._raw else leaf
 
     def _print_not_supported(self, expr):
-        raise UnprintableExpressionError(
-            f"the expression {expr} has no numerical definition (a function sympy knows only by name, or an "
-            "object that is not a number); write it with sympy's functions (sp.exp, sp.Piecewise, ...)")
+        from sympy.core.function import AppliedUndef
+
+        if isinstance(expr, AppliedUndef):
+            why = (f"{expr.func} is a function sympy knows only by name: write it with sympy's functions "
+                   "(sp.exp, sp.Piecewise, ...)")
+        else:
+            name = getattr(expr, "func", type(expr)).__name__
+            why = (f"the code generator cannot compute {name} numerically (it may come from inverting a law: "
+                   "give the law in the causality the graph needs, effort_law= or flow_law=, or a law whose "
+                   "inverse sympy writes with elementary functions)")
+        raise UnprintableExpressionError(f"the expression {expr} has no numerical definition: {why}")
 
     def _print_Symbol(self, expr):
         return self._names.get(expr, super()._print_Symbol(expr))

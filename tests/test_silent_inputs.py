@@ -70,7 +70,7 @@ def test_a_law_with_a_function_known_only_by_name_fails_with_the_toolkits_error(
     with pytest.raises(HybridBondGraphError) as raised:
         model.simulate(1.0)
     assert isinstance(raised.value, UnprintableExpressionError)
-    assert "foo(q_C) has no numerical definition" in str(raised.value)
+    assert "foo(q_C) has no numerical definition: foo is a function sympy knows only by name" in str(raised.value)
 
 
 @pytest.mark.parametrize("name", ["C\n", "C\r\nx", "C\x00", "C\t", "C\u2028"])
