@@ -66,7 +66,7 @@ def _rename_expr(expr: sp.Expr, mapping: SymbolMap) -> sp.Expr:
     return expr.xreplace(dict(mapping)) if mapping else expr
 
 
-def _copy_with(element: "Element", **changes) -> "Element":
+def copy_with(element: "Element", **changes) -> "Element":
     """A copy of a (frozen) element with some fields changed, bypassing the
     user-facing constructors (which take parameters, not laws)."""
     new = object.__new__(type(element))
@@ -93,7 +93,7 @@ class Element:
 
     def renamed(self, name: str, mapping: SymbolMap) -> "Element":
         """A copy called ``name`` with symbols replaced per ``mapping`` (sub-model instances)."""
-        return _copy_with(self, name=name)
+        return copy_with(self, name=name)
 
     def __str__(self) -> str:
         kind = f"{self.kind}-junction" if self.kind in ("0", "1") else self.kind
@@ -123,7 +123,7 @@ class Source(OnePort):
         return (self.value,)
 
     def renamed(self, name, mapping):
-        return _copy_with(self, name=name, value=_rename_expr(self.value, mapping))
+        return copy_with(self, name=name, value=_rename_expr(self.value, mapping))
 
 
 @dataclass(frozen=True)
@@ -248,7 +248,7 @@ class Storage(OnePort):
         else:
             new_state = mapping.get(self.state, self.state)
         law = self.law.xreplace({**dict(mapping), self.state: new_state})
-        return _copy_with(self, name=name, law=law, state=new_state)
+        return copy_with(self, name=name, law=law, state=new_state)
 
 
 def _storage_law(kind, name, parameter, law, placeholder, default_param):
@@ -303,8 +303,9 @@ class I(Storage):
 # ---------------------------------------------------------------- dissipation
 
 
-_F = sp.Dummy("f")
-_E = sp.Dummy("e")
+#: the placeholders of an R's laws: its effort law is an expression of LAW_FLOW, its flow law of LAW_EFFORT
+LAW_FLOW = sp.Dummy("f")
+LAW_EFFORT = sp.Dummy("e")
 
 
 @dataclass(frozen=True)
@@ -319,8 +320,8 @@ class R(OnePort):
     """
 
     kind: ClassVar[str] = "R"
-    effort_law: sp.Expr = None  # expression of _F
-    flow_law: sp.Expr = None  # expression of _E
+    effort_law: sp.Expr = None  # expression of LAW_FLOW
+    flow_law: sp.Expr = None  # expression of LAW_EFFORT
 
     def __init__(self, name: str, resistance=None, *, effort_law=None, flow_law=None):
         given = sum(x is not None for x in (resistance, effort_law, flow_law))
@@ -328,13 +329,13 @@ class R(OnePort):
             raise InvalidGraphError(f"R {name!r}: give one of resistance, effort_law, flow_law", [name])
         e_law = f_law = None
         if effort_law is not None:
-            e_law = _law_from(effort_law, _F, f"effort_law of R {name!r}")
+            e_law = _law_from(effort_law, LAW_FLOW, f"effort_law of R {name!r}")
         elif flow_law is not None:
-            f_law = _law_from(flow_law, _E, f"flow_law of R {name!r}")
+            f_law = _law_from(flow_law, LAW_EFFORT, f"flow_law of R {name!r}")
         else:
             res = as_expr(name if resistance is None else resistance, f"resistance of R {name!r}")
-            e_law = res * _F
-            f_law = _E / res
+            e_law = res * LAW_FLOW
+            f_law = LAW_EFFORT / res
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "effort_law", e_law)
         object.__setattr__(self, "flow_law", f_law)
@@ -348,20 +349,20 @@ class R(OnePort):
     def effort(self, flow: sp.Expr) -> sp.Expr:
         """``e = φ(f)`` (inverting ``ψ`` if only that is known)."""
         if self.effort_law is not None:
-            return self.effort_law.xreplace({_F: flow})
-        return _invert(self.flow_law, _E, flow, self.name, "R flow")
+            return self.effort_law.xreplace({LAW_FLOW: flow})
+        return _invert(self.flow_law, LAW_EFFORT, flow, self.name, "R flow")
 
     def flow(self, effort: sp.Expr) -> sp.Expr:
         """``f = ψ(e)`` (inverting ``φ`` if only that is known)."""
         if self.flow_law is not None:
-            return self.flow_law.xreplace({_E: effort})
-        return _invert(self.effort_law, _F, effort, self.name, "R effort")
+            return self.flow_law.xreplace({LAW_EFFORT: effort})
+        return _invert(self.effort_law, LAW_FLOW, effort, self.name, "R effort")
 
     def expressions(self):
         return tuple(x for x in (self.effort_law, self.flow_law) if x is not None)
 
     def renamed(self, name, mapping):
-        return _copy_with(
+        return copy_with(
             self,
             name=name,
             effort_law=None if self.effort_law is None else _rename_expr(self.effort_law, mapping),
@@ -391,7 +392,7 @@ class TwoPort(Element):
         return (self.modulus,)
 
     def renamed(self, name, mapping):
-        return _copy_with(self, name=name, modulus=_rename_expr(self.modulus, mapping))
+        return copy_with(self, name=name, modulus=_rename_expr(self.modulus, mapping))
 
 
 @dataclass(frozen=True)

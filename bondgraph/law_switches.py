@@ -43,7 +43,7 @@ from dataclasses import dataclass, fields
 import sympy as sp
 from sympy.core.relational import Relational
 
-from .elements import _E, _F, R, _copy_with
+from .elements import LAW_EFFORT, LAW_FLOW, R, copy_with
 from .errors import DerivationError
 from .solving import SolveFailure, simplified, solve
 
@@ -108,12 +108,12 @@ def _rewrite(atom, sigmas: list) -> sp.Expr:
 
 
 def _local_variables(graph, element) -> dict:
-    """An element's own placeholders → graph variables (R: ``_F`` → the
-    flow into the element, ``_E`` → its bond's effort)."""
+    """An element's own placeholders → graph variables (R: ``LAW_FLOW`` → the
+    flow into the element, ``LAW_EFFORT`` → its bond's effort)."""
     if not isinstance(element, R):
         return {}
     (bond,) = graph.bonds_of(element.name)
-    return {_F: bond.sign_at(element.name) * bond.flow, _E: bond.effort}
+    return {LAW_FLOW: bond.sign_at(element.name) * bond.flow, LAW_EFFORT: bond.effort}
 
 
 def _is_continuous(law: sp.Expr, sigma: sp.Symbol, surface: sp.Expr) -> bool:
@@ -198,7 +198,7 @@ def law_switches(graph):
             continue
         changes, found = _element_switches(graph, element, taken)
         if found:
-            elements[name] = _copy_with(element, **changes)
+            elements[name] = copy_with(element, **changes)
             switches += found
     if not switches:
         return graph, ()
