@@ -104,9 +104,8 @@ def test_an_abs_law_sympy_cannot_invert_is_a_derivation_error_not_a_raw_not_impl
     assert "NotImplementedError" in message  # what sympy said, in the toolkit's error
 
 
-@pytest.mark.timeout(60)
-def test_a_model_file_with_a_diode_law_in_numbers_builds_and_runs():
-    text = """
+#: a series circuit with a diode law in numbers (a stranger's 20-line file)
+DIODE_FILE = """
 hbg_model_format = 1
 name = "diode_rc"
 
@@ -128,6 +127,11 @@ res = "j -> res"
 d = "j -> d"
 cap = "j -> cap"
 """
+
+
+@pytest.mark.timeout(60)
+def test_a_model_file_with_a_diode_law_in_numbers_builds_and_runs():
+    text = DIODE_FILE
     model = loads_model(text)
     start = time.perf_counter()
     equations = model.mode_equations(model.initial_mode)
@@ -225,28 +229,7 @@ def test_the_budget_is_set_by_the_module_or_the_environment(monkeypatch):
 @pytest.mark.timeout(120)
 def test_hbg_run_of_a_file_with_a_diode_law_in_numbers_finishes(tmp_path):
     path = tmp_path / "diode.toml"
-    path.write_text("""
-hbg_model_format = 1
-name = "diode_series"
-
-[parameters]
-V = { value = 0.7 }
-R = { value = 10.0 }
-C = { value = 1e-3 }
-
-[elements]
-src = { type = "Se", value = "V" }
-j = { type = "1" }
-res = { type = "R", resistance = "R" }
-d = { type = "R", flow_law = "1e-12*(exp(e_d/0.025) - 1)" }
-cap = { type = "C", capacitance = "C" }
-
-[bonds]
-src = "src -> j"
-res = "j -> res"
-d = "j -> d"
-cap = "j -> cap"
-""")
+    path.write_text(DIODE_FILE)
     env = dict(os.environ, HBG_SYMBOLIC_BUDGET="5")
     done = subprocess.run([sys.executable, "-m", "models.cli", "run", str(path), "--t-end", "0.01"],
                           capture_output=True, text=True, timeout=100, cwd=tmp_path, env=env)
