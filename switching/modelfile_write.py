@@ -30,7 +30,8 @@ from bondgraph.elements import Storage
 
 from .exprtext import ExpressionTextError, condition_text, expression_text
 from .expression_input import ExpressionInput
-from .model import HybridModel, Tolerance, _canonical
+from .library import canonical
+from .model import HybridModel, Tolerance
 from .modelfile_errors import ModelFileError
 from .modelfile_read import FORMAT_KEY, FORMAT_VERSION
 
@@ -206,7 +207,7 @@ class _Writer:
         candidate = el.state / el.law if el.law != 0 else None
         if candidate is not None and el.state not in candidate.free_symbols:
             rebuilt = cls(el.name, candidate, state=el.state)
-            if _canonical(rebuilt.law) == _canonical(el.law):
+            if canonical(rebuilt.law) == canonical(el.law):
                 fields[linear] = self.expression(candidate, culprit)
         if not fields:
             if el.law.atoms(sp.Dummy):
@@ -224,7 +225,7 @@ class _Writer:
                 candidate = el.effort_law / placeholder
                 if placeholder not in candidate.free_symbols:
                     rebuilt = R(el.name, candidate)
-                    if [_canonical(e) for e in rebuilt.expressions()] == [_canonical(e) for e in el.expressions()]:
+                    if [canonical(e) for e in rebuilt.expressions()] == [canonical(e) for e in el.expressions()]:
                         return {"resistance": self.expression(candidate, culprit)}
             raise self.error("has an effort law and a flow law that are not one linear resistance; "
                              "a model file holds one law (effort_law or flow_law) or a resistance", culprit)
