@@ -465,7 +465,8 @@ class HybridModel:
 
     @property
     def signal_definitions(self) -> Mapping:
-        """User signal name → its parsed expression (signals taken in another mode: see :attr:`cross_signals`)."""
+        """User signal name → its parsed expression, in the order given (a signal taken in another mode
+        stands here as its own symbol; its definition is in :attr:`cross_signals`)."""
         return MappingProxyType(self._signals)
 
     @property

@@ -276,7 +276,7 @@ class _Writer:
                     self.lines.append(f"{_key(state)} = {_inline(fields)}")
             for k, tr in enumerate(automaton.transitions):
                 tculprit = f"transition {k + 1} of automaton {automaton.name!r} ({tr.source} → {tr.target})"
-                condition, _ = model._guards[(automaton.name, tr)]
+                condition, _ = model.guard_conditions[(automaton.name, tr)]
                 self.section(f"[[{prefix}.transitions]]")
                 self.lines += [f"from = {_string(tr.source)}", f"to = {_string(tr.target)}",
                                f"guard = {self._guard(tr, condition, tculprit)}", f"when = {_string(tr.when)}"]
@@ -306,19 +306,19 @@ class _Writer:
             for automaton in model.automata:
                 for table in automaton.values.values():
                     names.update({k: sp.Symbol(k) for k in table})
-            names.update(model._signals)
+            names.update(model.signal_definitions)
             self._names = names
         return self._names
 
     def _signals(self) -> None:
         model = self.model
-        if not model._signals:
+        if not model.signal_definitions:
             return
         self.section("[signals]")
-        for name, value in model._signals.items():
+        for name, value in model.signal_definitions.items():
             culprit = f"signal {name!r}"
-            if name in model._cross:
-                expression, states = model._cross[name]
+            if name in model.cross_signals:
+                expression, states = model.cross_signals[name]
                 fields = {"expression": _string(self.expression_text_of(expression, culprit)),
                           "in_mode": _inline({a: _string(s) for a, s in states.items()})}
                 self.lines.append(f"{_key(name)} = {_inline(fields)}")
@@ -328,7 +328,7 @@ class _Writer:
     def _initial_state(self) -> None:
         model = self.model
         self.section("[initial_state]")
-        for state, value in zip(model.states, model._initial_given):
+        for state, value in zip(model.states, model.given_initial_state):
             self.lines.append(f"{_key(state.name)} = {_float(float(value))}")
 
     def _tolerance(self) -> None:
