@@ -704,6 +704,8 @@ class HybridModel:
             raise ModelDefinitionError(
                 f"model {other.name!r} cannot take the place of {self.name!r} on its mode library: "
                 "a library is shared only by models of one type and fingerprint (one structure)", [other.name])
+        if other is self:
+            return
         library = self.library
         vars(self).clear()
         vars(self).update(vars(other))

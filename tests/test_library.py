@@ -122,6 +122,9 @@ def test_only_a_model_of_the_same_structure_can_take_the_place_of_another():
     with pytest.raises(ModelDefinitionError, match="one type and fingerprint"):
         model.take_definition(bouncing_ball.build())
     assert model.library.model is model and model.fingerprint == parallel_capacitors.build().fingerprint
+    values = dict(model.parameter_values)
+    model.take_definition(model)  # its own: nothing changes
+    assert model.parameter_values == values and model.library.model is model
 
 
 def test_a_sweep_shares_the_library_and_each_run_equals_a_fresh_model_to_the_bit():
