@@ -50,6 +50,7 @@ from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
 from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_source_and_meta
+from .errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
 from .modes import Mode, ModeEquations
 
@@ -192,6 +193,24 @@ class ModeLibrary:
 
             found = self.symbols_memo[expr] = (frozenset(expr.free_symbols), expr.has(Rate, RateWith))
         return found
+
+    def cross_signal(self, mode: Mode, name: str, current=None) -> sp.Expr:
+        """The :class:`~switching.model.InMode` signal ``name`` seen from ``mode``:
+        an expression of ``x``, from the equations of the mode it is taken in
+        (derived if need be; ``current``: the ModeEquations of ``mode`` while
+        it is being built)."""
+        model = self.model
+        expression, overrides = model.cross_signals[name]
+        target = model.mode({**dict(zip(mode.automata, mode.states)), **overrides})
+        me = current if (target == mode and current is not None) else self.mode_equations(target)
+        g = me.jump.expressions
+        if g is None:
+            raise ModelDefinitionError(
+                f"signal {name!r} is taken in mode {target.describe()}, whose jump map is numerical "
+                "(nonlinear storage); such cross-mode signals need a symbolic jump map",
+                [name],
+            )
+        return me.finite(me.to_raw(expression)).xreplace(g)
 
     # ------------------------------------------------------------ generated
 

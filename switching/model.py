@@ -550,21 +550,6 @@ class HybridModel:
                 )
         return Mode(states, names)
 
-    def cross_signal(self, mode: Mode, name: str, current=None) -> sp.Expr:
-        """The :class:`InMode` signal ``name`` seen from ``mode``: an expression
-        of ``x`` (``current``: the ModeEquations of ``mode`` while it is being built)."""
-        expression, overrides = self._cross[name]
-        target = self.mode({**dict(zip(mode.automata, mode.states)), **overrides})
-        me = current if (target == mode and current is not None) else self.mode_equations(target)
-        g = me.jump.expressions
-        if g is None:
-            raise ModelDefinitionError(
-                f"signal {name!r} is taken in mode {target.describe()}, whose jump map is numerical "
-                "(nonlinear storage); such cross-mode signals need a symbolic jump map",
-                [name],
-            )
-        return me.finite(me.to_raw(expression)).xreplace(g)
-
     def configuration_of(self, mode: Mode) -> dict:
         config = {}
         for automaton, state in zip(self.automata, mode.states):

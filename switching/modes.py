@@ -150,7 +150,7 @@ class ModeEquations:
         if not (has_rates or taken or any(s in bonds or s in values for s in free)):
             return expr  # (a guard on states and parameters: every contact of a ball chain)
         if taken:
-            cross = {s: self.model.cross_signal(self.mode, s.name, self) for s in free
+            cross = {s: self.model.library.cross_signal(self.mode, s.name, self) for s in free
                      if s.name in taken and isinstance(s, sp.Symbol)}
             if cross:
                 expr = expr.xreplace(cross)
