@@ -9,7 +9,8 @@ import pytest
 from models import bouncing_ball, parallel_capacitors
 from switching import ModelDefinitionError
 from switching.batch import shared_model
-from switching.library import ModeLibrary, definition_fingerprint
+from switching import ModeLibrary
+from switching.library import definition_fingerprint
 
 #: the library's memos of the code generator, by attribute name
 MEMOS = ("print_memo", "roundoff_memo", "scale_memo", "guard_texts", "guard_trees", "side_block_sources",
