@@ -7,9 +7,8 @@ import numpy as np
 import pytest
 
 from models import bouncing_ball, parallel_capacitors
-from switching import ModelDefinitionError
+from switching import ModeLibrary, ModelDefinitionError
 from switching.batch import shared_model
-from switching import ModeLibrary
 from switching.library import definition_fingerprint
 
 #: the library's memos of the code generator, by attribute name
