@@ -117,6 +117,13 @@ def _computable(expr, what: str, culprit: str):
 class HybridModel:
     """A bond graph with controlled junctions driven by local automata.
 
+    The model is the definition (graph, automata, parameters, signals,
+    inputs) and its validation; what is derived and generated from it mode
+    by mode — equations, code, the code generator's memos, the fingerprint —
+    lives in its mode library, :attr:`library` (:mod:`switching.library`),
+    whose methods the model's own (:meth:`mode_equations`,
+    :meth:`compiled_mode`, ...) call.
+
     Parameters
     ----------
     graph : BondGraph
