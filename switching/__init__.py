@@ -26,6 +26,7 @@ from .errors import WorkLimitError as WorkLimitError
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper
+from .library import ModeLibrary as ModeLibrary
 from .model import HybridModel as HybridModel
 from .model import InMode as InMode
 from .model import InitialStateProjected as InitialStateProjected

@@ -130,10 +130,6 @@ def _nothing(parameters, error, error_type, wall=0.0) -> RunResult:
 
 #: models kept per process for sharing, least recently used dropped first
 SHARED_MODELS = 8
-#: attributes of a HybridModel that are derived from its structure alone and kept
-#: when a run's values are moved onto a shared model; all others are the run's
-_DERIVED = ("_mode_cache", "_compiled", "_jit", "_fingerprint", "derivation_count", "_roundoff_memo", "_print_memo",
-            "_guard_texts")
 _models: OrderedDict = OrderedDict()  # (model type, fingerprint) → model
 _busy: set = set()  # keys of the models a run is using now (one run per model at a time)
 _lock = threading.Lock()
@@ -185,10 +181,12 @@ def shared_model(build, parameters):
     shares derived modes and generated code with earlier runs.
 
     If a model of the same type and fingerprint was built earlier in this
-    process (or in the parent of a forked process), that model is given, with
-    every attribute of the new one except those in ``_DERIVED`` (parameter
-    values, initial state, inputs, tolerances, …; the projected initial state
-    is recomputed).  A model is used by one run at a time: a run in another
+    process (or in the parent of a forked process), that model is given: it
+    takes the new one's definition (parameter values, initial state, inputs,
+    tolerances, …; the projected initial state is recomputed) and keeps its
+    mode library — derived modes, generated code, every memo of the code
+    generator (:meth:`~switching.model.HybridModel.take_definition`,
+    :mod:`switching.library`).  A model is used by one run at a time: a run in another
     thread meanwhile gets its own new model.  At most :data:`SHARED_MODELS`
     are kept."""
     fresh = _built(build, parameters)
@@ -200,10 +198,7 @@ def shared_model(build, parameters):
         elif model is None:
             model = _models[key] = fresh
         else:
-            derived = {name: vars(model)[name] for name in _DERIVED if name in vars(model)}
-            vars(model).clear()
-            vars(model).update(vars(fresh))
-            vars(model).update(derived)
+            model.take_definition(fresh)
         if key is not None:
             _busy.add(key)
             _models.move_to_end(key)

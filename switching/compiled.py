@@ -47,8 +47,8 @@ from codegen.runtime import Comparison, Hyper, decide
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
-__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "generate_mode_source", "decide_tree",
-           "mode_source_and_meta"]
+__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
+           "decide_tree", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
 MODE_SOURCE_VERSION = "11"
@@ -63,7 +63,7 @@ def _op(relation) -> str:
     raise TypeError(f"unsupported comparison {relation}")
 
 
-def _tree(condition, relations: list, texts: dict | None = None):
+def condition_tree(condition, relations: list, texts: dict | None = None):
     """A guard condition as nested plain tuples; comparisons are collected in
     ``relations``; ``texts`` memoizes the text of each comparison."""
     if isinstance(condition, BooleanTrue):
@@ -71,11 +71,11 @@ def _tree(condition, relations: list, texts: dict | None = None):
     if isinstance(condition, BooleanFalse):
         return ("const", False)
     if isinstance(condition, And):
-        return ("and", tuple(_tree(c, relations, texts) for c in condition.args))
+        return ("and", tuple(condition_tree(c, relations, texts) for c in condition.args))
     if isinstance(condition, Or):
-        return ("or", tuple(_tree(c, relations, texts) for c in condition.args))
+        return ("or", tuple(condition_tree(c, relations, texts) for c in condition.args))
     if isinstance(condition, Not):
-        return ("not", _tree(condition.args[0], relations, texts))
+        return ("not", condition_tree(condition.args[0], relations, texts))
     if isinstance(condition, Relational):
         relations.append(condition)
         text = texts.get(condition) if texts is not None else None
@@ -88,30 +88,15 @@ def _tree(condition, relations: list, texts: dict | None = None):
     raise TypeError(f"cannot compile {condition} as a guard")
 
 
-def _guard_tree(condition, relations: list, model):
-    """:func:`_tree` of a guard condition, its comparisons appended to
-    ``relations``; kept for the model with the comparisons numbered from 0
-    (a large scene's modes hold the same guards again and again)."""
-    memo = model._guard_trees
-    found = memo.get(condition)
-    if found is None:
-        own: list = []
-        found = memo[condition] = (_tree(condition, own, model._guard_texts), tuple(own))
-    tree, own = found
-    offset = len(relations)
-    relations.extend(own)
-    return _shifted(tree, offset) if offset else tree
-
-
-def _shifted(tree, offset: int):
+def shifted_tree(tree, offset: int):
     """A guard tree with its comparison indices moved by ``offset``."""
     kind = tree[0]
     if kind == "rel":
         return ("rel", tree[1] + offset, tree[2], tree[3])
     if kind in ("and", "or"):
-        return (kind, tuple(_shifted(t, offset) for t in tree[1]))
+        return (kind, tuple(shifted_tree(t, offset) for t in tree[1]))
     if kind == "not":
-        return ("not", _shifted(tree[1], offset))
+        return ("not", shifted_tree(tree[1], offset))
     return tree
 
 
@@ -171,7 +156,7 @@ def comparison_triples(me, relations) -> list:
     10 kHz instead of the round-off of ``k/f``."""
     triples = []
     model = me.model
-    memo, scales = model._roundoff_memo, model._scale_memo
+    memo, scales = model.library.roundoff_memo, model.library.scale_memo
     clock = None
     for rel in relations:
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
@@ -227,14 +212,14 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
                 "when": tr.when,
                 "pulses": tr.pulses,
                 "text": guard.text,
-                "tree": _guard_tree(guard.condition, relations, model),
+                "tree": model.library.guard_tree(guard.condition, relations),
             }
         )
         spans.append((automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA, start, len(relations)))
     finite_sides, raw_sides = comparison_triples(me, relations), []
     for rel in relations:
         raw_sides += [rel.lhs, rel.rhs]
-    texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by _tree
+    texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by condition_tree
     side_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right"))
     triple_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right", "round-off scale"))
 
@@ -271,7 +256,7 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
         if blocks and spec.name in ("sides", "sides_raw"):
             texts.append(_blocked_source(model, spec, blocks, 3 if spec.name == "sides" else 2))
         else:
-            texts.append(function_source(spec, model._print_memo))
+            texts.append(function_source(spec, model.library.print_memo))
     source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(texts)
     return source, meta
 
@@ -315,7 +300,7 @@ def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int
     kept for the model by its outputs (the print memo makes the rest)."""
     import hashlib
 
-    memo = model._side_block_sources
+    memo = model.library.side_block_sources
     calls, texts = [], {}
     for start, end in blocks:
         outputs = spec.outputs[per_comparison * start:per_comparison * end]
@@ -326,12 +311,12 @@ def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int
                                  "A block of guard comparison sides " + ("on raw signals (impulse-aware)."
                                                                          if spec.raw else "with their round-off scales."),
                                  raw=spec.raw, brief=True)
-            text = function_source(block, model._print_memo)
+            text = function_source(block, model.library.print_memo)
             name = f"_{spec.name}_" + hashlib.sha1(text.encode()).hexdigest()[:12]
             found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
         calls.append((found[0], len(outputs)))
         texts[found[0]] = found[1]
-    return "\n\n".join([composed_source(spec, calls, model._print_memo), *texts.values()])
+    return "\n\n".join([composed_source(spec, calls, model.library.print_memo), *texts.values()])
 
 
 def flat_sides(source: str) -> str:
@@ -443,7 +428,7 @@ class CompiledMode:
         namespace: the model's, compiled by the first mode that needed them
         (a block's name is a hash of its text, so equal names are equal
         functions), else compiled now from this mode's source."""
-        shared = getattr(self.model, "_side_block_functions", {})
+        shared = self.model.library.side_block_functions
         body = text[text.rindex('"""') + 3:]  # (the calls: after the docstring, which lists every output)
         for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", body)):
             if block in self._namespace:

@@ -27,7 +27,7 @@ def export_module(model, path, modes="visited") -> list:
     from . import compiled
 
     if modes == "visited":
-        selected = list(model._compiled)
+        selected = list(model.visited_modes)
     elif modes == "reachable":
         report = model.verify(samples=5)
         selected = list(dict.fromkeys([*report.explored, *report.kinds]))

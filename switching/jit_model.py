@@ -78,7 +78,7 @@ from codegen.source import Argument, FunctionSpec, docstring, escaped, function_
 
 from .automaton import A_POSTERIORI
 from .expression_input import ExpressionInput
-from .compiled import _tree, comparison_triples
+from .compiled import comparison_triples, condition_tree
 from .resolution import Instant, resolve_instant
 from .events import guard_parts  # the guards' one-sided parts, as the Python scan
 
@@ -199,7 +199,7 @@ CHEAP_MODE_SECONDS = 1.0
 def mode_compile_seconds(model) -> float:
     """The estimated cost of compiling one mode's function of ``model``
     (:data:`MODE_COMPILE_SECONDS`, more for a model of many states and guards)."""
-    return max(MODE_COMPILE_SECONDS, MODE_COMPILE_SECONDS_PER_ITEM * (len(model.states) + len(model._guards)))
+    return max(MODE_COMPILE_SECONDS, MODE_COMPILE_SECONDS_PER_ITEM * (len(model.states) + len(model.guard_conditions)))
 
 
 class AutoChoice:
@@ -323,7 +323,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     dependent = [s for s in states if s in me.equations.dependent]
 
     relations: list = []
-    trees = [(guard, _tree(guard.condition, relations)) for guard in me.guards]
+    trees = [(guard, condition_tree(guard.condition, relations)) for guard in me.guards]
     finite, impulses = comparison_triples(me, relations), []  # (left, right, round-off scale) per comparison
     affine = True
     for rel in relations:

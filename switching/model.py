@@ -22,6 +22,7 @@ import functools
 import math
 import warnings
 from dataclasses import dataclass
+from types import MappingProxyType
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -39,13 +40,10 @@ from bondgraph.symbols import check_name, rate_symbol
 
 from .automaton import Automaton
 from .errors import ModelDefinitionError
-from codegen.cache import default_cache, fingerprint
-from codegen.source import PrintMemo
-
-from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_source_and_meta
+from .compiled import CompiledMode
+from .library import ModeLibrary
 from .modes import Mode, ModeEquations
 from .parsing import parse_condition, parse_expression
-from .jit_model import CompiledModel, remembered_modes
 from .law_automata import branches_at, law_automaton
 from .run_options import check_sensitivity_options
 from .simulator import check_option_names, simulate
@@ -101,20 +99,6 @@ class Tolerance:
     jump_atol: float = 0.0
 
 
-def _canonical(expr) -> str:
-    """``srepr`` of ``expr`` with its ``Dummy`` symbols (an element law's
-    placeholder argument) renamed by order of first appearance: the same text
-    in every process, whatever the dummies' process-wide indices."""
-    expr = sp.sympify(expr)
-    dummies = []
-    for node in sp.preorder_traversal(expr):
-        if isinstance(node, sp.Dummy) and node not in dummies:
-            dummies.append(node)
-    if dummies:
-        expr = expr.xreplace({d: sp.Symbol(f"_placeholder{k}_{d.name}") for k, d in enumerate(dummies)})
-    return sp.srepr(expr)
-
-
 class InitialStateProjected(UserWarning):
     """The given initial state violated the initial mode's constraints and was
     projected onto them with the mode's jump map."""
@@ -133,6 +117,13 @@ def _computable(expr, what: str, culprit: str):
 
 class HybridModel:
     """A bond graph with controlled junctions driven by local automata.
+
+    The model is the definition (graph, automata, parameters, signals,
+    inputs) and its validation; what is derived and generated from it mode
+    by mode — equations, code, the code generator's memos, the fingerprint —
+    lives in its mode library, :attr:`library` (:mod:`switching.library`),
+    whose methods the model's own (:meth:`mode_equations`,
+    :meth:`compiled_mode`, ...) call.
 
     Parameters
     ----------
@@ -218,21 +209,9 @@ class HybridModel:
         self.parameter_values = self._check_parameter_values(parameters or {})
         self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
         self._initial_given = self._check_initial_state(initial_state or {})
-        self._mode_cache: dict[Mode, ModeEquations] = {}
-        self._compiled: dict = {}
-        self._jit: dict = {}
-        self._roundoff_memo: dict = {}  # subexpression → round-off scale, shared by the modes (codegen.roundoff)
-        self._print_memo = PrintMemo()  # printed text of expressions, shared by the modes' generated functions
-        self._guard_texts: dict = {}  # guard comparison → its text
-        self._symbols_memo: dict = {}  # expression → (free symbols, holds a law switch's Rate), see symbols_of
-        self._scale_memo: dict = {}  # (left, right) of a comparison → its round-off scale (comparison_triples)
-        self._side_block_sources: dict = {}  # outputs of a block of guard sides → (name, source), see compiled
-        self._side_block_functions: dict = {}  # name of a block of guard sides → its compiled function
-        self._guard_trees: dict = {}  # guard condition → (its tree, its comparisons), see compiled._guard_tree
-        self._fingerprint = None
-        self.cache = default_cache()
-        self.derivation_count = 0
         self._initial = None
+        #: the derived modes, generated functions and code-generation memos (:mod:`switching.library`)
+        self.library = ModeLibrary(self)
 
     # ------------------------------------------------------------ checks
 
@@ -494,6 +473,22 @@ class HybridModel:
         """User signals, then states by name."""
         return tuple(self._signals) + tuple(s.name for s in self.states)
 
+    @property
+    def signal_definitions(self) -> Mapping:
+        """User signal name → its parsed expression, in the order given (a signal taken in another mode
+        stands here as its own symbol; its definition is in :attr:`cross_signals`)."""
+        return MappingProxyType(self._signals)
+
+    @property
+    def cross_signals(self) -> Mapping:
+        """:class:`InMode` signal name → (its parsed expression, automaton → state it is taken in)."""
+        return MappingProxyType(self._cross)
+
+    @property
+    def guard_conditions(self) -> Mapping:
+        """(automaton name, transition) → (its parsed condition, its text), for every transition."""
+        return MappingProxyType(self._guards)
+
     def signal_expression(self, name: str) -> sp.Expr:
         """The defining expression of a named signal (state, bond variable or user signal)."""
         if name in self._signals:
@@ -565,21 +560,6 @@ class HybridModel:
                 )
         return Mode(states, names)
 
-    def cross_signal(self, mode: Mode, name: str, current=None) -> sp.Expr:
-        """The :class:`InMode` signal ``name`` seen from ``mode``: an expression
-        of ``x`` (``current``: the ModeEquations of ``mode`` while it is being built)."""
-        expression, overrides = self._cross[name]
-        target = self.mode({**dict(zip(mode.automata, mode.states)), **overrides})
-        me = current if (target == mode and current is not None) else self.mode_equations(target)
-        g = me.jump.expressions
-        if g is None:
-            raise ModelDefinitionError(
-                f"signal {name!r} is taken in mode {target.describe()}, whose jump map is numerical "
-                "(nonlinear storage); such cross-mode signals need a symbolic jump map",
-                [name],
-            )
-        return me.finite(me.to_raw(expression)).xreplace(g)
-
     def configuration_of(self, mode: Mode) -> dict:
         config = {}
         for automaton, state in zip(self.automata, mode.states):
@@ -622,17 +602,6 @@ class HybridModel:
         """Automaton name → its position in :attr:`automata` (and in a mode's states)."""
         return {automaton.name: k for k, automaton in enumerate(self.automata)}
 
-    def symbols_of(self, expr) -> tuple:
-        """``(free symbols, whether a law switch's Rate occurs)`` of ``expr``,
-        kept for the model's lifetime: the modes of a large scene ask about
-        the same guard comparisons and signals again and again."""
-        found = self._symbols_memo.get(expr)
-        if found is None:
-            from .law_automata import Rate, RateWith
-
-            found = self._symbols_memo[expr] = (frozenset(expr.free_symbols), expr.has(Rate, RateWith))
-        return found
-
     def guards_from(self, mode: Mode) -> list:
         """(automaton, transition, condition, text) of every transition leaving ``mode``."""
         out = []
@@ -642,93 +611,48 @@ class HybridModel:
                 out.append((automaton.name, tr, condition, text))
         return out
 
+    # ------------------------------------------------------------ the mode library (switching.library)
+
     def mode_equations(self, mode) -> ModeEquations:
-        """f, g, h and guards of one mode, derived on first request and cached.
-        Asking for a mode never derives any other."""
-        mode = self.mode(mode)
-        if mode not in self._mode_cache:
-            self._mode_cache[mode] = ModeEquations(self, mode)
-            self.derivation_count += 1
-        return self._mode_cache[mode]
+        """f, g, h and guards of one mode, derived on first request and cached
+        (:meth:`ModeLibrary.mode_equations`).  Asking for a mode never derives any other."""
+        return self.library.mode_equations(mode)
 
     @property
     def derived_modes(self) -> tuple:
-        return tuple(self._mode_cache)
+        return self.library.derived_modes
+
+    @property
+    def derivation_count(self) -> int:
+        """How many modes' equations the library has derived."""
+        return self.library.derivation_count
 
     @property
     def fingerprint(self) -> str:
         """A hash of the model's symbolic definition (structure, laws, guards,
-        signals, parameter order) and the toolkit version: the disk-cache key."""
-        if self._fingerprint is None:
-            from bondgraph import __version__
+        signals, parameter order) and the toolkit version: the disk-cache key
+        (:func:`switching.library.definition_fingerprint`)."""
+        return self.library.fingerprint
 
-            parts = [__version__, self.name, f"jump law {self.jump_law}"]
-            for el in self.graph.elements.values():
-                parts.append(f"{type(el).__name__} {el.name} " + " ".join(_canonical(e) for e in el.expressions()))
-                if hasattr(el, "state"):
-                    parts.append(el.state.name)
-                parts.append(str(getattr(el, "controlled", "")))
-            parts += [f"{b.name} {b.tail} {b.head}" for b in self.graph.bonds.values()]
-            parts += [f"{d.symbol} {d.bond} {d.sign}" for d in self.graph.displacements.values()]
-            parts += [" ".join(self.graph.inputs), " ".join(s.name for s in self.parameter_symbols)]
-            for automaton in self.automata:
-                parts.append(f"{automaton.name} {automaton.states!r} {automaton.initial}")
-                parts += [f"{k} {sorted((n, _canonical(v)) for n, v in t.items())}" for k, t in automaton.values.items()]
-                parts += [f"{k} {_canonical(v)}" for k, v in automaton.restitution.items()]
-            for (name, tr), (condition, _) in self._guards.items():
-                parts.append(f"{name} {tr.source} {tr.target} {tr.when} {_canonical(condition)}"
-                             + ("" if tr.pulses else " no pulses"))
-            parts += [f"{k} {_canonical(v)}" for k, v in self._signals.items()]
-            parts += [f"{k} {_canonical(v)} {o!r}" for k, (v, o) in self._cross.items()]
-            self._fingerprint = fingerprint(*parts)
-        return self._fingerprint
+    @property
+    def cache(self):
+        """The disk cache of generated source (:class:`codegen.cache.SourceCache`) of the library."""
+        return self.library.cache
+
+    @cache.setter
+    def cache(self, cache) -> None:
+        self.library.cache = cache
 
     def compiled_mode(self, mode) -> CompiledMode:
         """The generated numerical functions of a mode: from memory, else from
         the disk cache, else derived and generated now (and cached)."""
-        known = self._compiled.get(mode) if isinstance(mode, Mode) else None
-        if known is not None:
-            return known
-        mode = self.mode(mode)
-        if mode not in self._compiled:
-            key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
-            source, meta = self.cache.load(key), None
-            if source is None:
-                source, meta = mode_source_and_meta(self, self.mode_equations(mode))
-                self.cache.store(key, source)
-            self._compiled[mode] = CompiledMode(self, mode, source, meta)
-        return self._compiled[mode]
+        return self.library.compiled_mode(mode)
 
     def signal_function(self, mode, names):
         """Generated ``fn(x, t, p, u, out)`` giving the finite parts of the
         named signals in one mode; ``x`` may be an ``(n, N)`` array of N
         samples (numpy functions are used)."""
-        from codegen.safety import execute
-        from codegen.source import Argument, FunctionSpec, function_source, module_namespace
-
-        mode = self.mode(mode)
-        names = tuple(names)
-        key = fingerprint(self.fingerprint, "signals", mode.label, *names)
-        source = self.cache.load(key)
-        if source is None:
-            me = self.mode_equations(mode)
-            spec = FunctionSpec(
-                "signals",
-                (
-                    Argument("x", tuple(self.states), doc="state vector"),
-                    Argument("t", (self.time,), scalar=True, doc="time [s]"),
-                    Argument("p", tuple(self.parameter_symbols), doc="parameters"),
-                    Argument("u", tuple(self.input_symbols), doc="inputs"),
-                ),
-                tuple(me.signal(name).finite for name in names),
-                f"Signals {', '.join(names)} in mode {mode.describe()} (finite parts).",
-                names,
-            )
-            source = function_source(spec)
-            self.cache.store(key, source)
-        namespace = module_namespace(vectorized=True)
-        execute(source, namespace, f"<hbg signals {mode.label}>")
-        return namespace["signals"]
+        return self.library.signal_function(mode, names)
 
     def export_module(self, path, modes="visited") -> list:
         """Write the generated functions of several modes to one standalone
@@ -737,15 +661,13 @@ class HybridModel:
         ``modes``: ``"visited"`` (those compiled so far), ``"reachable"``
         (explored from the initial mode by :meth:`verify`), or a list.
         Returns the mode labels written."""
-        from .export import export_module
-
-        return export_module(self, path, modes)
+        return self.library.export_module(path, modes)
 
     @property
     def visited_modes(self) -> tuple:
         """The modes whose numerical functions exist in this process (visited
         by a simulation, resolution or verification so far)."""
-        return tuple(self._compiled)
+        return self.library.visited_modes
 
     def compiled_model(self, modes="visited"):
         """The numba module of this model for a set of modes, built once per
@@ -757,26 +679,32 @@ class HybridModel:
         (remembered there; the set only grows); a mode first reached during
         a run is resolved in Python at that instant, compiled, and run by the
         kernel from its next call."""
-        if modes == "visited":
-            last = self._jit.get("visited")
-            if last is not None and last[0] == len(self._compiled):
-                return last[1]  # no mode visited since: the same set
-            selected = {self.initial_mode, *self.visited_modes, *remembered_modes(self)}
-        elif modes == "reachable":
-            report = self.verify(samples=5)
-            selected = {self.initial_mode, *report.explored, *report.kinds}
-        else:
-            selected = {self.mode(m) for m in modes}
-        key = frozenset(selected)
-        if key not in self._jit:
-            self._jit[key] = CompiledModel(self, key)
-        if modes == "visited":
-            self._jit["visited"] = (len(self._compiled), self._jit[key])
-        return self._jit[key]
+        return self.library.compiled_model(modes)
 
     def mode_source(self, mode) -> str:
         """The generated Python source of one mode's functions."""
-        return self.compiled_mode(mode).source
+        return self.library.mode_source(mode)
+
+    def take_definition(self, other: HybridModel) -> None:
+        """Take ``other``'s definition — parameter values, initial state,
+        inputs, tolerances, every attribute — and keep this model's
+        :attr:`library` (its derived modes, generated code and memos, all of
+        which depend on the structure alone).  This is how a sweep shares one
+        library between the runs of one structure
+        (:func:`switching.batch.shared_model`); ``other`` must be of the same
+        type and fingerprint (:class:`ModelDefinitionError` otherwise).  This
+        model stays the same object: what refers to it (its compiled modes and
+        kernels) reads the new values."""
+        if type(other) is not type(self) or other.fingerprint != self.fingerprint:
+            raise ModelDefinitionError(
+                f"model {other.name!r} cannot take the place of {self.name!r} on its mode library: "
+                "a library is shared only by models of one type and fingerprint (one structure)", [other.name])
+        if other is self:
+            return
+        library = self.library
+        vars(self).clear()
+        vars(self).update(vars(other))
+        self.library = library
 
     def save(self, path, **options) -> None:
         """Write the model to a model file (TOML); see :func:`switching.modelfile.save_model`
@@ -917,5 +845,5 @@ class HybridModel:
     def __repr__(self) -> str:
         return (
             f"HybridModel({self.name!r}, {len(self.states)} states, "
-            f"automata={[a.name for a in self.automata]}, derived modes={len(self._mode_cache)})"
+            f"automata={[a.name for a in self.automata]}, derived modes={len(self.library.equations)})"
         )

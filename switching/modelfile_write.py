@@ -30,7 +30,8 @@ from bondgraph.elements import Storage
 
 from .exprtext import ExpressionTextError, condition_text, expression_text
 from .expression_input import ExpressionInput
-from .model import HybridModel, Tolerance, _canonical
+from .library import canonical
+from .model import HybridModel, Tolerance
 from .modelfile_errors import ModelFileError
 from .modelfile_read import FORMAT_KEY, FORMAT_VERSION
 
@@ -206,7 +207,7 @@ class _Writer:
         candidate = el.state / el.law if el.law != 0 else None
         if candidate is not None and el.state not in candidate.free_symbols:
             rebuilt = cls(el.name, candidate, state=el.state)
-            if _canonical(rebuilt.law) == _canonical(el.law):
+            if canonical(rebuilt.law) == canonical(el.law):
                 fields[linear] = self.expression(candidate, culprit)
         if not fields:
             if el.law.atoms(sp.Dummy):
@@ -224,7 +225,7 @@ class _Writer:
                 candidate = el.effort_law / placeholder
                 if placeholder not in candidate.free_symbols:
                     rebuilt = R(el.name, candidate)
-                    if [_canonical(e) for e in rebuilt.expressions()] == [_canonical(e) for e in el.expressions()]:
+                    if [canonical(e) for e in rebuilt.expressions()] == [canonical(e) for e in el.expressions()]:
                         return {"resistance": self.expression(candidate, culprit)}
             raise self.error("has an effort law and a flow law that are not one linear resistance; "
                              "a model file holds one law (effort_law or flow_law) or a resistance", culprit)
@@ -275,7 +276,7 @@ class _Writer:
                     self.lines.append(f"{_key(state)} = {_inline(fields)}")
             for k, tr in enumerate(automaton.transitions):
                 tculprit = f"transition {k + 1} of automaton {automaton.name!r} ({tr.source} → {tr.target})"
-                condition, _ = model._guards[(automaton.name, tr)]
+                condition, _ = model.guard_conditions[(automaton.name, tr)]
                 self.section(f"[[{prefix}.transitions]]")
                 self.lines += [f"from = {_string(tr.source)}", f"to = {_string(tr.target)}",
                                f"guard = {self._guard(tr, condition, tculprit)}", f"when = {_string(tr.when)}"]
@@ -305,19 +306,19 @@ class _Writer:
             for automaton in model.automata:
                 for table in automaton.values.values():
                     names.update({k: sp.Symbol(k) for k in table})
-            names.update(model._signals)
+            names.update(model.signal_definitions)
             self._names = names
         return self._names
 
     def _signals(self) -> None:
         model = self.model
-        if not model._signals:
+        if not model.signal_definitions:
             return
         self.section("[signals]")
-        for name, value in model._signals.items():
+        for name, value in model.signal_definitions.items():
             culprit = f"signal {name!r}"
-            if name in model._cross:
-                expression, states = model._cross[name]
+            if name in model.cross_signals:
+                expression, states = model.cross_signals[name]
                 fields = {"expression": _string(self.expression_text_of(expression, culprit)),
                           "in_mode": _inline({a: _string(s) for a, s in states.items()})}
                 self.lines.append(f"{_key(name)} = {_inline(fields)}")
@@ -327,7 +328,7 @@ class _Writer:
     def _initial_state(self) -> None:
         model = self.model
         self.section("[initial_state]")
-        for state, value in zip(model.states, model._initial_given):
+        for state, value in zip(model.states, model.given_initial_state):
             self.lines.append(f"{_key(state.name)} = {_float(float(value))}")
 
     def _tolerance(self) -> None:

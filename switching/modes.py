@@ -145,13 +145,13 @@ class ModeEquations:
     def to_raw(self, expr: sp.Basic) -> sp.Basic:
         """Replace bond variables in ``expr`` by this mode's raw expressions
         (and signals taken in another mode by their expressions of ``x``)."""
-        free, has_rates = self.model.symbols_of(expr)
-        bonds, values = self._bond_values, self.values
-        if not (has_rates or self.model._cross or any(s in bonds or s in values for s in free)):
+        free, has_rates = self.model.library.symbols_of(expr)
+        bonds, values, taken = self._bond_values, self.values, self.model.cross_signals
+        if not (has_rates or taken or any(s in bonds or s in values for s in free)):
             return expr  # (a guard on states and parameters: every contact of a ball chain)
-        if self.model._cross:
-            cross = {s: self.model.cross_signal(self.mode, s.name, self) for s in free
-                     if s.name in self.model._cross and isinstance(s, sp.Symbol)}
+        if taken:
+            cross = {s: self.model.library.cross_signal(self.mode, s.name, self) for s in free
+                     if s.name in taken and isinstance(s, sp.Symbol)}
             if cross:
                 expr = expr.xreplace(cross)
                 free = expr.free_symbols
@@ -184,7 +184,7 @@ class ModeEquations:
     def finite(self, raw: sp.Expr) -> sp.Expr:
         """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
         rates = self._rates_by_symbol
-        subs = {s: rates[s] for s in self.model.symbols_of(raw)[0] if s in rates}
+        subs = {s: rates[s] for s in self.model.library.symbols_of(raw)[0] if s in rates}
         return raw.xreplace(subs) if subs else raw
 
     @functools.cached_property

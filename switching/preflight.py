@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compiled import _tree
+from .compiled import condition_tree
 from .real_values import complex_law_message
 
 __all__ = ["nonfinite_at_start"]
@@ -72,7 +72,7 @@ def nonfinite_at_start(model, cm, x, t) -> str | None:
     me = model.mode_equations(cm.mode)
     relations: list = []  # every comparison of the mode, in the order of the generated sides
     for guard in me.guards:
-        _tree(guard.condition, relations)
+        condition_tree(guard.condition, relations)
     infinite_allowed = {s for s in model.parameter_values if s.name in model.allow_infinite}
 
     def allowed(expr, value) -> bool:  # ±inf read from a parameter the model allows to be infinite

@@ -56,7 +56,7 @@ from bondgraph.errors import UnknownNameError
 from codegen.cache import fingerprint
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
-from .compiled import _tree
+from .compiled import condition_tree
 from .errors import SimulationError
 
 __all__ = ["Sensitivities", "INITIAL_PREFIX", "SENSITIVITY_SOURCE_VERSION", "derivatives", "parse_names",
@@ -258,7 +258,7 @@ class Derivatives:
             me = self.model.mode_equations(mode)
             relations: list = []
             for guard in me.guards:
-                _tree(guard.condition, relations)
+                condition_tree(guard.condition, relations)
             rel = relations[k]
             h = me.finite(rel.lhs) - me.finite(rel.rhs)
             return self._source("grad", _gradients([h], self.model, self.symbols),

@@ -351,7 +351,7 @@ def verify(model, samples: int = 20, seed: int = 0, max_modes: int = 200,
     rng = np.random.default_rng(seed)
     names = tuple(s.name for s in model.states)
     report = VerificationReport(requested=samples)
-    x0 = model._initial_given
+    x0 = model.given_initial_state
     state_scale = np.maximum(np.abs(x0), 1.0) * factor
     sizes = [abs(v) for v in model.parameter_values.values() if np.isfinite(v) and v != 0]
     longest = max([1.0] + sizes)
@@ -766,7 +766,7 @@ class _EntryConditions:
             return None
         alternatives = []
         for tr in incoming:
-            condition, _ = model._guards[(automaton.name, tr)]
+            condition, _ = model.guard_conditions[(automaton.name, tr)]
             kept = []
             for c in _conjuncts(condition):
                 if self._usable(c) and self._kept(c, index, state, tr):

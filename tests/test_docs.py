@@ -5,7 +5,8 @@ import importlib
 
 import pytest
 
-MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs", "switching.automaton", "switching.model"]
+MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs", "switching.automaton", "switching.model",
+           "switching.library"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -82,15 +82,15 @@ def _functions(source: str) -> dict:
 def test_generated_code_with_the_print_memo_is_bitwise_the_code_without(visited):
     model = visited
     rng = np.random.default_rng(4)
-    memo = model._print_memo
+    memo = model.library.print_memo
     n, p, u = len(model.states), model.parameter_array, model.input_values(0.0)
     try:
         for mode in model.visited_modes:
             me = model.mode_equations(mode)
             sizes = {"rates": n, "sides": model.compiled_mode(mode).n_sides, "jump": n}
-            model._print_memo = memo
+            model.library.print_memo = memo
             with_memo = _functions(generate_mode_source(model, me))
-            model._print_memo = None
+            model.library.print_memo = None
             without = _functions(generate_mode_source(model, me))
             for _ in range(5):
                 x = rng.normal(size=n)
@@ -101,4 +101,4 @@ def test_generated_code_with_the_print_memo_is_bitwise_the_code_without(visited)
                     b = without[name](x, 0.3, p, u, np.empty(size))
                     assert np.array_equal(a, b, equal_nan=True), (mode, name)
     finally:
-        model._print_memo = memo
+        model.library.print_memo = memo

@@ -51,7 +51,7 @@ def random_states(model, count, seed=5):
 
 
 def test_a_large_mode_calls_blocks_of_sixteen_automata(chain):
-    cm = chain.compiled_mode(list(chain._compiled)[-1])
+    cm = chain.compiled_mode(list(chain.visited_modes)[-1])
     calls = [line for line in cm._chunks["sides"][1].splitlines() if line.startswith("    _sides_")]
     assert len(calls) == 3  # automata 1–16, 17–32, 33–39
     assert calls[0].endswith("(x, t, p, u, out[0:%d])" % int(calls[1].split("out[")[1].split(":")[0]))
@@ -61,7 +61,7 @@ def test_a_large_mode_calls_blocks_of_sixteen_automata(chain):
 
 def test_blocks_give_the_numbers_of_one_function(chain, monkeypatch):
     p, u = chain.parameter_array, chain.input_values(0.0)
-    for mode in chain._compiled:
+    for mode in chain.visited_modes:
         cm = chain.compiled_mode(mode)
         flat = one_function_module(chain, mode, monkeypatch)
         for x in random_states(chain, 4):
@@ -74,7 +74,7 @@ def test_blocks_give_the_numbers_of_one_function(chain, monkeypatch):
 
 
 def test_blocks_run_on_numpy_math_and_vectorized(chain):
-    cm = chain.compiled_mode(list(chain._compiled)[5])
+    cm = chain.compiled_mode(list(chain.visited_modes)[5])
     p, u = chain.parameter_array, chain.input_values(0.0)
     xs = random_states(chain, 6)
     namespace = module_namespace(vectorized=True)
@@ -92,14 +92,14 @@ def test_a_new_mode_prints_only_the_blocks_it_changes(tmp_path):
     model.cache = SourceCache(tmp_path)  # empty: every mode is generated here
     contacts = [a.name for a in model.automata]
     model.compiled_mode(model.initial_mode)._sides  # noqa: B018 - compiles the blocks
-    printed, functions = len(model._side_block_sources), len(model._side_block_functions)
+    printed, functions = len(model.library.side_block_sources), len(model.library.side_block_functions)
     assert functions == 3
     states = dict(zip(contacts, model.initial_mode.states))
     states[contacts[20]] = "collide"
     cm = model.compiled_mode(model.mode(states))
     cm._sides  # noqa: B018
-    assert len(model._side_block_sources) == printed + 2  # one block of finite sides, one of raw sides
-    assert len(model._side_block_functions) == functions + 1  # the two other blocks are the initial mode's
+    assert len(model.library.side_block_sources) == printed + 2  # one block of finite sides, one of raw sides
+    assert len(model.library.side_block_functions) == functions + 1  # the two other blocks are the initial mode's
 
 
 def test_a_second_process_reads_the_blocks_from_the_cache(chain, tmp_path):
@@ -109,7 +109,7 @@ def test_a_second_process_reads_the_blocks_from_the_cache(chain, tmp_path):
     again = ball_chain.build(N=N, e=1.0)
     again.cache = SourceCache(tmp_path)
     p, u = again.parameter_array, again.input_values(0.0)
-    for mode in first._compiled:
+    for mode in first.visited_modes:
         loaded = again.compiled_mode(mode)
         assert again.derivation_count == 0  # nothing derived: the blocks came with the source
         x = random_states(again, 1)[0]
