@@ -19,7 +19,6 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 from __future__ import annotations
 
 import functools
-import math
 import warnings
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -27,48 +26,25 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
-from sympy.core.function import AppliedUndef
-from sympy.core.relational import Relational
-from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
 from bondgraph import BondGraph, t as TIME
-from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
+from bondgraph.errors import UnknownNameError
 from bondgraph.jump import JUMP_LAWS
 from bondgraph.law_switches import law_switches
-from bondgraph.reals import real_number
-from bondgraph.symbols import check_name, rate_symbol
+from bondgraph.symbols import rate_symbol
 
 from .automaton import Automaton
 from .errors import ModelDefinitionError
+from . import definition
+from .definition import InMode
 from .compiled import CompiledMode
 from .library import ModeLibrary
 from .modes import Mode, ModeEquations
-from .parsing import parse_condition, parse_expression
 from .law_automata import branches_at, law_automaton
 from .run_options import check_sensitivity_options
 from .simulator import check_option_names, simulate
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
-
-
-@dataclass(frozen=True)
-class InMode:
-    """A signal as it would be in another mode: ``expression`` evaluated with
-    the equations of the current mode with some automata put in other states
-    (``states``: automaton → state), at the state that mode's jump map would
-    give, finite part only — the paper's ``F^{α01}`` computed from
-    ``h(g^{α01}(x))`` (section 5.6), e.g. the friction force a sliding rod
-    would need to stay stuck::
-
-        signals={"F_stick": InMode("-e_tip_x", friction="stuck")}
-    """
-
-    expression: object
-    states: dict
-
-    def __init__(self, expression, **states):
-        object.__setattr__(self, "expression", expression)
-        object.__setattr__(self, "states", dict(states))
 
 
 @dataclass(frozen=True)
@@ -102,17 +78,6 @@ class Tolerance:
 class InitialStateProjected(UserWarning):
     """The given initial state violated the initial mode's constraints and was
     projected onto them with the mode's jump map."""
-
-
-def _computable(expr, what: str, culprit: str):
-    """``expr`` if it holds no function sympy knows only by name (``sp.Function('foo')(x)``: it has no
-    numerical value), else a :class:`ModelDefinitionError` naming ``what`` and the function."""
-    undefined = sorted({str(f.func) for f in expr.atoms(AppliedUndef)}) if isinstance(expr, sp.Basic) else []
-    if undefined:
-        raise ModelDefinitionError(
-            f"{what} uses the function(s) {', '.join(map(repr, undefined))}, which have no numerical definition; "
-            "write them with sympy's functions (sp.exp, sp.Piecewise, ...) or make them signals", [culprit])
-    return expr
 
 
 class HybridModel:
@@ -187,243 +152,30 @@ class HybridModel:
         self.derivation_graph, switches = law_switches(graph)
         #: law switch name → :class:`bondgraph.law_switches.LawSwitch`; each drives the automaton of that name
         self.law_switches = {sw.name: sw for sw in switches}
-        self._check_law_switch_names(automata)
+        definition.check_law_switch_names(graph, self.law_switches, automata)
         self.automata = tuple(automata) + tuple(law_automaton(sw) for sw in switches)
         self._initial_branches_set = not switches
         self._initial_mode = Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
         self.tolerance = tolerance or Tolerance()
         self.max_steps_per_instant = int(max_steps_per_instant)
         self.time = TIME
-        self._check_automata()
+        definition.check_automata(graph, self.automata)
         self.states = tuple(graph.states)
         self.state_index = {s: k for k, s in enumerate(self.states)}
         self.rate_symbols = {s: sp.Symbol(f"d{s.name}/dt") for s in self.states}
-        self._names = self._base_names()
-        self._cross: dict = {}
-        self._signals = self._parse_signals(signals or {})
-        self._guards = self._parse_guards()
-        self._inputs = self._check_inputs(inputs or {})
+        self._names = definition.base_names(graph, self.states)
+        self._signals, self._cross = definition.parse_signals(self._names, signals or {})
+        self._guards = definition.parse_guards(self.automata, {**self._names, **self._signals}, self._signals)
+        self._inputs = definition.check_inputs(graph, inputs or {})
         self._input_derivatives: dict = {}
-        self.parameter_symbols = self._collect_parameters()
+        self.parameter_symbols = definition.collect_parameters(self)
         self.allow_infinite = frozenset(allow_infinite)
-        self.parameter_values = self._check_parameter_values(parameters or {})
+        self.parameter_values = definition.parameter_values(self, parameters or {})
         self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
-        self._initial_given = self._check_initial_state(initial_state or {})
+        self._initial_given = definition.initial_state(self.states, initial_state or {})
         self._initial = None
         #: the derived modes, generated functions and code-generation memos (:mod:`switching.library`)
         self.library = ModeLibrary(self)
-
-    # ------------------------------------------------------------ checks
-
-    def _check_automata(self) -> None:
-        names = [a.name for a in self.automata]
-        dup = {n for n in names if names.count(n) > 1}
-        if dup:
-            raise ModelDefinitionError(f"automata share the name(s) {sorted(dup)}; names must be unique", sorted(dup))
-        owner: dict[str, str] = {}
-        controlled = set(self.graph.controlled_junctions)
-        for automaton in self.automata:
-            for junction in automaton.junctions:
-                if junction not in self.graph.elements:
-                    raise ModelDefinitionError(
-                        f"automaton {automaton.name!r} switches {junction!r}, which is not in graph {self.graph.name!r}",
-                        [automaton.name, junction],
-                    )
-                if junction not in controlled:
-                    raise ModelDefinitionError(
-                        f"automaton {automaton.name!r} switches {junction!r}, which is not a controlled junction "
-                        "(create it with controlled=True)",
-                        [automaton.name, junction],
-                    )
-                if junction in owner:
-                    raise ModelDefinitionError(
-                        f"junction {junction!r} is switched by both {owner[junction]!r} and {automaton.name!r}; "
-                        "one automaton per junction",
-                        [owner[junction], automaton.name, junction],
-                    )
-                owner[junction] = automaton.name
-        free = sorted(controlled - set(owner))
-        if free:
-            raise ModelDefinitionError(
-                f"controlled junction(s) {', '.join(map(repr, free))} are driven by no automaton; add one or make them plain",
-                free,
-            )
-
-    def _check_law_switch_names(self, automata) -> None:
-        taken = {a.name for a in automata}
-        parameters = {p.name for p in self.graph.parameters}
-        for sw in self.law_switches.values():
-            if sw.name in taken:
-                raise ModelDefinitionError(
-                    f"the law of {sw.element!r} has a discontinuity ({sw.written}) whose automaton is named "
-                    f"{sw.name!r}, the name of one of the model's automata; rename that automaton",
-                    [sw.name],
-                )
-            if sw.sigma.name in parameters:
-                raise ModelDefinitionError(
-                    f"parameter {sw.sigma.name!r} has the name of the branch of law switch {sw.name!r} "
-                    f"({sw.written} in the law of {sw.element!r}); rename the parameter",
-                    [sw.sigma.name],
-                )
-
-    def _base_names(self) -> dict:
-        names = {"t": TIME}
-        for s in self.states:
-            names[s.name] = s
-        for bond in self.graph.bonds.values():
-            names[bond.effort.name] = bond.effort
-            names[bond.flow.name] = bond.flow
-        for p in self.graph.parameters:
-            names.setdefault(p.name, p)
-        for name, sym in self.graph.inputs.items():
-            names[name] = sym
-        return names
-
-    def _parse_signals(self, signals: Mapping) -> dict:
-        parsed = {}
-        for name, expr in signals.items():
-            check_name(name, "signal name")
-            if name in self._names and name not in parsed:
-                raise ModelDefinitionError(
-                    f"signal {name!r} has the name of a state, bond variable, parameter or input; rename it", [name]
-                )
-            if isinstance(expr, InMode):
-                inner = expr.expression
-                names = {**self._names, **parsed}
-                value = parse_expression(inner, names) if isinstance(inner, str) else sp.sympify(inner)
-                _computable(value, f"signal {name!r}", name)
-                self._cross[name] = (value, dict(expr.states))
-                parsed[name] = sp.Symbol(name)
-                continue
-            if isinstance(expr, str):
-                value = parse_expression(expr, {**self._names, **parsed})
-            elif isinstance(expr, sp.Basic) and not isinstance(expr, (Relational, BooleanFunction, BooleanAtom)):
-                value = expr.xreplace({sp.Symbol(k): v for k, v in parsed.items()})
-            else:
-                raise ModelDefinitionError(f"signal {name!r} must be a sympy expression or a text, not {expr!r}", [name])
-            parsed[name] = _computable(value, f"signal {name!r}", name)
-        return parsed
-
-    def _parse_guards(self) -> dict:
-        names = {**self._names, **self._signals}
-        guards = {}
-        for automaton in self.automata:
-            for tr in automaton.transitions:
-                if isinstance(tr.guard, str):
-                    condition = parse_condition(tr.guard, names)
-                    text = tr.guard
-                else:
-                    condition = tr.guard.xreplace({sp.Symbol(k): v for k, v in self._signals.items()})
-                    text = str(tr.guard)
-                    _computable(condition, f"the guard of {automaton.name}: {tr.source} → {tr.target}",
-                                automaton.name)
-                guards[(automaton.name, tr)] = (condition, text)
-        return guards
-
-    def _check_inputs(self, inputs: Mapping) -> dict:
-        declared = self.graph.inputs
-        unknown = set(inputs) - set(declared)
-        if unknown:
-            raise UnknownNameError(f"values given for unknown input(s) {sorted(unknown)}; declared: {sorted(declared)}")
-        missing = set(declared) - set(inputs)
-        if missing:
-            raise MissingParameterError(missing)
-        for name, fn in inputs.items():
-            if not callable(fn):
-                raise ModelDefinitionError(f"input {name!r} must be a function of time t, got {fn!r}", [name])
-        return dict(inputs)
-
-    def _collect_parameters(self) -> tuple:
-        used = set(self.graph.parameters)
-        for value in self._signals.values():
-            used |= value.free_symbols
-        for condition, _ in self._guards.values():
-            used |= condition.free_symbols
-        for automaton in self.automata:
-            for e in automaton.restitution.values():
-                used |= e.free_symbols
-        reserved = {TIME} | set(self.states) | set(self.rate_symbols.values()) | set(self.graph.inputs.values())
-        reserved |= {rate_symbol(u) for u in self.graph.inputs.values()}
-        reserved |= {sp.Symbol(name) for name in self._cross}
-        for automaton in self.automata:
-            for table in automaton.values.values():
-                reserved |= {sp.Symbol(k) for k in table}
-                for value in table.values():
-                    used |= value.free_symbols
-        for value, overrides in self._cross.values():
-            used |= value.free_symbols
-            for automaton, state in overrides.items():
-                self.mode({automaton: state})  # unknown automata or states fail here, at construction
-        reserved |= self.graph.bond_symbols()
-        return tuple(sorted(used - reserved, key=lambda s: s.name))
-
-    def _check_parameter_values(self, values: Mapping) -> dict:
-        by_name = {s.name: s for s in self.parameter_symbols}
-        given = {(k.name if isinstance(k, sp.Symbol) else str(k)): v for k, v in values.items()}
-        unknown = set(given) - set(by_name)
-        if unknown:
-            raise UnknownParameterError(unknown, by_name)
-        missing = set(by_name) - set(given)
-        if missing:
-            raise MissingParameterError(missing, self._text_only_names(missing))
-        out = {}
-        for name, v in given.items():
-            v = real_number(v, f"parameter {name!r} of model {self.name!r}", name)
-            try:
-                value = float(v)
-            except (TypeError, ValueError, OverflowError):
-                raise ParameterValueError(f"parameter {name!r} must be a number, got {v!r}", name, v) from None
-            if math.isnan(value) or (math.isinf(value) and name not in self.allow_infinite):
-                raise ParameterValueError(
-                    f"parameter {name!r} of model {self.name!r} is {value}: every parameter needs a finite value"
-                    + ("" if math.isnan(value) else
-                       f" (if {name} = {value} is physical here, build the model with allow_infinite={{{name!r}}})"),
-                    name, value)
-            out[by_name[name]] = value
-        return out
-
-    def _text_only_names(self, names) -> dict:
-        """For each name met only in guard or signal text (no element law uses
-        it): where it was written, and the closest known names — such a name
-        is more often a mistyped signal or state than a parameter."""
-        import difflib
-
-        in_laws = {p.name for p in self.graph.parameters}
-        known = sorted(set(self._names) | set(self._signals))
-        hints = {}
-        for name in names:
-            if name in in_laws:
-                continue
-            symbol = sp.Symbol(name)
-            places = [f"signal {s!r}" for s, value in self._signals.items() if symbol in value.free_symbols]
-            places += [f"guard {text!r} of automaton {auto!r} ({tr.source} → {tr.target})"
-                       for (auto, tr), (condition, text) in self._guards.items() if symbol in condition.free_symbols]
-            if not places:
-                continue
-            close = difflib.get_close_matches(name, known, n=3)
-            hints[name] = (f"written in {', '.join(places)} and used by no element law: a parameter of its own, "
-                           "or a mistyped name of a state or signal"
-                           + (f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""))
-        return hints
-
-    def _check_initial_state(self, initial: Mapping) -> np.ndarray:
-        x = np.zeros(len(self.states))
-        by_name = {s.name: k for k, s in enumerate(self.states)}
-        for name, value in initial.items():
-            key = name.name if isinstance(name, sp.Symbol) else name
-            if key not in by_name:
-                raise UnknownNameError(
-                    f"initial value for unknown state {key!r}; states are: {', '.join(by_name)}", key
-                )
-            value = real_number(value, f"initial value of state {key!r}", key)
-            try:
-                x[by_name[key]] = float(value)
-            except (TypeError, ValueError, OverflowError):
-                raise ParameterValueError(f"initial value of state {key!r} must be a number, got {value!r}",
-                                          key, value) from None
-            if not math.isfinite(x[by_name[key]]):
-                raise ParameterValueError(f"initial value of state {key!r} is {value}: it must be finite", key, value)
-        return x
 
     # ------------------------------------------------------------ names and values
 
