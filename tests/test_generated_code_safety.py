@@ -125,6 +125,10 @@ def _try_file(path: Path, data: dict, field: tuple, marker: Path) -> str:
         source = model.compiled_mode(model.initial_mode).source
         assert model.name == data.get("name", model.name)
         assert repr(model.name) in _names_in_docstrings(source), field
+        saved = path.with_name("saved.toml")  # written back and read again: the same text, nothing injected
+        model.save(saved)
+        again = models.load(saved)
+        assert again.name == model.name and again.fingerprint == model.fingerprint, field
         outcome = "ran"
     assert not marker.exists(), f"a payload in {'.'.join(field)} ran"
     return outcome
