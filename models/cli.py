@@ -749,6 +749,12 @@ def _cmd_sweep(args) -> int:
 
 
 class _Parser(argparse.ArgumentParser):
+    """Errors are usage errors; an option is spelt out (``--max-step`` is not read as ``--max-steps``)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
     def error(self, message):
         raise _UsageError(message)
 

@@ -75,3 +75,9 @@ def test_an_initial_value_that_is_not_a_finite_real_number_names_the_file_and_li
     write_toml(data, path)
     status, out, err = hbg(capsys, "run", path)
     assert status == 2 and f"{path}:" in err and "initial value of 'q_C'" in err and why in err
+
+
+def test_an_option_is_spelt_out_not_guessed_from_a_prefix(capsys):
+    """``--max-step 100`` was read as ``--max-steps 100`` (argparse's prefix matching): a run cut at 100 steps."""
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--max-step", "100")
+    assert status == 2 and "unrecognized arguments: --max-step 100" in err
