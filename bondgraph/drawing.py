@@ -572,11 +572,9 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         >>> ax.figure.savefig("rod.svg")  # doctest: +SKIP
     """
     plt = pyplot()
-    if ax is None:
+    own = ax is None
+    if own:
         ax = plt.figure(figsize=(6, 4)).add_axes([0, 0, 1, 1])
-        own = True
-    else:
-        own = False
     if not graph.elements:
         ax.set_axis_off()
         ax.set_title(title or f"{graph.name}: no elements", fontsize=fontsize)
@@ -584,11 +582,31 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
     causality = graph.causality(config, open_ports=False)  # the graph as drawn: no open-port bonds
     shown_config = None if config is None else causality.configuration
     layout = layout_bond_graph(graph)
-    fig = ax.figure
-    renderer = fig.canvas.get_renderer()
-    ppp = 72.0 / fig.dpi  # points per pixel
+    renderer = ax.figure.canvas.get_renderer()
+    ppp = 72.0 / ax.figure.dpi  # points per pixel
 
     # labels first, measured at the base size
+    texts = _labels(ax, graph, causality, shown_config, fontsize)
+    extents = {name: _extent(t, renderer, ppp) for name, t in texts.items()}
+
+    # grid → points: columns packed row by row around the labels, rows as tall as their tallest
+    xs, ys = _spread_for_diagonals(layout, extents, 2.0 * fontsize, 2.0 * fontsize, pad=0.12 * fontsize)
+    pos = {name: np.array([xs[c], -ys[r]]) for name, (c, r) in layout.cells.items()}
+    for name, t in texts.items():
+        t.set_position(pos[name])
+    lines = _bonds(ax, graph, causality, layout, pos, xs, ys, extents, fontsize)
+    lo, hi = _drawn_extent(pos, extents, lines)
+    if legend:
+        lo, hi = _legend(ax, graph, texts, lo, hi, fontsize, renderer, ppp)
+    _fit(ax, own, texts, lines, lo, hi, fontsize, renderer, ppp)
+    if title is None:
+        title = graph.name if shown_config is None else f"{graph.name}: {_describe(shown_config)}"
+    ax.set_title(title, fontsize=fontsize, wrap=True)
+    return ax
+
+
+def _labels(ax, graph, causality, shown_config, fontsize: float) -> dict:
+    """The text artist of every element (placed later), by name: controlled junctions boxed, grey when off."""
     parameters = graph.parameters
     texts = {}
     for name, el in graph.elements.items():
@@ -604,20 +622,16 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
                               family="serif", math_fontfamily="dejavuserif",
                               color="0.5" if off else "black", gid=f"element:{name}",
                               bbox=box, zorder=4)
-    extents = {name: _extent(t, renderer, ppp) for name, t in texts.items()}
+    return texts
 
-    # grid → points: columns packed row by row around the labels, rows as tall as their tallest
-    gap_x, gap_y = 2.0 * fontsize, 2.0 * fontsize
-    xs, ys = _spread_for_diagonals(layout, extents, gap_x, gap_y, pad=0.12 * fontsize)
-    pos = {name: np.array([xs[c], -ys[r]]) for name, (c, r) in layout.cells.items()}
-    for name, t in texts.items():
-        t.set_position(pos[name])
 
-    # bonds
+def _bonds(ax, graph, causality, layout, pos, xs, ys, extents, fontsize: float) -> list:
+    """Draw every bond (its line from label edge to label edge, its half-arrow at the head, its causal
+    stroke); returns ``[(artist, base line width)]``."""
     grey = "0.55"
     pad = 0.12 * fontsize
     barb_back, barb_side, stroke_half = 0.75 * fontsize, 0.5 * fontsize, 0.55 * fontsize
-    lines = []  # (artist, base linewidth)
+    lines = []
     for bond in graph.bonds.values():
         way = [pos[bond.tail]] + [np.array([xs[c], -ys[r]]) for c, r in (layout.paths or {}).get(bond.name, [])[1:-1]]
         way.append(pos[bond.head])
@@ -652,28 +666,40 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         (stroke,) = ax.plot(*zip(end - n * stroke_half, end + n * stroke_half), color=color, lw=2.4,
                             gid=f"stroke:{bond.name}", solid_capstyle="butt", zorder=3)
         lines.append((stroke, 2.4))
+    return lines
 
-    # the extent of the drawing (labels and bond ends), then the legend below it
+
+def _drawn_extent(pos, extents, lines):
+    """``(lo, hi)``: the corners [points] of what is drawn, labels and bonds."""
     lo = np.array([min(pos[n][0] - extents[n][0] for n in pos), min(pos[n][1] - extents[n][2] for n in pos)])
     hi = np.array([max(pos[n][0] + extents[n][1] for n in pos), max(pos[n][1] + extents[n][3] for n in pos)])
     for artist, _ in lines:
         xy = artist.get_xydata()
         lo, hi = np.minimum(lo, xy.min(axis=0)), np.maximum(hi, xy.max(axis=0))
-    if legend:
-        note = ax.text((lo[0] + hi[0]) / 2, lo[1] - 1.2 * fontsize,
-                       "half-arrow: power direction    bold stroke: the end that receives the effort"
-                       + ("\nboxed: controlled junction (grey, dashed: off)" if graph.controlled_junctions else ""),
-                       ha="center", va="top", fontsize=0.8 * fontsize, color="0.35", gid="legend", zorder=4,
-                       bbox=dict(boxstyle="square,pad=0.1", fc="none", ec="none"))
-        left, right, below, above = _extent(note, renderer, ppp)
-        cx, cy = note.get_position()
-        lo = np.minimum(lo, [cx - left, cy - below])
-        hi = np.maximum(hi, [cx + right, cy + above])
-        texts[None] = note  # scaled with the labels
+    return lo, hi
+
+
+def _legend(ax, graph, texts: dict, lo, hi, fontsize: float, renderer, ppp: float):
+    """The line explaining the marks, below the drawing (scaled with the labels: kept in ``texts``);
+    returns the extent grown to hold it."""
+    note = ax.text((lo[0] + hi[0]) / 2, lo[1] - 1.2 * fontsize,
+                   "half-arrow: power direction    bold stroke: the end that receives the effort"
+                   + ("\nboxed: controlled junction (grey, dashed: off)" if graph.controlled_junctions else ""),
+                   ha="center", va="top", fontsize=0.8 * fontsize, color="0.35", gid="legend", zorder=4,
+                   bbox=dict(boxstyle="square,pad=0.1", fc="none", ec="none"))
+    left, right, below, above = _extent(note, renderer, ppp)
+    cx, cy = note.get_position()
+    texts[None] = note
+    return np.minimum(lo, [cx - left, cy - below]), np.maximum(hi, [cx + right, cy + above])
+
+
+def _fit(ax, own: bool, texts: dict, lines: list, lo, hi, fontsize: float, renderer, ppp: float) -> None:
+    """Size a figure of its own to the drawing (at most 40 inches a side), then show the drawing centred
+    with one scale for x and y, scaled down (never up: the labels keep their size) to fit the axis."""
     margin = 0.6 * fontsize
     lo, hi = lo - margin, hi + margin
     width, height = hi - lo
-
+    fig = ax.figure
     if own:
         max_in = 40.0
         w_in, h_in = width / 72.0, height / 72.0
@@ -681,10 +707,8 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         title_in = 0.45
         fig.set_size_inches(max(w_in * shrink, 3.0), max(h_in * shrink, 1.2) + title_in)
         ax.set_position([0, 0, 1, 1 - title_in / fig.get_size_inches()[1]])
-    # one scale for x and y (data units per pixel), never magnified beyond the size the
-    # labels were measured at (text does not grow with the data), the drawing centred
     box = ax.get_window_extent(renderer)
-    per_pixel = max(width / box.width, height / box.height, ppp)
+    per_pixel = max(width / box.width, height / box.height, ppp)  # data units per pixel
     centre = (lo + hi) / 2
     ax.set_xlim(centre[0] - per_pixel * box.width / 2, centre[0] + per_pixel * box.width / 2)
     ax.set_ylim(centre[1] - per_pixel * box.height / 2, centre[1] + per_pixel * box.height / 2)
@@ -695,10 +719,6 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         for artist, lw in lines:
             artist.set_linewidth(lw * scale)
     ax.set_axis_off()
-    if title is None:
-        title = graph.name if shown_config is None else f"{graph.name}: {_describe(shown_config)}"
-    ax.set_title(title, fontsize=fontsize, wrap=True)
-    return ax
 
 
 def _unit(v):
