@@ -19,6 +19,7 @@ carries the trajectory computed so far.
 
 from __future__ import annotations
 
+import enum
 import functools
 import math
 import re
@@ -44,7 +45,7 @@ from .real_values import ComplexValueError, complex_failure
 from .run_options import COMPILED, DEFAULT_MAX_STEPS, METHODS, check_run
 from .trajectory import Trajectory
 
-__all__ = ["simulate", "METHODS", "check_option_names", "option_defaults"]
+__all__ = ["simulate", "HybridRun", "Status", "METHODS", "check_option_names", "option_defaults"]
 
 
 class _Recorder:
@@ -231,182 +232,237 @@ def simulate(
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.run_options`)."""
-    t_eval, x0 = check_run(model, t_end, method, dict(
-        dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, output=output, t_eval=t_eval, max_step=max_step,
-        first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window, zeno_min_gap=zeno_min_gap,
-        keep_instants=keep_instants, max_events=max_events, max_steps=max_steps, progress=progress,
-        event_samples=event_samples, stiffness_check=stiffness_check))
-    auto = None
-    if method == "auto":  # RK45 compiled or not (switching.jit_model.choose_method); the stats say which and why
-        auto = _choose_method(model, t0, t_end, rtol, dt)
-        method = auto.method
-    if t_eval is not None:
-        output = "events"
-    started = _time.perf_counter()
-    x = model.initial_state() if x0 is None else x0
-    current = model.starting_mode(x, t0, mode)
-    recorder = _Recorder(model, output, t_eval, keep_instants)
-    recorder.start(t0)
-    zeno = _ZenoWatch(zeno_window, t_end, 1e-9 * (t_end - t0) if zeno_min_gap is None else zeno_min_gap)
-    rtol_g, atol_g = model.tolerance.rtol, model.tolerance.atol
-    n_steps = 0
-    t = float(t0)
+    options = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, output=output, t_eval=t_eval, max_step=max_step,
+                   first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window, zeno_min_gap=zeno_min_gap,
+                   keep_instants=keep_instants, max_events=max_events, max_steps=max_steps, progress=progress,
+                   event_samples=event_samples, stiffness_check=stiffness_check)
+    options["t_eval"], options["x0"] = check_run(model, t_end, method, options)
+    return HybridRun(model, t_end, method, mode, options).execute()
 
-    def fail(cls, message, **extra):
-        if not recorder.t or t > recorder.t[-1] or (t == recorder.t[-1] and not np.array_equal(x, recorder.x[-1])):
-            recorder.sample(t, x, current, force=True)  # (a flow stopped mid-way has recorded beyond t)
-        return cls(message, trajectory=recorder.trajectory(stats={"failed": message.splitlines()[0]}), t=t,
-                   mode=current, **extra)
 
-    compiled = None
-    flow_method = method
-    if method in COMPILED:
+class Status(enum.Enum):
+    """How a run ended (``Trajectory.stopped`` holds the value: ``None`` when it reached ``t_end``)."""
+
+    FINISHED = None
+    ZENO = "zeno"  # events piled up in shrinking time and on_zeno="stop" ended the run at their accumulation
+
+
+class HybridRun:
+    """One run of :func:`simulate`: flows in a mode (compiled or in Python),
+    the instants between them, the record, the checks that stop a run.
+
+    ``options`` are :func:`simulate`'s keywords, checked
+    (:func:`switching.run_options.check_run`).  :meth:`execute` runs to
+    ``t_end`` and returns the :class:`~switching.trajectory.Trajectory`; a
+    failure raises an error of the hierarchy that carries the trajectory
+    computed so far (:meth:`fail`)."""
+
+    def __init__(self, model, t_end: float, method: str, mode, options: dict):
+        self.model, self.t_end, self.options = model, t_end, options
+        o = options
+        self.auto = None
+        if method == "auto":  # RK45 compiled or not (switching.jit_model.choose_method); the stats say which and why
+            self.auto = _choose_method(model, o["t0"], t_end, o["rtol"], o["dt"])
+            method = self.auto.method
+        self.method = method
+        self.output = "events" if o["t_eval"] is not None else o["output"]
+        self.started = _time.perf_counter()
+        self.x = model.initial_state() if o["x0"] is None else o["x0"]
+        self.mode = model.starting_mode(self.x, o["t0"], mode)
+        self.recorder = _Recorder(model, self.output, o["t_eval"], o["keep_instants"])
+        self.recorder.start(o["t0"])
+        self.zeno = _ZenoWatch(o["zeno_window"], t_end,
+                               1e-9 * (t_end - o["t0"]) if o["zeno_min_gap"] is None else o["zeno_min_gap"])
+        self.rtol_g, self.atol_g = model.tolerance.rtol, model.tolerance.atol
+        self.t = float(o["t0"])
+        self.n_steps = 0
+        self.python_instants = 0
+        self.accumulation = None
+        self.compiled, self.flow_method = self._compiled_path()
+
+    def _compiled_path(self):
+        """``(the compiled model or None, the method of a flow in Python)``."""
+        method, model = self.method, self.model
+        if method not in COMPILED:
+            return None, method
         if not _jit_available():
             raise SimulationError(f"method {method!r} needs numba: pip install '.[fast]'")
         problem = _input_problem(model, method)  # inputs that are Python functions cannot run compiled
         if problem:
             raise SimulationError(problem)
-        model.compiled_mode(current)
-        compiled = model.compiled_model()  # the modes visited or remembered; one first reached is compiled then
-        flow_method = method[:-4]
+        model.compiled_mode(self.mode)
+        return model.compiled_model(), method[:-4]  # the modes visited or remembered; one first reached: then
 
-    def initial_instant():
+    # ------------------------------------------------------------ failures
+
+    def fail(self, cls, message, **extra):
+        """An error ``cls`` with ``message`` carrying the trajectory up to now (the current state recorded)."""
+        recorder, t, x = self.recorder, self.t, self.x
+        if not recorder.t or t > recorder.t[-1] or (t == recorder.t[-1] and not np.array_equal(x, recorder.x[-1])):
+            recorder.sample(t, x, self.mode, force=True)  # (a flow stopped mid-way has recorded beyond t)
+        return cls(message, trajectory=recorder.trajectory(stats={"failed": message.splitlines()[0]}), t=t,
+                   mode=self.mode, **extra)
+
+    # ------------------------------------------------------------ instants
+
+    def initial_instant(self) -> None:
         """The instant at t0 in Python: the initial mode may be mythical, or a pinnacle."""
-        nonlocal x, current
         try:
-            instant = model.resolve(x, current, t)
+            instant = self.model.resolve(self.x, self.mode, self.t)
         except SimulationError:
             raise
         except Exception as exc:
             if hasattr(exc, "instant"):
-                exc.trajectory = recorder.trajectory()
+                exc.trajectory = self.recorder.trajectory()
             raise
         if len(instant.steps) > 1:
-            recorder.event(instant)
+            self.recorder.event(instant)
         if not np.all(np.isfinite(instant.x_after)):
-            raise fail(NonFiniteStateError, _nonfinite_jump_message(model, instant))
-        x, current = instant.x_after, instant.mode_after
+            raise self.fail(NonFiniteStateError, _nonfinite_jump_message(self.model, instant))
+        self.x, self.mode = instant.x_after, instant.mode_after
 
-    stopped = None
-    accumulation = None
-    python_instants = 0
+    def after_event(self, instant) -> bool:
+        """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
+        self.recorder.event(instant)
+        self.t, self.x, self.mode = instant.t, instant.x_after, instant.mode_after
+        max_events = self.options["max_events"]
+        if self.recorder.n_events > max_events:
+            raise self.fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
+        self.accumulation = self.zeno.add(self.t)
+        if self.accumulation is None:
+            return False
+        message = (
+            f"Zeno behaviour: events pile up in shrinking time near t = {self.t:.12g} (mode {self.mode.describe()}); "
+            f"they accumulate at t ≈ {self.accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
+            "threshold), or pass on_zeno='stop' to end the run there."
+        )
+        if self.options["on_zeno"] == "raise":
+            raise self.fail(ZenoError, message, accumulation_time=self.accumulation)
+        return True
 
-    def run():
-        """The run itself; returns the reason it stopped early (``"zeno"``) or None."""
-        nonlocal t, x, current, n_steps, python_instants
-        recorder.sample(t, x, current, force=True)
-        initial_in_kernel = compiled is not None and compiled.covers(current)
+    def instant_at(self, event) -> bool:
+        """Resolve the instant of a located ``event`` ``(t, x)`` in Python; True when it stops the run."""
+        self.t, self.x = event
+        try:
+            instant = self.model.resolve(self.x, self.mode, self.t)
+        except Exception as exc:
+            if hasattr(exc, "instant"):
+                self.recorder.sample(self.t, self.x, self.mode, force=True)
+                exc.trajectory = self.recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
+            raise
+        self.python_instants += 1
+        if not np.all(np.isfinite(instant.x_after)):
+            self.t, self.x, self.mode = instant.t, instant.x_after, instant.mode_after
+            raise self.fail(NonFiniteStateError, _nonfinite_jump_message(self.model, instant))
+        return self.after_event(instant)
+
+    # ------------------------------------------------------------ the run
+
+    def _flow_options(self) -> dict:
+        o = self.options
+        return dict(dt=o["dt"], rtol=o["rtol"], atol=o["atol"], max_step=o["max_step"], first_step=o["first_step"],
+                    samples=o["event_samples"], save=self.output == "steps", progress=o["progress"],
+                    rtol_g=self.rtol_g, atol_g=self.atol_g, stiffness_check=o["stiffness_check"],
+                    max_steps=o["max_steps"], steps_left=o["max_steps"])
+
+    def _start(self) -> bool:
+        """Record the start and resolve the initial instant (in Python, unless the kernel does); returns
+        whether the kernel resolves it."""
+        model, compiled = self.model, self.compiled
+        self.recorder.sample(self.t, self.x, self.mode, force=True)
+        initial_in_kernel = compiled is not None and compiled.covers(self.mode)
         if not initial_in_kernel:
-            initial_instant()
-        elif not model.compiled_mode(current).holds(x, t, rtol_g, atol_g):  # the kernel flows from x at once
-            problem = nonfinite_at_start(model, model.compiled_mode(current), x, t)
+            self.initial_instant()
+        elif not model.compiled_mode(self.mode).holds(self.x, self.t, self.rtol_g, self.atol_g):
+            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t)  # the kernel flows
             if problem:
-                raise fail(NonFiniteStateError, problem)
-        if t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its initial instant)
-            recorder.dense(t - 1.0, t, lambda tau: x.copy(), current)
+                raise self.fail(NonFiniteStateError, problem)
+        if self.options["t_eval"] is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
+            x = self.x
+            self.recorder.dense(self.t - 1.0, self.t, lambda tau: x.copy(), self.mode)
+        return initial_in_kernel
 
-        options = dict(dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, samples=event_samples,
-                       save=output == "steps", progress=progress, rtol_g=rtol_g, atol_g=atol_g,
-                       stiffness_check=stiffness_check, max_steps=max_steps, steps_left=max_steps)
-
-        def after_event(instant) -> bool:
-            """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
-            nonlocal t, x, current, accumulation
-            recorder.event(instant)
-            t, x, current = instant.t, instant.x_after, instant.mode_after
-            if recorder.n_events > max_events:
-                raise fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
-            accumulation = zeno.add(t)
-            if accumulation is None:
-                return False
-            message = (
-                f"Zeno behaviour: events pile up in shrinking time near t = {t:.12g} (mode {current.describe()}); "
-                f"they accumulate at t ≈ {accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
-                "threshold), or pass on_zeno='stop' to end the run there."
-            )
-            if on_zeno == "raise":
-                raise fail(ZenoError, message, accumulation_time=accumulation)
-            return True
-
-        while t < t_end:
-            options["steps_left"] = max_steps - n_steps  # the running count: a run stops after max_steps steps
+    def _run(self) -> Status:
+        """Flows and instants up to ``t_end``."""
+        model, compiled = self.model, self.compiled
+        initial_in_kernel = self._start()
+        options = self._flow_options()
+        while self.t < self.t_end:
+            options["steps_left"] = self.options["max_steps"] - self.n_steps  # a run stops after max_steps steps
             try:
-                if compiled is not None and compiled.covers(current):
-                    event, t, x, current, steps, stop = _run_kernel(model, compiled, method, current, x, t, t_end,
-                                                                     options, recorder, after_event, initial_in_kernel)
+                if compiled is not None and compiled.covers(self.mode):
+                    event, self.t, self.x, self.mode, steps, stop = _run_kernel(
+                        model, compiled, self.method, self.mode, self.x, self.t, self.t_end, options, self.recorder,
+                        self.after_event, initial_in_kernel)
                     if stop == "initial":  # the kernel leaves this initial instant to Python
                         initial_in_kernel = False
-                        initial_instant()
+                        self.initial_instant()
                         continue
                     initial_in_kernel = False
                     if stop:
-                        return "zeno"
+                        return Status.ZENO
                 else:
-                    cm = model.compiled_mode(current)
-                    problem = nonfinite_at_start(model, cm, x, t)
+                    cm = model.compiled_mode(self.mode)
+                    problem = nonfinite_at_start(model, cm, self.x, self.t)
                     if problem:
-                        raise fail(NonFiniteStateError, problem)
-                    event, t, x, steps = _flow_python(model, cm, current, flow_method, x, t, t_end, options, recorder)
+                        raise self.fail(NonFiniteStateError, problem)
+                    event, self.t, self.x, steps = _flow_python(model, cm, self.mode, self.flow_method, self.x,
+                                                                self.t, self.t_end, options, self.recorder)
             except _FlowFailure as failure:
-                t, x = failure.t, failure.x
-                current = failure.mode or current
-                n_steps += failure.steps
-                raise fail(failure.cls, failure.message) from None
-            n_steps += steps
+                self.t, self.x = failure.t, failure.x
+                self.mode = failure.mode or self.mode
+                self.n_steps += failure.steps
+                raise self.fail(failure.cls, failure.message) from None
+            self.n_steps += steps
             if event is None:
                 break
-            t, x = event
-            try:
-                instant = model.resolve(x, current, t)
-            except Exception as exc:
-                if hasattr(exc, "instant"):
-                    recorder.sample(t, x, current, force=True)
-                    exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
+            if self.instant_at(event):
+                return Status.ZENO
+        return Status.FINISHED
+
+    def execute(self) -> Trajectory:
+        """Run to ``t_end``; the trajectory, or an error carrying it (Ctrl-C: :class:`SimulationInterrupted`)."""
+        try:
+            status = self._run()
+        except KeyboardInterrupt as exc:
+            if isinstance(exc, SimulationInterrupted):
                 raise
-            python_instants += 1
-            if not np.all(np.isfinite(instant.x_after)):
-                t, x, current = instant.t, instant.x_after, instant.mode_after
-                raise fail(NonFiniteStateError, _nonfinite_jump_message(model, instant))
-            if after_event(instant):
-                return "zeno"
-
-        return None
-
-    try:
-        stopped = run()
-    except KeyboardInterrupt as exc:
-        if isinstance(exc, SimulationInterrupted):
+            if self.recorder.t:  # the latest state recorded, possibly inside a flow
+                self.t, self.x, self.mode = self.recorder.t[-1], self.recorder.x[-1], self.recorder.modes[-1]
+            raise self.fail(SimulationInterrupted,
+                            f"interrupted at t = {self.t:.12g} s in mode {self.mode.describe()} (of "
+                            f"{self.options['t0']:g} … {self.t_end:g} s); what was computed up to there is kept"
+                            ) from None
+        except HybridBondGraphError as exc:  # e.g. a mode first reached mid-run that cannot be derived
+            if getattr(exc, "trajectory", None) is None:
+                exc.trajectory = self.recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
             raise
-        if recorder.t:  # the latest state recorded, possibly inside a flow
-            t, x, current = recorder.t[-1], recorder.x[-1], recorder.modes[-1]
-        raise fail(SimulationInterrupted,
-                   f"interrupted at t = {t:.12g} s in mode {current.describe()} (of {t0:g} … {t_end:g} s); "
-                   "what was computed up to there is kept") from None
-    except HybridBondGraphError as exc:  # e.g. a mode first reached mid-run that cannot be derived
-        if getattr(exc, "trajectory", None) is None:
-            exc.trajectory = recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
-        raise
-    except Exception as exc:  # an input function, a callback, a library: still nothing computed is lost
-        complex_value = complex_failure(model, current, exc)  # a law that left the reals: name it
-        if complex_value is not None:
-            raise fail(ComplexValueError, complex_value.pop("message"), **complex_value) from exc
-        raise fail(SimulationError,
-                   f"the run failed at t = {t:.12g} s in mode {current.describe()} with {type(exc).__name__}: {exc} "
-                   "(the trajectory up to there is attached; the original error and its traceback are its cause)"
-                   ) from exc
+        except Exception as exc:  # an input function, a callback, a library: still nothing computed is lost
+            complex_value = complex_failure(self.model, self.mode, exc)  # a law that left the reals: name it
+            if complex_value is not None:
+                raise self.fail(ComplexValueError, complex_value.pop("message"), **complex_value) from exc
+            raise self.fail(SimulationError,
+                            f"the run failed at t = {self.t:.12g} s in mode {self.mode.describe()} with "
+                            f"{type(exc).__name__}: {exc} (the trajectory up to there is attached; the original "
+                            "error and its traceback are its cause)") from exc
+        return self._finish(status)
 
-    stats = {"method": method, "steps": n_steps, "wall time [s]": round(_time.perf_counter() - started, 6)}
-    if compiled is not None:
-        stats["instants resolved in Python"] = python_instants
-        if python_instants:  # modes met outside the kernel: a new process's kernel covers them too
-            _remember_modes(model, model.visited_modes)
-    if auto is not None:
-        stats.update(auto.report(stats["wall time [s]"], t_end - t0))
-    if stopped == "zeno":
-        stats["zeno accumulation time [s]"] = accumulation
-    if output == "events" and (not recorder.t or recorder.t[-1] != t):
-        recorder.sample(t, x, current, force=True)
-    return recorder.trajectory(stopped=stopped, stats=stats)
+    def _finish(self, status: Status) -> Trajectory:
+        """The trajectory of a run that ended (``status``), with its statistics."""
+        stats = {"method": self.method, "steps": self.n_steps,
+                 "wall time [s]": round(_time.perf_counter() - self.started, 6)}
+        if self.compiled is not None:
+            stats["instants resolved in Python"] = self.python_instants
+            if self.python_instants:  # modes met outside the kernel: a new process's kernel covers them too
+                _remember_modes(self.model, self.model.visited_modes)
+        if self.auto is not None:
+            stats.update(self.auto.report(stats["wall time [s]"], self.t_end - self.options["t0"]))
+        if status is Status.ZENO:
+            stats["zeno accumulation time [s]"] = self.accumulation
+        recorder = self.recorder
+        if self.output == "events" and (not recorder.t or recorder.t[-1] != self.t):
+            recorder.sample(self.t, self.x, self.mode, force=True)
+        return recorder.trajectory(stopped=status.value, stats=stats)
 
 
 class _FlowFailure(Exception):
