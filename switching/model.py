@@ -458,13 +458,6 @@ class HybridModel:
         vars(self).update(vars(other))
         self.library = library
 
-    def save(self, path, **options) -> None:
-        """Write the model to a model file (TOML); see :func:`switching.modelfile.save_model`
-        (``run=``, ``description=``).  ``models.load(path)`` reads it back."""
-        from .modelfile import save_model
-
-        save_model(self, path, **options)
-
     # ------------------------------------------------------------ initial state
 
     @property

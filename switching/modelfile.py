@@ -152,6 +152,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from .expression_input import ExpressionInput
+from .model import HybridModel
 from .modelfile_build import FileInfo, LoadedModel, file_info
 from .modelfile_errors import (
     MAX_DEPTH,
@@ -285,6 +286,12 @@ def loads_model(text: str, components: Mapping[str, Callable] | None = None, dir
 def save_model(model, path, *, run: dict | None = None, description: str | None = None) -> None:
     """Write ``model`` to the model file ``path`` (see :func:`dumps_model`
     for ``run`` and ``description``); the text is checked to read back to the
-    same model before the file is written."""
+    same model before the file is written.  ``models.load(path)`` reads it back.
+    Also ``model.save(path, ...)``."""
     text = dumps_model(model, run=run, description=description, display=str(path))
     Path(path).write_text(text, encoding="utf-8")
+
+
+# The file format sits above the model (it builds models): a model's ``save`` is this module's writer,
+# given to the class here rather than imported by it.
+HybridModel.save = save_model
