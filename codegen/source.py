@@ -24,8 +24,8 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from bondgraph.errors import HybridBondGraphError
 
-__all__ = ["Argument", "FunctionSpec", "UnprintableExpressionError", "PrintMemo", "common_subexpressions", "composed_source", "docstring",
-           "escaped", "function_source", "sanitize", "module_namespace"]
+__all__ = ["Argument", "FunctionSpec", "UnprintableExpressionError", "PrintMemo", "common_subexpressions",
+           "composed_source", "docstring", "escaped", "function_source", "sanitize", "module_namespace"]
 
 
 class UnprintableExpressionError(HybridBondGraphError, ValueError):

@@ -81,7 +81,8 @@ def _setting_items(setting, automaton: str, state: str) -> list:
     for junction in setting:
         if not isinstance(junction, str):
             raise ModelDefinitionError(
-                f"automaton {automaton!r}: state {state!r} sets {junction!r}, which is not a junction name", [automaton])
+                f"automaton {automaton!r}: state {state!r} sets {junction!r}, which is not a junction name",
+                [automaton])
     return list(setting.items())
 
 

@@ -48,7 +48,8 @@ from bondgraph.errors import HybridBondGraphError, ParameterValueError
 from .errors import SweepInterrupted
 from .simulator import check_option_names
 
-__all__ = ["BuildError", "MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model", "simulate_many"]
+__all__ = ["BuildError", "MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model",
+           "simulate_many"]
 
 #: the extra that installs what sweeps on Dask need
 DASK_EXTRA = "pip install '.[dask]'"

@@ -95,7 +95,8 @@ def check_automata(graph, automata) -> None:
     free = sorted(controlled - set(owner))
     if free:
         raise ModelDefinitionError(
-            f"controlled junction(s) {', '.join(map(repr, free))} are driven by no automaton; add one or make them plain",
+            f"controlled junction(s) {', '.join(map(repr, free))} are driven by no automaton; add one or make them "
+            "plain",
             free,
         )
 

@@ -486,7 +486,8 @@ def mode_function_source(model, mode) -> str:
         f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
         docstring([f'Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
                    "guard hold during flow, 3 the jump map (0: numerical), 4 the transitions firing at an instant",
-                   f'(``{P["which_"]}``: quiet), 5 guard ``{P["which_"]}`` from its parts\' truths (see switching.kernel).',
+                   f'(``{P["which_"]}``: quiet), 5 guard ``{P["which_"]}`` from its parts\' truths (see '
+                   "switching.kernel).",
                    f'Array sizes: {", ".join(f"{k} {v}" for k, v in sizes.items())}.']),
         f"    p = carray({P['p_']}, ({sizes['NPAR']},))",
         f"    u = carray({P['u_']}, ({sizes['NU']},))",

@@ -60,7 +60,8 @@ MAX_DEPTH = 16
 #: Distinct files read by one load.
 MAX_FILES = 256
 
-_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_/]*|\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?|\*\*|[<>=!]=|&&|\|\||\S", re.ASCII)
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_/]*|\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?|\*\*|[<>=!]=|&&|\|\||\S",
+                    re.ASCII)
 
 
 def count_tokens(text: str) -> int:

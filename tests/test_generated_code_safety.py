@@ -379,7 +379,7 @@ def _model_names(data: dict) -> list:
     names = list(data.get("parameters", {})) + list(data.get("signals", {})) + list(data.get("initial_state", {}))
     names += [fields["state"] for fields in data.get("elements", {}).values() if "state" in fields]
     names += list(data.get("displacements", {}))
-    elsewhere = set(data.get("elements", {})) | set(data.get("bonds", {}))  # (renamed, they would rename bond variables)
+    elsewhere = set(data.get("elements", {})) | set(data.get("bonds", {}))  # (renamed: bond variables would change)
     return [name for name in dict.fromkeys(names) if name not in elsewhere and "/" not in name]
 
 
