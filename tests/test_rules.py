@@ -1,0 +1,131 @@
+"""The semantics written once (switching.rules): each rule is defined in its
+rule module and nowhere else, the Python path and the kernel use that very
+function, and it gives the same results called and compiled."""
+
+import ast
+import math
+import random
+from pathlib import Path
+
+import pytest
+
+from switching import rules
+from switching.rules.maximize import GOLDEN, maximize_begin, maximize_next
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("bondgraph", "codegen", "models", "switching")
+
+
+def _rule_names():
+    """Each rule's name (and its module's, e.g. ``maximize``) → the rule module's file."""
+    names = {}
+    for module in rules.MODULES:
+        path = Path(module.__file__).resolve()
+        names[module.__name__.rsplit(".", 1)[1]] = path
+        for name in module.RULES:
+            names[name] = path
+    return names
+
+
+def test_the_rule_modules_list_their_rules():
+    """``RULES`` of a rule module names exactly its public functions, each
+    defined there (not imported)."""
+    for module in rules.MODULES:
+        tree = ast.parse(Path(module.__file__).read_text())
+        public = {n.name for n in tree.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+        assert set(module.RULES) == public, module.__name__
+        for name in module.RULES:
+            assert getattr(module, name).__module__ == module.__name__
+
+
+def test_no_rule_is_defined_twice():
+    """No function elsewhere in the packages is named as a rule (or as its
+    module), with or without leading underscores: a second copy of a rule
+    would have to be fixed apart from the first."""
+    names = _rule_names()
+    twice = []
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    home = names.get(node.name.lstrip("_"))
+                    if home is not None and home != path.resolve():
+                        twice.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} (the rule is in "
+                                     f"{home.relative_to(ROOT)})")
+    assert not twice, "rules defined again:\n" + "\n".join(twice)
+
+
+def test_the_kernel_compiles_the_rules_themselves():
+    """Every rule is compiled by the kernel from the rule's own function object."""
+    pytest.importorskip("numba")
+    from numba.core.dispatcher import Dispatcher
+
+    from switching import kernel
+
+    compiled = {value.py_func for value in vars(kernel).values() if isinstance(value, Dispatcher)}
+    for module in rules.MODULES:
+        for name in module.RULES:
+            assert getattr(module, name) in compiled, f"{module.__name__}.{name}"
+
+
+# ---------------------------------------------------------------- Brent's maximisation
+
+
+def _peak(margin, a, b):
+    state = maximize_begin(a, b)
+    done, evaluations = False, 0
+    while not done:
+        done, state = maximize_next(state, margin(state[-1]))
+        evaluations += 1
+    return state[-1], evaluations
+
+
+def test_brent_finds_the_maximum_of_a_parabola_to_its_tolerance():
+    """The margin stays below 0: the search ends at the maximum before its
+    cap of evaluations, as close as the margin's round-off lets values tell
+    points apart (√ε relative: the parabola is flat to ε within 1e-8 of its top)."""
+    for peak in (0.1, 0.37, 0.5, 0.93):
+        tau, evaluations = _peak(lambda t, p=peak: -1.0 - (t - p) ** 2, 0.0, 1.0)
+        assert abs(tau - peak) < 3e-8 and evaluations < 40
+    tau, evaluations = _peak(lambda t: -1.0 - (t - 1.0) ** 2, 0.0, 1.0)  # at the end of the interval
+    assert 1.0 - 3e-8 < tau <= 1.0 and evaluations < 50
+
+
+def test_brent_stops_at_the_first_point_where_the_margin_is_not_negative():
+    tau, evaluations = _peak(lambda t: 1.0, 2.0, 4.0)
+    assert (tau, evaluations) == (2.0 + GOLDEN * 2.0, 1)  # the golden section, evaluated first
+    seen = []
+
+    def margin(t):
+        seen.append(t)
+        return 1e-3 - (t - 0.8) ** 2  # ≥ 0 within 0.03 of 0.8
+
+    tau, _ = _peak(margin, 0.0, 1.0)
+    points = list(seen)
+    assert tau == points[-1] and margin(tau) >= 0.0 and all(margin(t) < 0.0 for t in points[:-1])
+
+
+def test_brent_python_and_compiled_agree_to_the_bit():
+    """The rule called by Python and compiled by numba: the same points, the
+    same answer, on smooth and non-smooth margins."""
+    numba = pytest.importorskip("numba")
+    begin, step = numba.njit(maximize_begin), numba.njit(maximize_next)
+    rng = random.Random(27)
+    for _ in range(300):
+        c, w, h = rng.uniform(-1, 1), rng.uniform(0.01, 3), rng.uniform(-2, 0.3)
+        power, wiggle = rng.choice([1, 2, 4]), rng.uniform(-0.1, 0.1)
+        a = rng.uniform(-2, 0)
+        b = a + rng.uniform(1e-9, 3)
+
+        def margin(t):
+            return h - w * abs(t - c) ** power + wiggle * math.sin(7 * t)
+
+        python, compiled = maximize_begin(a, b), begin(a, b)
+        done = False
+        while not done:
+            assert python == compiled
+            value = margin(python[-1])
+            done, python = maximize_next(python, value)
+            done_compiled, compiled = step(compiled, value)
+            assert done_compiled == done
+        assert python == compiled
