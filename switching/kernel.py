@@ -97,6 +97,7 @@ from numba.extending import intrinsic
 
 from . import rules
 from .rules.maximize import maximize_begin, maximize_next
+from .rules.steppers import euler_step, rk4_combine
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "decide", "larger", "run", "workspace_sizes"]
 
@@ -134,6 +135,8 @@ _dispatch = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper
 # the rules of switching.rules, compiled as they are (their sources join the stamp of this file's cache: see the end)
 _maximize_begin = _inline(maximize_begin)
 _maximize_next = _inline(maximize_next)
+_euler_step = _inline(euler_step)
+_rk4_combine = _inline(rk4_combine)
 
 RK_C = np.array([0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0])
 RK_A = np.array([
@@ -355,7 +358,7 @@ def _interp(kind, t_old, h, A, tau, out):
     if kind == 0:
         dt = tau - t_old
         for i in range(out.shape[0]):
-            out[i] = y_old[i] + dt * f_old[i]
+            out[i] = _euler_step(y_old[i], f_old[i], dt)
     elif kind == 1:
         theta = (tau - t_old) / h
         h00 = 2 * theta**3 - 3 * theta**2 + 1
@@ -1131,13 +1134,13 @@ def run(M, ints, floats, x0, te, out, work):
                         K[4, i] = f[i]
                     history = min(history + 1, 2)
                     for i in range(ke):
-                        y_new[i] = y[i] + h * f[i]
+                        y_new[i] = _euler_step(y[i], f[i], h)
                 else:
                     for i in range(ke):
-                        tmp[i] = y[i] + h / 2 * f[i]
+                        tmp[i] = _euler_step(y[i], f[i], h / 2)
                     _fun(m, t + h / 2, tmp, k, M, K[1])
                     for i in range(ke):
-                        tmp[i] = y[i] + h / 2 * K[1, i]
+                        tmp[i] = _euler_step(y[i], K[1, i], h / 2)
                     _fun(m, t + h / 2, tmp, k, M, K[2])
                     # stiffness (switching.integrators): k3 − k2 ≈ (h/2)² J² k1
                     num = 0.0
@@ -1152,10 +1155,10 @@ def run(M, ints, floats, x0, te, out, work):
                             _full(m, y, k, t, E, M)
                             return _stop(info, z, 6, n_saved, n_ev, t, m, steps, pos)
                     for i in range(ke):
-                        tmp[i] = y[i] + h * K[2, i]
+                        tmp[i] = _euler_step(y[i], K[2, i], h)
                     _fun(m, t + h, tmp, k, M, K[3])
                     for i in range(ke):
-                        y_new[i] = y[i] + h / 6 * (f[i] + 2 * K[1, i] + 2 * K[2, i] + K[3, i])
+                        y_new[i] = _rk4_combine(y[i], f[i], K[1, i], K[2, i], K[3, i], h)
                 _fun(m, t_new, y_new, k, M, f_new)
             else:
                 min_step = 10 * abs(np.nextafter(t, np.inf) - t)

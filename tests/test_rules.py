@@ -129,3 +129,42 @@ def test_brent_python_and_compiled_agree_to_the_bit():
             done_compiled, compiled = step(compiled, value)
             assert done_compiled == done
         assert python == compiled
+
+
+# ---------------------------------------------------------------- the fixed-step steppers
+
+
+def test_the_steppers_are_eulers_step_and_the_classical_rk4():
+    """On y' = y from y = 1: Euler gives 1 + h, RK4 the Taylor polynomial of
+    eᴴ to h⁴; on arrays, component by component the same as on floats."""
+    import numpy as np
+
+    from switching.rules.steppers import euler_step, rk4_combine
+
+    h = 0.1
+    assert euler_step(1.0, 1.0, h) == 1.0 + h
+    k1 = 1.0
+    k2 = euler_step(1.0, k1, h / 2)
+    k3 = euler_step(1.0, k2, h / 2)
+    k4 = euler_step(1.0, k3, h)
+    assert abs(rk4_combine(1.0, k1, k2, k3, k4, h) - (1 + h + h**2 / 2 + h**3 / 6 + h**4 / 24)) < 1e-16
+    rng = np.random.default_rng(27)
+    y, f1, f2, f3, f4 = rng.normal(size=(5, 50))
+    whole = rk4_combine(y, f1, f2, f3, f4, h)
+    assert list(whole) == [rk4_combine(*values, h) for values in zip(y.tolist(), f1.tolist(), f2.tolist(),
+                                                                      f3.tolist(), f4.tolist())]
+    assert list(euler_step(y, f1, h)) == [euler_step(a, b, h) for a, b in zip(y.tolist(), f1.tolist())]
+
+
+def test_the_steppers_python_and_compiled_agree_to_the_bit():
+    numba = pytest.importorskip("numba")
+    import numpy as np
+
+    from switching.rules.steppers import euler_step, rk4_combine
+
+    euler, combine = numba.njit(euler_step), numba.njit(rk4_combine)
+    rng = np.random.default_rng(6)
+    for values in rng.normal(size=(200, 5)).tolist():
+        h = abs(values[0]) * 1e-2
+        assert euler(values[1], values[2], h) == euler_step(values[1], values[2], h)
+        assert combine(*values, h) == rk4_combine(*values, h)

@@ -21,10 +21,12 @@ packages.  This package imports nothing but the standard library and numpy.
 module                          rules
 ==============================  ===============================================
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
+:mod:`.steppers`                Euler's step, the classical RK4 combination
 ==============================  ===============================================
 """
 
 from . import maximize as maximize
+from . import steppers as steppers
 
 #: the rule modules (each with its ``RULES``)
-MODULES = (maximize,)
+MODULES = (maximize, steppers)
