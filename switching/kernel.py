@@ -97,6 +97,7 @@ from numba.extending import intrinsic
 
 from . import rules
 from .rules.maximize import maximize_begin, maximize_next
+from .rules.jumps import jump_pulse
 from .rules.steppers import euler_step, rk4_combine
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "decide", "larger", "run", "workspace_sizes"]
@@ -137,6 +138,7 @@ _maximize_begin = _inline(maximize_begin)
 _maximize_next = _inline(maximize_next)
 _euler_step = _inline(euler_step)
 _rk4_combine = _inline(rk4_combine)
+_jump_pulse = _inline(jump_pulse)
 
 RK_C = np.array([0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0])
 RK_A = np.array([
@@ -749,30 +751,6 @@ def _margin_peak(i, a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
 
 
 @_inline
-def _pulse(m, x, xp, moved, n_moved, jrtol, jatol, d):
-    """x⁺ − x with round-off removed into d (switching.compiled.CompiledMode.pulse); True if all of it was."""
-    for i in range(x.shape[0]):
-        d[i] = xp[i] - x[i]
-    nm = n_moved[m]
-    if nm == 0:
-        for i in range(x.shape[0]):
-            d[i] = 0.0
-        return True
-    scale = 0.0
-    for j in range(nm):
-        i = moved[m, j]
-        scale = max(scale, abs(x[i]), abs(xp[i]))
-    band = jrtol * scale + jatol
-    none = True
-    for i in range(x.shape[0]):
-        if abs(d[i]) <= band:
-            d[i] = 0.0
-        else:
-            none = False
-    return none
-
-
-@_inline
 def _next_code(m, target, mstates, radix):
     code = 0
     for a in range(radix.shape[0]):
@@ -812,7 +790,7 @@ def _resolve(m0, x_in, t, M, tol, max_instant, R):
             return -1, 0
         if not _jump(cur, x, t, M, xp):
             return -1, 0
-        quiet = _pulse(cur, x, xp, moved, n_moved, jrtol, jatol, d) and passes == 1
+        quiet = _jump_pulse(x, xp, moved[cur], n_moved[cur], jrtol, jatol, d) and passes == 1
         for a in range(target.shape[0]):
             target[a] = -1
         if not _fire(cur, x, xp, t, M, d, s, post, rtol, atol, target, quiet):

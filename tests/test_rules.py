@@ -168,3 +168,45 @@ def test_the_steppers_python_and_compiled_agree_to_the_bit():
         h = abs(values[0]) * 1e-2
         assert euler(values[1], values[2], h) == euler_step(values[1], values[2], h)
         assert combine(*values, h) == rk4_combine(*values, h)
+
+
+# ---------------------------------------------------------------- the pulse at a jump
+
+
+def _pulse_cases():
+    import numpy as np
+
+    yield np.array([1.0, 2.0, 3.0]), np.array([1.0 + 1e-15, -2.0, 3.0]), np.array([0, 1]), 2  # round-off and a jump
+    yield np.array([1.0, 2.0]), np.array([1.0 + 1e-15, 2.0 - 4e-16]), np.array([0, 1]), 2  # round-off only
+    yield np.array([1.0, 2.0]), np.array([5.0, 2.0]), np.array([0, 1]), 0  # no moved state: no pulse
+    yield np.array([1e-20, 0.0]), np.array([0.0, 0.0]), np.array([1]), 1  # below the absolute band
+    yield np.array([1.0, math.nan]), np.array([0.5, math.nan]), np.array([0, 1]), 2  # NaN does not count in s
+    yield np.array([0.0, 1e3]), np.array([1e-10, -1e3]), np.array([0, 1]), 2  # small beside a large state
+
+
+def test_the_pulse_drops_round_off_within_the_band():
+    import numpy as np
+
+    from switching.rules.jumps import jump_pulse
+
+    rtol, atol = 1e-12, 1e-15
+    expected = [([0.0, -4.0, 0.0], False), ([0.0, 0.0], True), ([0.0, 0.0], True), ([0.0, 0.0], True),
+                ([-0.5, math.nan], False), ([0.0, -2e3], False)]
+    for (x, xp, moved, count), (delta, none) in zip(_pulse_cases(), expected, strict=True):
+        d = np.empty(len(x))
+        assert jump_pulse(x, xp, moved, count, rtol, atol, d) == none
+        np.testing.assert_array_equal(d, delta)
+
+
+def test_the_pulse_python_and_compiled_agree_to_the_bit():
+    numba = pytest.importorskip("numba")
+    import numpy as np
+
+    from switching.rules.jumps import jump_pulse
+
+    compiled = numba.njit(jump_pulse)
+    for x, xp, moved, count in _pulse_cases():
+        d_python, d_compiled = np.empty(len(x)), np.empty(len(x))
+        assert jump_pulse(x, xp, moved, count, 1e-12, 1e-15, d_python) == compiled(x, xp, moved, count, 1e-12,
+                                                                                     1e-15, d_compiled)
+        assert d_python.tobytes() == d_compiled.tobytes()

@@ -14,19 +14,21 @@ communication*), so the Python path can evaluate with Python objects and the
 kernel through its function pointers.
 
 Each rule module lists its rules in ``RULES``; ``tests/test_rules.py`` fails
-when a function of one of those names is defined anywhere else in the
-packages.  This package imports nothing but the standard library and numpy.
+when a function of one of those names (or of the module's) is defined
+anywhere else in the packages.  This package imports nothing but the standard library and numpy.
 
 ==============================  ===============================================
 module                          rules
 ==============================  ===============================================
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
 :mod:`.steppers`                Euler's step, the classical RK4 combination
+:mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
 ==============================  ===============================================
 """
 
+from . import jumps as jumps
 from . import maximize as maximize
 from . import steppers as steppers
 
 #: the rule modules (each with its ``RULES``)
-MODULES = (maximize, steppers)
+MODULES = (maximize, steppers, jumps)
