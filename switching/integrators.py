@@ -12,7 +12,7 @@ rk4        4      fixed ``dt``; cubic Hermite from the end-point slopes
 RK45 …     —      scipy's RK45, DOP853, Radau, BDF, LSODA with their dense output
 =========  =====  ==================================================================
 
-Euler's step and the RK4 combination are the rules of
+Euler's step, the RK4 combination and its Hermite interpolant are the rules of
 :mod:`switching.rules.steppers`, the ones the compiled kernel runs (on lists of
 floats component by component, on arrays whole: the same IEEE results).
 
@@ -48,7 +48,7 @@ import math
 
 import numpy as np
 
-from .rules.steppers import euler_step, rk4_combine
+from .rules.steppers import euler_step, hermite_cubic, rk4_combine
 
 __all__ = ["FIXED_STEP", "ADAPTIVE", "make_stepper", "ORDERS", "STABILITY_LIMITS", "StiffnessDetected"]
 
@@ -235,26 +235,13 @@ class RK4(_Stepper):
 
     def interpolate(self, tau):
         h = self.h
-        s = (tau - self.t_old) / h
-        h00 = 2 * s**3 - 3 * s**2 + 1
-        h10 = s**3 - 2 * s**2 + s
-        h01 = -2 * s**3 + 3 * s**2
-        h11 = s**3 - s**2
-        # h00·y_old + h10·h·f_old + h01·y + h11·h·f, the same operations in the same order
+        theta = (tau - self.t_old) / h
         if self._old_lists is not None:
-            c1, c3 = h10 * h, h11 * h
             y_old, f_old = self._old_lists
-            return np.array([h00 * a + c1 * b + h01 * c + c3 * d
+            return np.array([hermite_cubic(a, b, c, d, h, theta)
                              for a, b, c, d in zip(y_old, f_old, self._y_list, self._f_list)])
         y_old, f_old = self._arrays
-        r = h00 * y_old
-        term = h10 * h * f_old
-        r += term
-        np.multiply(h01, self.y, out=term)
-        r += term
-        np.multiply(h11 * h, self.f, out=term)
-        r += term
-        return r
+        return hermite_cubic(y_old, f_old, self.y, self.f, h, theta)
 
 
 # the stage evaluated at t + h for Hairer's test (RK23 has none: see Adaptive._hairer)

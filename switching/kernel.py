@@ -98,7 +98,7 @@ from numba.extending import intrinsic
 from . import rules
 from .rules.maximize import maximize_begin, maximize_next
 from .rules.jumps import jump_pulse
-from .rules.steppers import euler_step, rk4_combine
+from .rules.steppers import euler_step, hermite_cubic, rk4_combine
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "decide", "larger", "run", "workspace_sizes"]
 
@@ -138,6 +138,7 @@ _maximize_begin = _inline(maximize_begin)
 _maximize_next = _inline(maximize_next)
 _euler_step = _inline(euler_step)
 _rk4_combine = _inline(rk4_combine)
+_hermite_cubic = _inline(hermite_cubic)
 _jump_pulse = _inline(jump_pulse)
 
 RK_C = np.array([0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0])
@@ -363,12 +364,8 @@ def _interp(kind, t_old, h, A, tau, out):
             out[i] = _euler_step(y_old[i], f_old[i], dt)
     elif kind == 1:
         theta = (tau - t_old) / h
-        h00 = 2 * theta**3 - 3 * theta**2 + 1
-        h10 = theta**3 - 2 * theta**2 + theta
-        h01 = -2 * theta**3 + 3 * theta**2
-        h11 = theta**3 - theta**2
         for i in range(out.shape[0]):
-            out[i] = h00 * y_old[i] + h10 * h * f_old[i] + h01 * y_new[i] + h11 * h * f_new[i]
+            out[i] = _hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta)
     else:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):

@@ -156,18 +156,37 @@ def test_the_steppers_are_eulers_step_and_the_classical_rk4():
     assert list(euler_step(y, f1, h)) == [euler_step(a, b, h) for a, b in zip(y.tolist(), f1.tolist())]
 
 
+def test_the_hermite_interpolant_meets_the_ends_and_is_exact_for_cubics():
+    """Values and slopes at both ends; a cubic reproduced inside the step."""
+    from switching.rules.steppers import hermite_cubic
+
+    def cubic(t):
+        return 1.0 - 2.0 * t + 0.5 * t**2 + 3.0 * t**3
+
+    def slope(t):
+        return -2.0 + t + 9.0 * t**2
+
+    t0, h = 0.25, 0.5
+    ends = (cubic(t0), slope(t0), cubic(t0 + h), slope(t0 + h), h)
+    assert hermite_cubic(*ends, 0.0) == cubic(t0) and hermite_cubic(*ends, 1.0) == cubic(t0 + h)
+    for theta in (0.1, 0.5, 0.77):
+        assert abs(hermite_cubic(*ends, theta) - cubic(t0 + theta * h)) < 1e-14
+
+
 def test_the_steppers_python_and_compiled_agree_to_the_bit():
     numba = pytest.importorskip("numba")
     import numpy as np
 
-    from switching.rules.steppers import euler_step, rk4_combine
+    from switching.rules.steppers import euler_step, hermite_cubic, rk4_combine
 
-    euler, combine = numba.njit(euler_step), numba.njit(rk4_combine)
+    euler, combine, hermite = numba.njit(euler_step), numba.njit(rk4_combine), numba.njit(hermite_cubic)
     rng = np.random.default_rng(6)
     for values in rng.normal(size=(200, 5)).tolist():
         h = abs(values[0]) * 1e-2
         assert euler(values[1], values[2], h) == euler_step(values[1], values[2], h)
         assert combine(*values, h) == rk4_combine(*values, h)
+        theta = abs(values[4]) % 1.0
+        assert hermite(*values[:4], h, theta) == hermite_cubic(*values[:4], h, theta)
 
 
 # ---------------------------------------------------------------- the pulse at a jump

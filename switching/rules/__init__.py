@@ -21,7 +21,7 @@ anywhere else in the packages.  This package imports nothing but the standard li
 module                          rules
 ==============================  ===============================================
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
-:mod:`.steppers`                Euler's step, the classical RK4 combination
+:mod:`.steppers`                Euler's step, the classical RK4 step, its Hermite interpolant
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
 ==============================  ===============================================
 """
