@@ -47,6 +47,8 @@ from codegen.runtime import Comparison, Hyper, decide
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
+from .rules.jumps import jump_pulse
+
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
            "decide_tree", "mode_source_and_meta", "shifted_tree"]
 
@@ -484,13 +486,13 @@ class CompiledMode:
     def pulse(self, x: np.ndarray, x_plus: np.ndarray) -> np.ndarray:
         """The jump ``x⁺ − x`` with round-off removed: components within
         ``jump_rtol·(largest moved state) + jump_atol`` are no jump and carry
-        no Dirac pulse (the state itself still takes the exact ``x⁺``)."""
-        delta = np.asarray(x_plus, dtype=float) - x
-        if not len(self.moved):
-            return np.zeros_like(delta)
+        no Dirac pulse (the state itself still takes the exact ``x⁺``): the
+        rule :func:`switching.rules.jumps.jump_pulse`."""
+        x = np.asarray(x, dtype=float)
+        delta = np.empty(x.shape[0])
         tol = self.model.tolerance
-        scale = float(np.max(np.abs(np.concatenate([x[self.moved], x_plus[self.moved]]))))
-        delta[np.abs(delta) <= tol.jump_rtol * scale + tol.jump_atol] = 0.0
+        jump_pulse(x, np.asarray(x_plus, dtype=float), self.moved, len(self.moved), tol.jump_rtol, tol.jump_atol,
+                   delta)
         return delta
 
     def sides(self, x, t) -> np.ndarray:

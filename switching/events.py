@@ -7,7 +7,7 @@ band.  :class:`GuardScan` tests the guards at the step's end and at sample
 points inside it; between points it searches for a guard that holds only
 briefly — an extremum of a margin that comes within reach of its threshold
 (a parabola through three points, refined by Brent's method,
-:func:`_maximize`), or two or more parts of one guard changing truth — and
+:mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
 :func:`locate_event` bisects the step's interpolant down to adjacent
 floating-point numbers for the first time a guard holds.  The compiled
 kernel (:mod:`switching.kernel`) ports the same search.
@@ -18,6 +18,8 @@ from __future__ import annotations
 import functools
 import math
 import weakref
+
+from .rules.maximize import maximize_begin, maximize_next
 
 __all__ = ["GuardScan", "guard_parts", "locate_event"]
 
@@ -267,7 +269,7 @@ class GuardScan:
                 low, high = max(low, t_prev), min(high, t_new)
                 if not high > low:
                     continue
-                tau = _maximize(functools.partial(self.margin, i), low, high)
+                tau = _peak(functools.partial(self.margin, i), low, high)
                 if all(tau != point.tau for point in extended + found):
                     found.append(self.point(tau))
         return found
@@ -339,62 +341,15 @@ def _parabola_peak(t, m):
     return at, m[0] + d1 * (at - t[0]) + curvature * (at - t[0]) * (at - t[1])
 
 
-def _maximize(f, a, b, max_evaluations=60) -> float:
-    """A maximum of ``f`` on ``[a, b]`` (Brent's method: golden section with
-    parabolic steps), stopping early where ``f ≥ 0`` (the part holds)."""
-    golden = 0.3819660112501051
-    x = w = v = a + golden * (b - a)
-    fx = fw = fv = -f(x)
-    if fx <= 0.0:
-        return x
-    d = e = 0.0
-    xtol = 1e-10 * (b - a)
-    for _ in range(max_evaluations):
-        middle = 0.5 * (a + b)
-        tol1 = 4e-16 * abs(x) + xtol
-        tol2 = 2.0 * tol1
-        if abs(x - middle) <= tol2 - 0.5 * (b - a):
-            break
-        use_golden = True
-        if abs(e) > tol1:
-            r = (x - w) * (fx - fv)
-            q = (x - v) * (fx - fw)
-            p = (x - v) * q - (x - w) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = abs(q)
-            previous = e
-            e = d
-            if abs(p) < abs(0.5 * q * previous) and q * (a - x) < p < q * (b - x):
-                d = p / q
-                u = x + d
-                if u - a < tol2 or b - u < tol2:
-                    d = tol1 if x < middle else -tol1
-                use_golden = False
-        if use_golden:
-            e = (b - x) if x < middle else (a - x)
-            d = golden * e
-        u = x + (d if abs(d) >= tol1 else (tol1 if d > 0 else -tol1))
-        fu = -f(u)
-        if fu <= 0.0:
-            return u
-        if fu <= fx:
-            if u < x:
-                b = x
-            else:
-                a = x
-            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
-        else:
-            if u < x:
-                a = u
-            else:
-                b = u
-            if fu <= fw or w == x:
-                v, fv, w, fw = w, fw, u, fu
-            elif fu <= fv or v == x or v == w:
-                v, fv = u, fu
-    return x
+def _peak(f, a, b) -> float:
+    """A maximum of ``f`` on ``[a, b]``, or the first point found where
+    ``f ≥ 0`` (the part holds): the rule
+    :mod:`switching.rules.maximize` (Brent's method) evaluating ``f``."""
+    state = maximize_begin(a, b)
+    done = False
+    while not done:
+        done, state = maximize_next(state, f(state[-1]))
+    return state[-1]
 
 
 def locate_event(cm, stepper, state_at, a, b, rtol, atol) -> float:

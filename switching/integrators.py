@@ -12,6 +12,10 @@ rk4        4      fixed ``dt``; cubic Hermite from the end-point slopes
 RK45 …     —      scipy's RK45, DOP853, Radau, BDF, LSODA with their dense output
 =========  =====  ==================================================================
 
+Euler's step, the RK4 combination and its Hermite interpolant are the rules of
+:mod:`switching.rules.steppers`, the ones the compiled kernel runs (on lists of
+floats component by component, on arrays whole: the same IEEE results).
+
 Stiffness detection (explicit methods only).  An explicit method run beyond
 its stability limit either blows up (fixed step) or crawls at the step size
 that limit allows (adaptive); both raise :class:`StiffnessDetected` instead,
@@ -43,6 +47,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .rules.steppers import euler_step, hermite_cubic, rk4_combine
 
 __all__ = ["FIXED_STEP", "ADAPTIVE", "make_stepper", "ORDERS", "STABILITY_LIMITS", "StiffnessDetected"]
 
@@ -149,7 +155,7 @@ class Euler(_Stepper):
                 del history[0]
             history.append(f)
             self.t_old, self._old_lists, self._old_arrays = t, (y, f), None
-            y_new = self._y_list = [a + h * b for a, b in zip(y, f)]
+            y_new = self._y_list = [euler_step(a, b, h) for a, b in zip(y, f)]
             self.y = np.array(y_new)
         else:
             y = self.y
@@ -159,7 +165,7 @@ class Euler(_Stepper):
                 del history[0]
             history.append(f)
             self.t_old, self._old_lists, self._old_arrays = t, None, (y, f)
-            self.y = y + h * f
+            self.y = euler_step(y, f, h)
         self.t = t + h if t + h < self.t_bound else self.t_bound
         self.n_steps += 1
         return self.t, self.y
@@ -168,9 +174,9 @@ class Euler(_Stepper):
         if self._old_lists is not None:
             y_old, f_old = self._old_lists
             dt = tau - self.t_old
-            return np.array([a + dt * b for a, b in zip(y_old, f_old)])
+            return np.array([euler_step(a, b, dt) for a, b in zip(y_old, f_old)])
         y_old, f_old = self._old_arrays
-        return y_old + (tau - self.t_old) * f_old
+        return euler_step(y_old, f_old, tau - self.t_old)
 
 
 class RK4(_Stepper):
@@ -195,16 +201,14 @@ class RK4(_Stepper):
         fun = self._fun_list
         if fun is not None:
             y, k1 = self._y_list, self._f_list
-            k2 = fun(th, [a + half * b for a, b in zip(y, k1)])
-            k3 = fun(th, [a + half * b for a, b in zip(y, k2)])
+            k2 = fun(th, [euler_step(a, b, half) for a, b in zip(y, k1)])
+            k3 = fun(th, [euler_step(a, b, half) for a, b in zip(y, k2)])
             w = [c - b for b, c in zip(k2, k3)]  # ≈ (h/2)² J² k1
             den = math.fsum([a * a for a in k1])
             if den > 0.0:
                 self._stiff.check(t, h, 16.0 * math.fsum([a * a for a in w]) / den, np.array(w))
-            k4 = fun(t + h, [a + h * b for a, b in zip(y, k3)])
-            sixth = h / 6
-            # y + h/6·(k1 + 2·k2 + 2·k3 + k4), the same operations in the same order as on arrays
-            y_new = [a + sixth * (b1 + 2 * b2 + 2 * b3 + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)]
+            k4 = fun(t + h, [euler_step(a, b, h) for a, b in zip(y, k3)])
+            y_new = [rk4_combine(a, b1, b2, b3, b4, h) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)]
             self.t_old, self.h, self._old_lists = t, h, (y, k1)
             self._y_list = y_new
             self.t = t + h if t + h < self.t_bound else self.t_bound
@@ -214,24 +218,16 @@ class RK4(_Stepper):
             return self.t, self.y
         y, k1 = self.y, self.f
         fun = self.fun
-        k2 = fun(th, y + half * k1)
-        k3 = fun(th, y + half * k2)
+        k2 = fun(th, euler_step(y, k1, half))
+        k3 = fun(th, euler_step(y, k2, half))
         w = k3 - k2  # ≈ (h/2)² J² k1
         den = k1 @ k1
         if den > 0.0:
             self._stiff.check(t, h, 16.0 * (w @ w) / den, w)
-        k4 = fun(t + h, y + h * k3)
+        k4 = fun(t + h, euler_step(y, k3, h))
         self.t_old, self.h, self._old_lists = t, h, None
         self._arrays = (y, k1)
-        # y + h/6·(k1 + 2·k2 + 2·k3 + k4), the same operations in the same order, fewer temporaries
-        s = k2 * 2
-        s += k1
-        k3 = k3 * 2
-        s += k3
-        s += k4
-        s *= h / 6
-        s += y
-        self.y = s
+        s = self.y = rk4_combine(y, k1, k2, k3, k4, h)
         self.t = t + h if t + h < self.t_bound else self.t_bound
         self.f = fun(self.t, s)
         self.n_steps += 1
@@ -239,26 +235,13 @@ class RK4(_Stepper):
 
     def interpolate(self, tau):
         h = self.h
-        s = (tau - self.t_old) / h
-        h00 = 2 * s**3 - 3 * s**2 + 1
-        h10 = s**3 - 2 * s**2 + s
-        h01 = -2 * s**3 + 3 * s**2
-        h11 = s**3 - s**2
-        # h00·y_old + h10·h·f_old + h01·y + h11·h·f, the same operations in the same order
+        theta = (tau - self.t_old) / h
         if self._old_lists is not None:
-            c1, c3 = h10 * h, h11 * h
             y_old, f_old = self._old_lists
-            return np.array([h00 * a + c1 * b + h01 * c + c3 * d
+            return np.array([hermite_cubic(a, b, c, d, h, theta)
                              for a, b, c, d in zip(y_old, f_old, self._y_list, self._f_list)])
         y_old, f_old = self._arrays
-        r = h00 * y_old
-        term = h10 * h * f_old
-        r += term
-        np.multiply(h01, self.y, out=term)
-        r += term
-        np.multiply(h11 * h, self.f, out=term)
-        r += term
-        return r
+        return hermite_cubic(y_old, f_old, self.y, self.f, h, theta)
 
 
 # the stage evaluated at t + h for Hairer's test (RK23 has none: see Adaptive._hairer)

@@ -14,10 +14,11 @@ installation and kept by numba's disk cache (``cache=True``).
   guard holding only between two points — a comparison part whose margin has
   an extremum between points within reach of its threshold (parabola through
   three points, the previous step's last point included, refined by Brent's
-  method on the interpolant), or two or more parts of one guard changing
-  truth between two points (each change bisected, the guards tested just
-  after each); the first time a guard holds located by bisection on the
-  step's interpolant down to adjacent floating-point numbers;
+  method on the interpolant: the rule :mod:`switching.rules.maximize`), or
+  two or more parts of one guard changing truth between two points (each
+  change bisected, the guards tested just after each); the first time a guard
+  holds located by bisection on the step's interpolant down to adjacent
+  floating-point numbers;
 * the instant's resolution (the paper's selMode, DESIGN §6; the reference is
   :func:`switching.resolution.resolve_instant`) through mythical modes and
   pinnacles: ``x⁺ = g_β(x)``, a posteriori guards on ``x⁺`` with the impulses
@@ -36,6 +37,11 @@ kernel returns (``switching.simulator._ZenoWatch``).  The guards' comparison
 with its round-off band is :func:`decide` here, ``codegen.runtime.decide``
 on the Python path (the reference); ``tests/test_kernel.py`` checks that
 they agree.
+
+The rules of :mod:`switching.rules` (the semantics written once) are compiled
+here from the very functions the Python path calls; their sources are part of
+the stamp of this file's numba cache (:func:`_stamp_with_rules`), so a change
+of a rule compiles the kernel again.
 
 The model reaches the kernel as a :class:`Model` record: its tables (state
 indices and guard parts per mode, the automata's mode codes) and, per mode,
@@ -89,6 +95,11 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from . import rules
+from .rules.maximize import maximize_begin, maximize_next
+from .rules.jumps import jump_pulse
+from .rules.steppers import euler_step, hermite_cubic, rk4_combine
+
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "decide", "larger", "run", "workspace_sizes"]
 
 OPS = {"fy": 0, "phi": 1, "holds": 2, "jump": 3, "fire": 4, "gparts": 5}
@@ -121,6 +132,14 @@ _entry = njit(cache=True, error_model="numpy")  # the functions Python calls
 # an increment and a decrement of every array it takes from it, at every call: 2–3× slower than calling it.)
 _inline = njit(cache=True, error_model="numpy", inline="always")
 _dispatch = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+# the rules of switching.rules, compiled as they are (their sources join the stamp of this file's cache: see the end)
+_maximize_begin = _inline(maximize_begin)
+_maximize_next = _inline(maximize_next)
+_euler_step = _inline(euler_step)
+_rk4_combine = _inline(rk4_combine)
+_hermite_cubic = _inline(hermite_cubic)
+_jump_pulse = _inline(jump_pulse)
 
 RK_C = np.array([0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0])
 RK_A = np.array([
@@ -342,15 +361,11 @@ def _interp(kind, t_old, h, A, tau, out):
     if kind == 0:
         dt = tau - t_old
         for i in range(out.shape[0]):
-            out[i] = y_old[i] + dt * f_old[i]
+            out[i] = _euler_step(y_old[i], f_old[i], dt)
     elif kind == 1:
         theta = (tau - t_old) / h
-        h00 = 2 * theta**3 - 3 * theta**2 + 1
-        h10 = theta**3 - 2 * theta**2 + theta
-        h01 = -2 * theta**3 + 3 * theta**2
-        h11 = theta**3 - theta**2
         for i in range(out.shape[0]):
-            out[i] = h00 * y_old[i] + h10 * h * f_old[i] + h01 * y_new[i] + h11 * h * f_new[i]
+            out[i] = _hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta)
     else:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
@@ -549,7 +564,7 @@ def _event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT
                 high = min(high, t_new)
                 if not high > low:
                     continue
-                tau = _maximize(i, low, high, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
+                tau = _margin_peak(i, low, high, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
                 new = True
                 for jj in range(count):
                     if ptau[ext[jj]] == tau:
@@ -719,105 +734,17 @@ def _pieces(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC):
 
 
 @_dispatch
-def _maximize(i, a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
-    """switching.events._maximize on the margin of part i: a maximum on [a, b] (Brent's method: golden
-    section with parabolic steps), stopping early where the margin is ≥ 0 (the part holds)."""
+def _margin_peak(i, a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
+    """A maximum on [a, b] of the margin of part i on the step's interpolant, or the first point found where it
+    is ≥ 0 (the part holds): the rule switching.rules.maximize (Brent's method), as switching.events does."""
     y_new = A[2]  # the step's end (an argument of _point where it is not read)
-    template, z, dbuf, s, tmp = E
-    ptau, pmg, ptr, phd = PT
-    golden = 0.3819660112501051
-    x = a + golden * (b - a)
-    w = x
-    v = x
-    _point(np.int64(_S_SCRATCH), x, np.bool_(False), y_new, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
-    fx = -pmg[_S_SCRATCH, i]
-    fw = fx
-    fv = fx
-    if fx <= 0.0:
-        return x
-    d = 0.0
-    e = 0.0
-    xtol = 1e-10 * (b - a)
-    for _ in range(60):
-        middle = 0.5 * (a + b)
-        tol1 = 4e-16 * abs(x) + xtol
-        tol2 = 2.0 * tol1
-        if abs(x - middle) <= tol2 - 0.5 * (b - a):
-            break
-        use_golden = True
-        if abs(e) > tol1:
-            r = (x - w) * (fx - fv)
-            qq = (x - v) * (fx - fw)
-            pp = (x - v) * qq - (x - w) * r
-            qq = 2.0 * (qq - r)
-            if qq > 0.0:
-                pp = -pp
-            qq = abs(qq)
-            previous = e
-            e = d
-            if abs(pp) < abs(0.5 * qq * previous) and qq * (a - x) < pp and pp < qq * (b - x):
-                d = pp / qq
-                uu = x + d
-                if uu - a < tol2 or b - uu < tol2:
-                    d = tol1 if x < middle else -tol1
-                use_golden = False
-        if use_golden:
-            e = (b - x) if x < middle else (a - x)
-            d = golden * e
-        uu = x + (d if abs(d) >= tol1 else (tol1 if d > 0 else -tol1))
-        _point(np.int64(_S_SCRATCH), uu, np.bool_(False), y_new, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
-        fu = -pmg[_S_SCRATCH, i]
-        if fu <= 0.0:
-            return uu
-        if fu <= fx:
-            if uu < x:
-                b = x
-            else:
-                a = x
-            v = w
-            fv = fw
-            w = x
-            fw = fx
-            x = uu
-            fx = fu
-        else:
-            if uu < x:
-                a = uu
-            else:
-                b = uu
-            if fu <= fw or w == x:
-                v = w
-                fv = fw
-                w = uu
-                fw = fu
-            elif fu <= fv or v == x or v == w:
-                v = uu
-                fv = fu
-    return x
-
-
-@_inline
-def _pulse(m, x, xp, moved, n_moved, jrtol, jatol, d):
-    """x⁺ − x with round-off removed into d (switching.compiled.CompiledMode.pulse); True if all of it was."""
-    for i in range(x.shape[0]):
-        d[i] = xp[i] - x[i]
-    nm = n_moved[m]
-    if nm == 0:
-        for i in range(x.shape[0]):
-            d[i] = 0.0
-        return True
-    scale = 0.0
-    for j in range(nm):
-        i = moved[m, j]
-        scale = max(scale, abs(x[i]), abs(xp[i]))
-    band = jrtol * scale + jatol
-    none = True
-    for i in range(x.shape[0]):
-        if abs(d[i]) <= band:
-            d[i] = 0.0
-        else:
-            none = False
-    return none
+    pmg = PT[1]
+    state = _maximize_begin(a, b)
+    done = False
+    while not done:
+        _point(np.int64(_S_SCRATCH), state[-1], np.bool_(False), y_new, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
+        done, state = _maximize_next(state, pmg[_S_SCRATCH, i])
+    return state[-1]
 
 
 @_inline
@@ -860,7 +787,7 @@ def _resolve(m0, x_in, t, M, tol, max_instant, R):
             return -1, 0
         if not _jump(cur, x, t, M, xp):
             return -1, 0
-        quiet = _pulse(cur, x, xp, moved, n_moved, jrtol, jatol, d) and passes == 1
+        quiet = _jump_pulse(x, xp, moved[cur], n_moved[cur], jrtol, jatol, d) and passes == 1
         for a in range(target.shape[0]):
             target[a] = -1
         if not _fire(cur, x, xp, t, M, d, s, post, rtol, atol, target, quiet):
@@ -1182,13 +1109,13 @@ def run(M, ints, floats, x0, te, out, work):
                         K[4, i] = f[i]
                     history = min(history + 1, 2)
                     for i in range(ke):
-                        y_new[i] = y[i] + h * f[i]
+                        y_new[i] = _euler_step(y[i], f[i], h)
                 else:
                     for i in range(ke):
-                        tmp[i] = y[i] + h / 2 * f[i]
+                        tmp[i] = _euler_step(y[i], f[i], h / 2)
                     _fun(m, t + h / 2, tmp, k, M, K[1])
                     for i in range(ke):
-                        tmp[i] = y[i] + h / 2 * K[1, i]
+                        tmp[i] = _euler_step(y[i], K[1, i], h / 2)
                     _fun(m, t + h / 2, tmp, k, M, K[2])
                     # stiffness (switching.integrators): k3 − k2 ≈ (h/2)² J² k1
                     num = 0.0
@@ -1203,10 +1130,10 @@ def run(M, ints, floats, x0, te, out, work):
                             _full(m, y, k, t, E, M)
                             return _stop(info, z, 6, n_saved, n_ev, t, m, steps, pos)
                     for i in range(ke):
-                        tmp[i] = y[i] + h * K[2, i]
+                        tmp[i] = _euler_step(y[i], K[2, i], h)
                     _fun(m, t + h, tmp, k, M, K[3])
                     for i in range(ke):
-                        y_new[i] = y[i] + h / 6 * (f[i] + 2 * K[1, i] + 2 * K[2, i] + K[3, i])
+                        y_new[i] = _rk4_combine(y[i], f[i], K[1, i], K[2, i], K[3, i], h)
                 _fun(m, t_new, y_new, k, M, f_new)
             else:
                 min_step = 10 * abs(np.nextafter(t, np.inf) - t)
@@ -1393,3 +1320,22 @@ def decide(op, li, lf, ri, rf, sc, rtol, atol):
 def larger(a, b):
     """``_larger``: the larger of two round-off scales, ignoring a non-finite one."""
     return _larger(a, b)
+
+
+def _stamp_with_rules():
+    """numba keeps a function's machine code while the function's own file is unchanged (its stamp: the file's
+    time and size), but the functions of this file have the rules of :mod:`switching.rules` compiled into them:
+    the rules' sources join the stamp of each, so that a change of a rule compiles the kernel again."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for module in rules.MODULES:
+        with open(module.__file__, "rb") as source:
+            digest.update(source.read())
+    for value in list(globals().values()):
+        cache_file = getattr(getattr(value, "_cache", None), "_cache_file", None)
+        if cache_file is not None and getattr(getattr(value, "py_func", None), "__module__", None) == __name__:
+            cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
+
+
+_stamp_with_rules()

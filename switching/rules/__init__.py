@@ -1,0 +1,34 @@
+"""The semantics written once (DESIGN §2, §6): each *rule* is a plain function
+in the subset of Python that numba compiles — arguments and results are
+floats, integers, booleans, tuples of them and numpy arrays; no Python
+objects, no callables, no allocation of Python containers.
+
+The Python path calls a rule as it is; the compiled kernel
+(:mod:`switching.kernel`) compiles the very same function object
+(``njit(rule)``), so a fix made here lands in both engines at once and the
+two give the same results to the bit wherever they run the same arithmetic.
+A rule that needs a value only its caller can compute (a guard's margin at a
+time, the rates at a stage) does not take a callable: it returns what it
+needs evaluated next and is called again with the value (*reverse
+communication*), so the Python path can evaluate with Python objects and the
+kernel through its function pointers.
+
+Each rule module lists its rules in ``RULES``; ``tests/test_rules.py`` fails
+when a function of one of those names (or of the module's) is defined
+anywhere else in the packages.  This package imports nothing but the standard library and numpy.
+
+==============================  ===============================================
+module                          rules
+==============================  ===============================================
+:mod:`.maximize`                Brent's maximisation of a margin on an interval
+:mod:`.steppers`                Euler's step, the classical RK4 step, its Hermite interpolant
+:mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
+==============================  ===============================================
+"""
+
+from . import jumps as jumps
+from . import maximize as maximize
+from . import steppers as steppers
+
+#: the rule modules (each with its ``RULES``)
+MODULES = (maximize, steppers, jumps)

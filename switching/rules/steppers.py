@@ -1,0 +1,59 @@
+"""The fixed-step steppers' arithmetic: Euler's step and the classical
+Runge–Kutta combination.
+
+For ``y' = f(t, y)`` and a step ``h`` from ``(t, y)``:
+
+* Euler: ``y₁ = y + h·f(t, y)`` (order 1; the paper's Alg. 1);
+* classical RK4 (order 4): the stages ``k₁ = f(t, y)``, ``k₂ = f(t + h/2,
+  y + (h/2)·k₁)``, ``k₃ = f(t + h/2, y + (h/2)·k₂)``, ``k₄ = f(t + h, y +
+  h·k₃)`` — their arguments are Euler steps (:func:`euler_step` with ``h/2``,
+  ``h/2``, ``h``) — and ``y₁ = y + (h/6)·(k₁ + 2·k₂ + 2·k₃ + k₄)``
+  (:func:`rk4_combine`).
+
+Between the ends of a step, event location evaluates the step's interpolant:
+for Euler the step itself (``euler_step(y, f, τ − t)``), for RK4 the cubic
+Hermite polynomial through the ends' values and slopes (:func:`hermite_cubic`,
+third order: the order of the dense output, enough to locate events on it).
+
+The caller evaluates ``f`` (the Python path with Python objects, the kernel
+through its function pointers) and calls these rules between evaluations.
+Each is written component-wise, so it applies as it is to floats (the kernel
+calls it for each component; numba inlines it) and to numpy arrays (the Python
+path's arrays, whole): the same operations in the same order, so the same
+IEEE results either way.
+"""
+
+from __future__ import annotations
+
+__all__ = ["RULES", "euler_step", "hermite_cubic", "rk4_combine"]
+
+RULES = ("euler_step", "hermite_cubic", "rk4_combine")
+
+
+def euler_step(y, f, h):
+    """``y + h·f``: Euler's step of size ``h`` (and RK4's stage arguments)."""
+    return y + h * f
+
+
+def rk4_combine(y, k1, k2, k3, k4, h):
+    """``y + (h/6)·(k₁ + 2·k₂ + 2·k₃ + k₄)``: the classical RK4 step from its
+    four stages."""
+    return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def hermite_cubic(y0, f0, y1, f1, h, theta):
+    """The cubic Hermite interpolant of a step of size ``h`` from ``(y0,
+    f0)`` to ``(y1, f1)`` (values and slopes) at ``t + θ·h``:
+    ``h₀₀·y0 + h₁₀·h·f0 + h₀₁·y1 + h₁₁·h·f1`` with ``h₀₀ = 2θ³ − 3θ² + 1``,
+    ``h₁₀ = θ³ − 2θ² + θ``, ``h₀₁ = −2θ³ + 3θ²``, ``h₁₁ = θ³ − θ²``.
+
+    The powers are products (``θ² = θ·θ``, ``θ³ = θ²·θ``), which is what numba
+    compiles ``θ**3`` to; Python's ``θ**3`` calls ``pow`` and may differ in the
+    last bit."""
+    theta2 = theta * theta
+    theta3 = theta2 * theta
+    h00 = 2 * theta3 - 3 * theta2 + 1
+    h10 = theta3 - 2 * theta2 + theta
+    h01 = -2 * theta3 + 3 * theta2
+    h11 = theta3 - theta2
+    return h00 * y0 + h10 * h * f0 + h01 * y1 + h11 * h * f1
