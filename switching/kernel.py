@@ -1334,8 +1334,10 @@ def _stamp_with_rules():
             digest.update(source.read())
     for value in list(globals().values()):
         cache_file = getattr(getattr(value, "_cache", None), "_cache_file", None)
-        if cache_file is not None and getattr(getattr(value, "py_func", None), "__module__", None) == __name__:
-            cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
+        stamp = getattr(cache_file, "_source_stamp", None)  # (numba's own; absent in another version: then the
+        # kernel's stamp is its file's alone, which an installation of a new version changes anyway)
+        if stamp is not None and getattr(getattr(value, "py_func", None), "__module__", None) == __name__:
+            cache_file._source_stamp = (stamp, digest.hexdigest())
 
 
 _stamp_with_rules()
