@@ -118,37 +118,29 @@ def _number(option: str, value, expected) -> float:
     raise OptionTypeError(f"{option} must be {expected()}, got {_show(value)}{hint}", option, value)
 
 
-def positive_finite(option: str, value, unit: str = "") -> float:
-    """``value`` [``unit``] as a float if it is a finite number > 0."""
-    def expected():
-        return f"a positive finite number{_of(unit)}"
-
+def _bounded(option: str, value, expected, accepts) -> float:
+    """``value`` as a float if it is a number that ``accepts`` (a predicate), else an error saying ``expected()``."""
     number = _number(option, value, expected)
-    if not (number > 0 and math.isfinite(number)):
+    if not accepts(number):
         raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
     return number
+
+
+def positive_finite(option: str, value, unit: str = "") -> float:
+    """``value`` [``unit``] as a float if it is a finite number > 0."""
+    return _bounded(option, value, lambda: f"a positive finite number{_of(unit)}",
+                    lambda number: number > 0 and math.isfinite(number))
 
 
 def positive(option: str, value, unit: str = "") -> float:
     """``value`` [``unit``] as a float if it is a number > 0 (``inf`` included)."""
-    def expected():
-        return f"a positive number{_of(unit)} (inf for no limit)"
-
-    number = _number(option, value, expected)
-    if not number > 0:
-        raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
-    return number
+    return _bounded(option, value, lambda: f"a positive number{_of(unit)} (inf for no limit)",
+                    lambda number: number > 0)
 
 
 def not_negative(option: str, value, unit: str = "") -> float:
     """``value`` [``unit``] as a float if it is a number ≥ 0 (``inf`` included, not NaN)."""
-    def expected():
-        return f"a number ≥ 0{_of(unit)}"
-
-    number = _number(option, value, expected)
-    if not number >= 0:
-        raise OptionValueError(f"{option} must be {expected()}, got {_show(value)}", option, value)
-    return number
+    return _bounded(option, value, lambda: f"a number ≥ 0{_of(unit)}", lambda number: number >= 0)
 
 
 def whole(option: str, value, low: int, high: int | None = None, unit: str = "") -> int:
