@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from models import falling_rod  # noqa: E402
 from switching import local_cluster, simulate_many  # noqa: E402
-from switching.batch import batch_size_for  # noqa: E402
+from switching.sweep.batch import batch_size_for  # noqa: E402
 
 
 def main(argv=None):

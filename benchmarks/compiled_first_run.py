@@ -54,7 +54,7 @@ import numba
 from models import {module} as family
 model = family.build()
 model.simulate({t_end}, "RK45", rtol=1e-6)
-from switching.jit_model import kernel, mode_function
+from switching.library.jit_model import kernel, mode_function
 start = time.perf_counter(); k = kernel(); k.run  # the module; its functions load on first call
 for mode in model.visited_modes:
     start = time.perf_counter()
@@ -71,7 +71,7 @@ model = bouncing_ball.build()
 model.simulate(2.5, "RK45", rtol=1e-6)
 compiled = model.compiled_model()  # the modes' functions (cached)
 import numpy as np
-from switching.jit_model import kernel
+from switching.library.jit_model import kernel
 k = kernel()
 start = time.perf_counter()
 k.workspace_sizes(compiled.record, 2, 3, 10)  # loads workspace_sizes
@@ -96,7 +96,7 @@ mark("model built")
 if {compiled}:
     import numba
     mark("numba imported")
-    from switching.jit_model import kernel
+    from switching.library.jit_model import kernel
     kernel()
     mark("kernel module")
 import numpy as np

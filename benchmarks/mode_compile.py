@@ -3,7 +3,7 @@
     python benchmarks/mode_compile.py [MODEL ...]
 
 For every shipped model (or those named), a short Python run finds the
-visited modes; each mode's generated source (switching.jit_model) is then
+visited modes; each mode's generated source (switching.library.jit_model) is then
 compiled twice in this process, with nothing cached: by
 :func:`codegen.native.compile_function` (translated to LLVM IR, optimised
 and compiled by numba's code generator) and by numba itself (a ``CFunc`` of
@@ -40,8 +40,8 @@ def main(names) -> None:
     from numba.core.ccallback import CFunc
 
     from codegen.native import compile_function
-    from switching import kernel
-    from switching.jit_model import mode_function_source, native_signature
+    from switching.simulate.kernel import loop as kernel
+    from switching.library.jit_model import mode_function_source, native_signature
 
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)
     serial = iter(range(10**9))

@@ -55,7 +55,7 @@ def pyplot():
 
     if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
         try:
-            import matplotlib.pyplot as plt  # noqa: F401
+            import matplotlib.pyplot  # noqa: F401
         except Exception:  # pragma: no cover - headless fallback
             matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -271,7 +271,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
     (``cancel`` with ``sin² = 1 − cos²`` and the common factors taken out
     would halve the falling rod's derivation too, but it changes the
     rounding of the rod's rates enough to turn one grazing contact of the
-    full grid of ``tests/test_model_ranges.py`` into a divergence of time.)
+    full grid of ``tests/models/test_model_ranges.py`` into a divergence of time.)
 
     Each runs in the budget of :mod:`bondgraph.budget`; past it the
     expression is kept as it stands."""

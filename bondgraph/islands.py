@@ -23,7 +23,7 @@ The procedures run on an island exactly as on the whole graph, in the
 graph's own order of elements and bonds; the results are merged back into
 one :class:`~bondgraph.causality.Causality` and one
 :class:`~bondgraph.equations.ConfigurationEquations` with the very
-expressions a derivation of the whole graph gives (``tests/test_islands.py``
+expressions a derivation of the whole graph gives (``tests/bondgraph/test_islands.py``
 compares them over many configurations of the shipped models).
 """
 

@@ -20,7 +20,7 @@ with more ``Piecewise`` pieces nested the same way.  ``σ = +1`` where
 ``s > 0`` and ``−1`` where ``s < 0``: between crossings of ``s = 0`` the
 law is smooth.  On the surface itself ``σ`` may take any value in
 ``[−1, 1]`` (Filippov's convex hull), which is what a sliding motion (a
-block held by friction) needs.  :mod:`switching.law_automata` turns every
+block held by friction) needs.  :mod:`switching.model.law_automata` turns every
 :class:`LawSwitch` into a local automaton (``positive``, ``negative``,
 ``sliding``) whose states set ``σ``.
 

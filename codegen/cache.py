@@ -20,7 +20,7 @@ key: ``<key>.py``, and for a mode's compiled function its module
 (:mod:`codegen.native`) or numba's ``jit/__pycache__/hbg_mode_<key>.*``
 (``.nbi``/``.nbc``).  (The compiled
 kernel itself is model-independent: numba keeps it beside
-``switching/kernel.py``, once per installation.  Modules ``hbg_model_<key>``
+``switching/simulate/kernel/loop.py``, once per installation.  Modules ``hbg_model_<key>``
 of earlier versions, one kernel per model, are entries too, evicted alike.)
 Whenever an entry is stored and the directory is then over the cap, whole
 entries are deleted,

@@ -2,10 +2,10 @@
 the cache directory and imported from there, so numba's own on-disk cache
 applies, and that cache made unable to fail a run.
 
-:mod:`switching.jit_model` generates, per mode, one function of a fixed C
+:mod:`switching.library.jit_model` generates, per mode, one function of a fixed C
 signature (a numba ``cfunc``) from the mode's symbolic f, g, h and guards; the
 model-independent kernel that calls them (flow, events, resolution, restart)
-is ordinary Python, :mod:`switching.kernel`, compiled once per installation.
+is ordinary Python, :mod:`switching.simulate.kernel.loop`, compiled once per installation.
 This module supplies what generated code needs: the source of a guard
 decision (:func:`tree_expression`) and :func:`load_module`.
 
@@ -46,7 +46,7 @@ def available() -> bool:
 
 
 def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0, scale: str | None = None) -> str:
-    """Source deciding a guard tree (see :func:`switching.compiled.decide_tree`).
+    """Source deciding a guard tree (see :func:`switching.library.compiled.decide_tree`).
 
     Comparison ``k`` reads its left/right finite parts and round-off scale
     from ``finite[3k], finite[3k+1], finite[3k+2]`` and, when ``impulse``

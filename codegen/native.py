@@ -1,6 +1,6 @@
 """Machine code for generated per-mode functions without numba's front end.
 
-A compiled mode function (:func:`switching.jit_model.mode_function_source`)
+A compiled mode function (:func:`switching.library.jit_model.mode_function_source`)
 is straight-line floating-point arithmetic in a few branches: numba spends
 1–3 s typing and lowering one (its front end runs in Python, instruction by
 instruction), while LLVM needs tens of milliseconds for the same code.  This
@@ -20,11 +20,11 @@ The translated language is the subset of Python the generator writes:
   ``not`` on booleans, ``a if c else b``, ``abs``, ``max``, ``min``,
   ``float``, the functions of :mod:`math` and ``np.isfinite``, and calls of
   other functions of the toolkit written in this subset (translated too,
-  e.g. :func:`switching.kernel.decide`); module-level numbers are constants.
+  e.g. :func:`switching.simulate.kernel.loop.decide`); module-level numbers are constants.
 
 The meaning is numba's for the same source (``error_model="numpy"``, no
 fast-math), operation by operation, so both compile a source to the same
-numbers (``tests/test_native.py`` checks them bitwise): ``x**k`` for a
+numbers (``tests/codegen/test_native.py`` checks them bitwise): ``x**k`` for a
 literal integer ``k`` is numba's unrolled product (``1/…`` for ``k < 0``,
 infinite at ``x = 0``, where numba raises inside the C function and returns
 0 with its outputs half written; likewise an integer divided by integer 0 is

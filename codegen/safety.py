@@ -33,7 +33,6 @@ generated code runs.
 
 from __future__ import annotations
 
-import builtins
 import dis
 import functools
 import hashlib

@@ -12,7 +12,7 @@ Every model is a module ``models.<name>`` with
 
 Also: :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
 (plain bond graphs), :mod:`models.cli` (the ``hbg`` command), ``models/examples``
-(model files written by hand; see :mod:`switching.modelfile` for the format).
+(model files written by hand; see :mod:`switching.files.modelfile` for the format).
 
 A model file is loaded with :func:`load` (``models.load("relay.toml")``), its
 sub-model instances may place the components of :mod:`models.components` by
@@ -52,9 +52,9 @@ def component_library() -> dict:
 
 def resolve(reference: str | os.PathLike):
     """What ``hbg`` runs for ``reference``: the module of a shipped model
-    (by name), or a :class:`switching.modelfile.ModelFile` for a path to a
+    (by name), or a :class:`switching.files.modelfile.ModelFile` for a path to a
     model file.  Both have ``DEFAULTS``, ``RUN``, ``SIGNALS`` and ``build(**parameters)``."""
-    from switching.modelfile import ModelFile, is_model_path
+    from switching.files.modelfile import ModelFile, is_model_path
 
     if is_model_path(reference):
         return ModelFile(reference, component_library())
@@ -71,9 +71,9 @@ def resolve(reference: str | os.PathLike):
 def load(name: str | os.PathLike, **parameters):
     """The module of a shipped model by name (``-`` and ``_`` are
     interchangeable), or — for a path to a model file (``.toml``) — the
-    :class:`~switching.model.HybridModel` it holds, with its parameter values
+    :class:`~switching.model.hybrid_model.HybridModel` it holds, with its parameter values
     overridden by ``parameters``.  A bad file raises
-    :class:`switching.modelfile.ModelFileError` naming the file, line and culprit."""
+    :class:`switching.files.modelfile.ModelFileError` naming the file, line and culprit."""
     source = resolve(name)
     if not isinstance(source, types.ModuleType):  # a model file
         return source.build(**parameters)

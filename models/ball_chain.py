@@ -83,7 +83,7 @@ States: ``p1…pN`` (momenta), ``q1…q(N−1)`` (spring compressions, compliant
 only), ``pos1…posN`` (integrated displacements: the positions).
 Signals: ``x1…xN`` (positions, = ``pos<i>``), ``v1…vN`` (velocities ``p/m``).
 
-Valid range (exercised by ``tests/test_model_ranges.py``).  Ideal contacts:
+Valid range (exercised by ``tests/models/test_model_ranges.py``).  Ideal contacts:
 ``N >= 2``, ``0 <= e <= 1``, ``v_th`` from 1e-9·v0 to 1e-3·v0 (tested ``N`` up
 to 8, ``v0`` and ``m`` from 1e-3 to 1e3): one instant, momentum conserved,
 after it no pair approaches faster than ``v_th``.  ``e = 0`` with

@@ -75,7 +75,7 @@ pulses when the current is forced to zero), ``i_D``, ``v_D``, ``v_sw``
 (switch-node voltage ``v_A``), ``i_sw`` (switch current), ``i_load``,
 ``carrier``.
 
-Valid range (exercised by ``tests/test_model_ranges.py``): ``0 < D < 1``
+Valid range (exercised by ``tests/models/test_model_ranges.py``): ``0 < D < 1``
 (tested 0.1 to 0.9), ``R_load`` 2 to 2000 Ω, ``L`` 1e-5 to 1e-3 H, ``C`` 1e-6
 to 1e-2 F, ``f_sw`` 1e3 to 1e5 Hz, in continuous and discontinuous conduction,
 with ``max_step <= min(D, 1 − D)/f_sw`` as said above.  Every PWM edge falls

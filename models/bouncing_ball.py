@@ -27,7 +27,7 @@ rule, and the bounces then accumulate (Zeno) at
 Sign conventions: ``y`` [m] up from the floor, ``v`` [m/s] up.
 Signals: ``y``, ``v``.
 
-Valid range (exercised by ``tests/test_model_ranges.py``): ``0 <= e <= 1``,
+Valid range (exercised by ``tests/models/test_model_ranges.py``): ``0 <= e <= 1``,
 ``y0 > 0``, ``m > 0``, ``g > 0`` over orders of magnitude (tested ``y0`` from
 1e-4 to 1e4 m, ``m`` from 1e-6 to 1e6 kg, ``g`` from 1.62 to 274 m/s²).  With
 ``v_rest > 0`` the ball bounces while it lands faster than ``v_rest`` (a

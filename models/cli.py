@@ -18,7 +18,7 @@
 
 Model names accept ``-`` or ``_`` (``falling-rod``).  Wherever a command
 takes a MODEL it also takes the path of a model file (``hbg run my.toml``;
-see :mod:`switching.modelfile`); ``--set`` then overrides the file's
+see :mod:`switching.files.modelfile`); ``--set`` then overrides the file's
 parameters, and the file's ``[run]`` table gives the default run.
 
 Output of ``hbg run``: ``--samples N`` (default 500, at least 2) writes at
@@ -35,7 +35,7 @@ the explicit methods' stiffness test (``stiffness_check=False``: the run
 goes on whatever the stability of its step).  ``--max-steps N`` (default
 10 000 000) bounds the integrator's steps: a ``--dt`` that needs more, or
 one below the resolution of ``t``, is a usage error before anything runs
-(the checks of :mod:`switching.run_options`), and a run that takes more
+(the checks of :mod:`switching.simulate.run_options`), and a run that takes more
 stops (exit 1, the partial run saved).  The data files are written first,
 then the plot, each on its own: one that cannot be written does not stop the
 others.
@@ -89,9 +89,9 @@ def _summary(obj) -> str:
 
 
 def _module(name):
-    """The shipped model's module, or for a path the :class:`switching.modelfile.ModelFile`
+    """The shipped model's module, or for a path the :class:`switching.files.modelfile.ModelFile`
     (same interface); a bad file raises its ModelFileError (file, line, culprit)."""
-    from switching.modelfile import is_model_path
+    from switching.files.modelfile import is_model_path
 
     from . import resolve
 
@@ -157,7 +157,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
     method = args.method or run.pop("method", "RK45")
     run.pop("method", None)
     from switching import METHODS
-    from switching.integrators import FIXED_STEP
+    from switching.simulate.integrators import FIXED_STEP
 
     if method not in METHODS and method != "auto":
         raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}, auto")
@@ -187,10 +187,10 @@ _FLAGS = {"dt": "--dt", "rtol": "--rtol", "max_steps": "--max-steps", "t_end": "
 
 def _check_run(model, t_end, method, options) -> None:
     """The checks ``simulate`` makes of its options, before anything runs
-    (:func:`switching.run_options.check_run`), as usage errors naming the flag."""
+    (:func:`switching.simulate.run_options.check_run`), as usage errors naming the flag."""
     from switching.errors import OptionError
-    from switching.run_options import check_run
-    from switching.simulator import option_defaults
+    from switching.simulate.run_options import check_run
+    from switching.simulate.driver import option_defaults
 
     try:
         check_run(model, t_end, method, {**option_defaults(), **options})
@@ -201,11 +201,11 @@ def _check_run(model, t_end, method, options) -> None:
 
 def _sample_times(model, t_end, samples):
     """The ``--samples`` times (``None`` for every step), refused before they
-    are made when they would not fit (:func:`switching.run_options.check_output_size`)."""
+    are made when they would not fit (:func:`switching.simulate.run_options.check_output_size`)."""
     import numpy as np
 
     from switching.errors import OptionError
-    from switching.run_options import check_output_size
+    from switching.simulate.run_options import check_output_size
 
     if not samples:
         return None
@@ -350,7 +350,7 @@ def _write_outputs(args, trajectory, signals) -> list[str]:
     if args.plot:
         def plot():
             from bondgraph.drawing import pyplot
-            from switching.plotting import plot_trajectory
+            from switching.simulate.plotting import plot_trajectory
 
             if len(trajectory.t) == 0:
                 raise ValueError("no samples to plot")
@@ -399,8 +399,6 @@ def _cmd_list(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    import numpy as np
-
     module = _module(args.model)
     parameters = _parse_sets(args.set or [], module.DEFAULTS)
     t_end, method, options = _run_options(args, module)
@@ -650,7 +648,7 @@ def _grid_axis(item, defaults) -> tuple[str, list]:
 def _sweep_metrics(names, model):
     """The ``--metric`` names split into signal specs (KIND:SIGNAL, computed
     in the workers) and columns of the table; unknown names are usage errors."""
-    from switching.sweep_frame import FINAL, RUN_COLUMNS, SignalMetrics
+    from switching.sweep.frame import FINAL, RUN_COLUMNS, SignalMetrics
 
     columns = [c for c in RUN_COLUMNS if c not in ("status", "error")] + [FINAL + s.name for s in model.states]
     specs = [name for name in names if ":" in name]
@@ -671,7 +669,7 @@ def _cmd_sweep(args) -> int:
     import contextlib
 
     from switching import simulate_many
-    from switching.sweep_frame import require_pandas, parameter_grid, plot_sweep, to_frame
+    from switching.sweep.frame import require_pandas, parameter_grid, plot_sweep, to_frame
 
     module = _module(args.model)
     base = _parse_sets(args.set or [], module.DEFAULTS)

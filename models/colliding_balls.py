@@ -53,7 +53,7 @@ The defaults: ball 1 (1 kg) at 0 m moving right at 1 m/s, ball 2 (2 kg) at
 1 m moving left at 0.5 m/s, radii 0.1 m: they touch at t = 0.8/1.5 ≈ 0.533 s
 and collide once with ``e = 0.8``.
 
-Valid range (exercised by ``tests/test_model_ranges.py``): ``0 <= e <= 1``,
+Valid range (exercised by ``tests/models/test_model_ranges.py``): ``0 <= e <= 1``,
 positive masses and radii, ``v_th >= 0`` (``0`` included: a plastic impact
 leaves the balls moving together, which ``v1 > v2`` does not re-trigger);
 tested mass ratios from 1e-3 to 1e3 and lengths and speeds scaled from 1e-3

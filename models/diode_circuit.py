@@ -36,7 +36,7 @@ divergence-of-time loop, reported as an error that shows the loop.
 
 Units: V, A, Ω, H, s.  Signals: ``i_L``, ``v_L``, ``i_D``, ``v_D``.
 
-Valid range (exercised by ``tests/test_model_ranges.py``): ``I_th = 0`` (the
+Valid range (exercised by ``tests/models/test_model_ranges.py``): ``I_th = 0`` (the
 ideal diode turns off when its current reaches zero), ``V``, ``R``, ``L``
 over orders of magnitude (tested ``V`` from 1e-2 to 1e4 V (with
 ``V_th = 0.07·V``), ``R`` from 1e-2 to 1e2 Ω, ``L`` from 1e-6 to 10 H).  The

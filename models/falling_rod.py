@@ -97,16 +97,16 @@ Units: kg, m, s, rad, N.  Signals: ``theta``, ``omega``, ``vx``, ``vy``,
 ``x_cm``, ``y_cm``, ``tip_x``, ``tip_y``, ``tip_vx``, ``tip_vy``,
 ``normal_force``, ``friction_force`` (and ``F_stick``, ``N_stick``, ``N_contact``).
 
-Valid range (exercised by ``tests/test_model_ranges.py``): the documented
+Valid range (exercised by ``tests/models/test_model_ranges.py``): the documented
 points above, each run to t = 2 s (defaults, ``mu = 0.002``, ``mu = 0.004``,
 the long rod ``l = 10, y0 = 23, mu = 0.002``, and ``mu = 0.002`` with
 ``impact_law="newton-coulomb"``); the slow grid takes ``mu`` from 1e-4 to 1
 and ``l`` from 0.1 to 10 m (``y0 = 2.3 l``, ``theta0`` at its default) under
 both impact laws.  Masses, lengths and ``g`` may be given in any consistent
-units (``tests/test_units.py``; scale ``v_th`` and ``y_lift`` with the
+units (``tests/switching/simulate/test_units.py``; scale ``v_th`` and ``y_lift`` with the
 lengths).  No error is documented in this range: every
 :class:`~switching.DivergenceOfTimeError` there is a defect.  Beyond it,
-``tests/test_rod_reference.py`` runs a uniform rod (``J = m (2l)²/12``) over
+``tests/models/test_rod_reference.py`` runs a uniform rod (``J = m (2l)²/12``) over
 ``theta0`` 0.2 to 1.4, ``mu`` 0.01 to 5, ``l`` 0.1 and 0.5 m and both impact
 laws to the time the far end reaches the floor (which the model does not
 see), against an independent simulation: the same modes and states there.

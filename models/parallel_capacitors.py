@@ -49,7 +49,7 @@ Signals: ``v1``, ``v2`` (voltages), ``q_total = q1 + q2`` (conserved at every
 instant and during flow), ``energy = q1²/(2 C1) + q2²/(2 C2)`` (the stored
 electric energy).
 
-Valid range (exercised by ``tests/test_model_ranges.py``): ``C1, C2 > 0``
+Valid range (exercised by ``tests/models/test_model_ranges.py``): ``C1, C2 > 0``
 (tested 1e-12 to 1 F, ratios 1e-3 to 1e3), ``R >= 0`` (0, and 1e-3 to 1e6 Ω),
 any initial voltages (tested 1e-6 to 1e6 V, equal or opposite).  One instant at
 ``t_close``; ``q_total`` is conserved throughout.  With ``R > 0`` the time

@@ -64,7 +64,7 @@ Signals: ``h1``, ``h2`` (levels), ``p1``, ``p2`` (pressures), ``Q_pump``
 (pump flow), ``Q_valve`` (flow through the transfer valve), ``Q_out``
 (outflow through the drain), ``V_total`` (stored volume).
 
-Valid range (exercised by ``tests/test_model_ranges.py``): positive
+Valid range (exercised by ``tests/models/test_model_ranges.py``): positive
 ``Q_in``, areas, resistances, ``rho`` and ``g``, with ``h_low < h_high`` for
 each valve (tested ``Q_in`` 1e-3 to 1e-1 m³/s, ``A1`` 0.1 to 10 m² with
 ``A2 = A1/2``, ``R_v`` 5e4 to 5e6 Pa·s/m³).  Each valve moves exactly at its

@@ -23,7 +23,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 %matplotlib inline
-from switching.plotting import plot_trajectory, phase_portrait, mode_graph, draw_bond_graph"""
+from switching.simulate.plotting import plot_trajectory, phase_portrait, mode_graph, draw_bond_graph"""
 
 def md(text):
     return ("md", text)
@@ -154,7 +154,7 @@ NOTEBOOKS = {
         md("## The falling rod's friction\n\nAfter the impact the tip slides (μ = 0.002) and friction decelerates the rod: "
            "∂x_cm/∂μ grows from the impact on.  The sensitivity agrees with central differences of runs whose modes "
            "and instants are the same."),
-        py("from models import falling_rod\nfrom switching.batch import shared_model\n"
+        py("from models import falling_rod\nfrom switching.sweep.batch import shared_model\n"
            "times = np.linspace(0.2, 0.45, 12)\n"
            "with shared_model(falling_rod.build, {'mu': 0.002}) as rod:  # later runs share its derived modes\n"
            "    run = rod.simulate(0.45, 'RK45', rtol=1e-10, atol=1e-12, max_step=0.01, sensitivities=['mu'])\n"

@@ -1,13 +1,17 @@
 """Switching semantics: local automata, modes, mode resolution (mythical
 modes, pinnacles, divergence of time), impulsive signals.
 
-Example — see :mod:`switching.model` and :mod:`switching.automaton`.
+Example — see :mod:`switching.model.hybrid_model` and :mod:`switching.model.automaton`.
 """
 
-from .automaton import A_POSTERIORI as A_POSTERIORI
-from .automaton import A_PRIORI as A_PRIORI
-from .automaton import Automaton as Automaton
-from .automaton import Transition as Transition
+from . import moved
+
+moved.install()
+
+from .model.automaton import A_POSTERIORI as A_POSTERIORI
+from .model.automaton import A_PRIORI as A_PRIORI
+from .model.automaton import Automaton as Automaton
+from .model.automaton import Transition as Transition
 from .errors import ComplexValueError as ComplexValueError
 from .errors import DivergenceOfTimeError as DivergenceOfTimeError
 from .errors import GuardSyntaxError as GuardSyntaxError
@@ -26,33 +30,33 @@ from .errors import WorkLimitError as WorkLimitError
 from .errors import TooManyStepsError as TooManyStepsError
 from .errors import ZenoError as ZenoError
 from codegen.runtime import Hyper as Hyper
-from .library import ModeLibrary as ModeLibrary
-from .model import HybridModel as HybridModel
-from .model import InMode as InMode
-from .model import InitialStateProjected as InitialStateProjected
-from .model import Tolerance as Tolerance
-from .modes import Mode as Mode
-from .modes import ModeEquations as ModeEquations
-from .parsing import parse_condition as parse_condition
-from .parsing import parse_expression as parse_expression
-from .resolution import Instant as Instant
-from .resolution import Step as Step
-from .batch import MissingDependencyError as MissingDependencyError
-from .batch import RunResult as RunResult
-from .batch import local_cluster as local_cluster
-from .batch import simulate_many as simulate_many
-from .sweep_frame import SignalMetrics as SignalMetrics
-from .sweep_frame import parameter_grid as parameter_grid
-from .sweep_frame import plot_sweep as plot_sweep
-from .sweep_frame import to_frame as to_frame
-from .simulator import METHODS as METHODS
-from .expression_input import ExpressionInput as ExpressionInput
-from .modelfile import ModelFileError as ModelFileError
-from .modelfile import load_model as load_model
-from .modelfile import save_model as save_model
-from .trajectory import Trajectory as Trajectory
-from .sensitivity import Sensitivities as Sensitivities
-from .fitting import FitError as FitError
-from .fitting import FitResult as FitResult
-from .fitting import fit as fit
-from .fitting import sample_indices as sample_indices
+from .library.mode_library import ModeLibrary as ModeLibrary
+from .model.hybrid_model import HybridModel as HybridModel
+from .model.hybrid_model import InMode as InMode
+from .model.hybrid_model import InitialStateProjected as InitialStateProjected
+from .model.hybrid_model import Tolerance as Tolerance
+from .model.modes import Mode as Mode
+from .model.modes import ModeEquations as ModeEquations
+from .language.parsing import parse_condition as parse_condition
+from .language.parsing import parse_expression as parse_expression
+from .simulate.resolution import Instant as Instant
+from .simulate.resolution import Step as Step
+from .sweep.batch import MissingDependencyError as MissingDependencyError
+from .sweep.batch import RunResult as RunResult
+from .sweep.batch import local_cluster as local_cluster
+from .sweep.batch import simulate_many as simulate_many
+from .sweep.frame import SignalMetrics as SignalMetrics
+from .sweep.frame import parameter_grid as parameter_grid
+from .sweep.frame import plot_sweep as plot_sweep
+from .sweep.frame import to_frame as to_frame
+from .simulate.driver import METHODS as METHODS
+from .model.expression_input import ExpressionInput as ExpressionInput
+from .files.modelfile import ModelFileError as ModelFileError
+from .files.modelfile import load_model as load_model
+from .files.modelfile import save_model as save_model
+from .simulate.trajectory import Trajectory as Trajectory
+from .analysis.sensitivity import Sensitivities as Sensitivities
+from .analysis.fitting import FitError as FitError
+from .analysis.fitting import FitResult as FitResult
+from .analysis.fitting import fit as fit
+from .analysis.fitting import sample_indices as sample_indices

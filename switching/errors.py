@@ -131,7 +131,7 @@ class SimulationInterrupted(SimulationError, KeyboardInterrupt):
 class SweepInterrupted(HybridBondGraphError, KeyboardInterrupt):
     """A sweep (:func:`switching.simulate_many`) was interrupted (Ctrl-C)
     before all its runs finished.  ``results`` holds one
-    :class:`~switching.batch.RunResult` per parameter set, in their order:
+    :class:`~switching.sweep.batch.RunResult` per parameter set, in their order:
     the runs that finished, and for the others a failed result whose error
     says the sweep was interrupted (``error_type`` ``"SweepInterrupted"``).
     Being a ``KeyboardInterrupt`` too, it still ends a script that does not
@@ -152,7 +152,7 @@ class OptionError(SimulationError):
     """An option of a run (``simulate``) that cannot be taken, refused before
     anything runs (no trajectory): ``option`` names it, ``value`` is what was
     given; the message says the value expected (see
-    :mod:`switching.run_options`)."""
+    :mod:`switching.simulate.run_options`)."""
 
     def __init__(self, message: str, option: str | None = None, value=None):
         super().__init__(message)

@@ -5,8 +5,8 @@ import importlib
 
 import pytest
 
-MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs", "switching.automaton", "switching.model",
-           "switching.library"]
+MODULES = ["bondgraph", "bondgraph.graph", "models.components", "models.graphs", "switching.model.automaton", "switching.model.hybrid_model",
+           "switching.library.mode_library"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -4,7 +4,7 @@ floats, integers, booleans, tuples of them and numpy arrays; no Python
 objects, no callables, no allocation of Python containers.
 
 The Python path calls a rule as it is; the compiled kernel
-(:mod:`switching.kernel`) compiles the very same function object
+(:mod:`switching.simulate.kernel.loop`) compiles the very same function object
 (``njit(rule)``), so a fix made here lands in both engines at once and the
 two give the same results to the bit wherever they run the same arithmetic.
 A rule that needs a value only its caller can compute (a guard's margin at a
@@ -13,7 +13,7 @@ needs evaluated next and is called again with the value (*reverse
 communication*), so the Python path can evaluate with Python objects and the
 kernel through its function pointers.
 
-Each rule module lists its rules in ``RULES``; ``tests/test_rules.py`` fails
+Each rule module lists its rules in ``RULES``; ``tests/switching/rules/test_rules.py`` fails
 when a function of one of those names (or of the module's) is defined
 anywhere else in the packages.  This package imports nothing but the standard library and numpy.
 

@@ -1,0 +1,551 @@
+"""Per-mode numerical functions, generated from a mode's symbolic f, g, h
+and guards, compiled on the mode's first visit and cached (in memory, and on
+disk keyed by a fingerprint of the model's symbolic definition, the mode and
+the toolkit version — so a second process pays no symbolic derivation).
+
+Generated functions of one mode (arrays: ``x`` states, ``p`` parameters,
+``u`` inputs, ``xdot`` state derivatives as :class:`codegen.runtime.Hyper`):
+
+``phi(x, t, p, u, out)``       dependent states from the independent ones
+``rates(x, t, p, u, out)``     ``dx/dt`` of every state
+``jump(x, t, p, u, out)``      ``x⁺ = g(x)`` with restitution (symbolic jumps only)
+``sides(x, t, p, u, out)``     for every guard comparison ``k``: its finite left and
+                               right sides and their round-off scale
+                               ``max(R(left), R(right))`` (:mod:`codegen.roundoff`) at
+                               ``out[3k], out[3k + 1], out[3k + 2]``
+``sides_raw(x, t, p, u, xdot)``  the left and right sides on raw signals,
+                               impulse-aware (``[2k], [2k + 1]``)
+
+In a mode of many automata (more than ``2·SIDE_BLOCK_AUTOMATA``) ``sides``
+and ``sides_raw`` call one function per block of automata
+(``_sides_<hash>``, ``_sides_raw_<hash>``, named by a hash of their text),
+which every mode holding those automata in the same states shares;
+:func:`flat_sides` writes such a ``sides`` out as one function.
+
+A comparison is decided with the band ``rtol·max(|left|, |right|, R) + atol``
+(:func:`codegen.runtime.decide`): a difference that is zero up to the
+round-off of the terms that formed it compares as zero, whatever the units.
+
+The metadata ``META`` (independent / dependent indices, the guards as trees
+of comparisons) is part of the same source, so a module loaded from disk
+needs nothing else.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import re
+
+import numpy as np
+import sympy as sp
+from sympy.core.relational import Relational
+from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
+
+from codegen.roundoff import larger, roundoff_scale
+from codegen.runtime import Comparison, Hyper, decide
+from codegen.safety import execute
+from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
+
+from ..rules.jumps import jump_pulse
+
+__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
+           "decide_tree", "mode_source_and_meta", "shifted_tree"]
+
+#: part of the disk-cache key of a mode's source: change it when the generated functions change
+MODE_SOURCE_VERSION = "11"
+
+_OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
+
+
+def _op(relation) -> str:
+    for cls, op in _OPS.items():
+        if isinstance(relation, cls):
+            return op
+    raise TypeError(f"unsupported comparison {relation}")
+
+
+def condition_tree(condition, relations: list, texts: dict | None = None):
+    """A guard condition as nested plain tuples; comparisons are collected in
+    ``relations``; ``texts`` memoizes the text of each comparison."""
+    if isinstance(condition, BooleanTrue):
+        return ("const", True)
+    if isinstance(condition, BooleanFalse):
+        return ("const", False)
+    if isinstance(condition, And):
+        return ("and", tuple(condition_tree(c, relations, texts) for c in condition.args))
+    if isinstance(condition, Or):
+        return ("or", tuple(condition_tree(c, relations, texts) for c in condition.args))
+    if isinstance(condition, Not):
+        return ("not", condition_tree(condition.args[0], relations, texts))
+    if isinstance(condition, Relational):
+        relations.append(condition)
+        text = texts.get(condition) if texts is not None else None
+        if text is None:
+            # the terms in sympy's own order: sorting them costs more than the rest of a large mode's source
+            text = sp.sstr(condition, order="none")
+            if texts is not None:
+                texts[condition] = text
+        return ("rel", len(relations) - 1, _op(condition), text)
+    raise TypeError(f"cannot compile {condition} as a guard")
+
+
+def shifted_tree(tree, offset: int):
+    """A guard tree with its comparison indices moved by ``offset``."""
+    kind = tree[0]
+    if kind == "rel":
+        return ("rel", tree[1] + offset, tree[2], tree[3])
+    if kind in ("and", "or"):
+        return (kind, tuple(shifted_tree(t, offset) for t in tree[1]))
+    if kind == "not":
+        return ("not", shifted_tree(tree[1], offset))
+    return tree
+
+
+def _leaf_texts(trees, count: int) -> list:
+    """The text of every comparison, by index, from the leaves of guard trees."""
+    texts = [""] * count
+    todo = list(trees)
+    while todo:
+        tree = todo.pop()
+        if tree[0] in ("and", "or"):
+            todo.extend(tree[1])
+        elif tree[0] == "not":
+            todo.append(tree[1])
+        elif tree[0] == "rel":
+            texts[tree[1]] = tree[3]
+    return texts
+
+
+def decide_tree(tree, sides, rtol, atol, record=None, fixed=None) -> bool:
+    """Evaluate a guard tree on the comparison triples ``sides`` (left, right,
+    round-off scale of comparison ``k`` at ``[3k], [3k + 1], [3k + 2]``).
+    ``record`` collects a :class:`codegen.runtime.Comparison` per comparison
+    evaluated; ``fixed`` (comparison index → truth) overrides comparisons."""
+    kind = tree[0]
+    if kind == "const":
+        return tree[1]
+    if kind == "and":
+        return all(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
+    if kind == "or":
+        return any(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
+    if kind == "not":
+        return not decide_tree(tree[1], sides, rtol, atol, record, fixed)
+    _, k, op, text = tree
+    if fixed and k in fixed:
+        return fixed[k]
+    left, right, scale = sides[3 * k], sides[3 * k + 1], sides[3 * k + 2]
+    if record is None:
+        return decide(op, left, right, rtol, atol, scale)
+    comparison = Comparison.of(text, op, left, right, rtol, atol, scale)
+    record.append(comparison)
+    return comparison.result
+
+
+def comparison_triples(me, relations) -> list:
+    """``[left, right, max(R(left), R(right))]`` of every comparison, finite
+    parts (``ẋ = f(x)`` substituted), concatenated: the outputs of ``sides``.
+
+    A comparison on the time alone (a clock: its sides depend on ``t`` and
+    the parameters, on no state and no input) gets the round-off scale 0, so
+    its band is ``rtol·max(|left|, |right|) + atol``.  Its sides' round-off
+    at a float ``t`` (``≈ ε·R``) only moves the computed crossing by a few
+    units in the last place of ``t``; widening the band by ``rtol·R``
+    (``rtol ≫ ε``) would move every crossing by ``rtol·R/|d(left − right)/dt|``
+    instead — and the scale of a periodic clock grows with its phase: the
+    edges of a PWM carrier ``acos(cos(2·pi·f·t − pi·D))/pi`` (``R ≈ 12·f·t``,
+    slope ``2·f``) would lag ``6·rtol·t``, 6e-12 s after 1e5 periods of
+    10 kHz instead of the round-off of ``k/f``."""
+    triples = []
+    model = me.model
+    memo, scales = model.library.roundoff_memo, model.library.scale_memo
+    clock = None
+    for rel in relations:
+        left, right = me.finite(rel.lhs), me.finite(rel.rhs)
+        scale = scales.get((left, right))
+        if scale is None:
+            clock = clock or {model.time, *model.parameter_symbols}
+            free = left.free_symbols | right.free_symbols
+            if model.time in free and free <= clock:
+                scale = sp.Integer(0)
+            else:
+                scale = larger(roundoff_scale(left, memo), roundoff_scale(right, memo))
+            scales[(left, right)] = scale
+        triples += [left, right, scale]
+    return triples
+
+
+def generate_mode_source(model, me) -> str:
+    """The generated module (source text) of one mode from its ModeEquations."""
+    return mode_source_and_meta(model, me)[0]
+
+
+def mode_source_and_meta(model, me) -> tuple[str, dict]:
+    """The generated module of one mode and its ``META`` (the value the
+    module's ``META = …`` line holds, which a :class:`CompiledMode` made now
+    need not parse back: ~10 ms a mode for a scene of 200 contacts)."""
+    states = list(model.states)
+    rates = [me.equations.rate_symbols[s] for s in states]
+    params = list(model.parameter_symbols)
+    inputs = list(model.input_symbols)
+    dependent = [s for s in states if s in me.equations.dependent]
+    independent = [s for s in states if s not in me.equations.dependent]
+    label = me.mode.describe()
+    base_args = (
+        Argument("x", tuple(states), doc="state vector"),
+        Argument("t", (model.time,), scalar=True, doc="time [s]"),
+        Argument("p", tuple(params), doc="parameters"),
+        Argument("u", tuple(inputs), doc="inputs"),
+    )
+    raw_args = base_args + (Argument("xdot", tuple(rates), doc="state derivatives (Hyper: impulse, finite)"),)
+
+    relations: list = []
+    guards = []
+    spans = []  # per guard: (block of its automaton, its first comparison, the comparison after its last)
+    automaton_index = model.automaton_index
+    for guard in me.guards:
+        tr = guard.transition
+        start = len(relations)
+        guards.append(
+            {
+                "automaton": guard.automaton,
+                "source": tr.source,
+                "target": tr.target,
+                "when": tr.when,
+                "pulses": tr.pulses,
+                "text": guard.text,
+                "tree": model.library.guard_tree(guard.condition, relations),
+            }
+        )
+        spans.append((automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA, start, len(relations)))
+    finite_sides, raw_sides = comparison_triples(me, relations), []
+    for rel in relations:
+        raw_sides += [rel.lhs, rel.rhs]
+    texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by condition_tree
+    side_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right"))
+    triple_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right", "round-off scale"))
+
+    g = me.g
+    jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
+    specs = [
+        FunctionSpec("phi", base_args, tuple(me.equations.constraints[s] for s in dependent),
+                     f"Dependent states of mode {label} (x_d = phi(x_i, t)).",
+                     tuple(model.state_names[model.state_index[s]] for s in dependent)),
+        FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
+                     model.state_names),
+        FunctionSpec("sides", base_args, tuple(finite_sides),
+                     f"Guard comparison sides in mode {label} (finite) with their round-off scales.", triple_names),
+        FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
+                     f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names, raw=True),
+    ]
+    if jump_kind == "symbolic":
+        specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
+                                  f"x+ = g(x) into mode {label}.", model.state_names, copy_of="x"))
+    blocks = _side_blocks(spans) if len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA else None
+    meta = {
+        "mode": tuple(me.mode.states),
+        "automata": tuple(me.mode.automata),
+        "independent": tuple(model.state_index[s] for s in independent),
+        "dependent": tuple(model.state_index[s] for s in dependent),
+        "moved": tuple(model.state_index[s] for s in (*me.jump.participating, *me.jump.dependent)),
+        "jump": jump_kind,
+        "guards": tuple(guards),
+        "n_states": len(states),
+    }
+    header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
+    texts = []
+    for spec in specs:
+        if blocks and spec.name in ("sides", "sides_raw"):
+            texts.append(_blocked_source(model, spec, blocks, 3 if spec.name == "sides" else 2))
+        else:
+            texts.append(function_source(spec, model.library.print_memo))
+    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(texts)
+    return source, meta
+
+
+#: the guard comparisons of a mode of more than twice this many automata are
+#: printed in blocks of this many automata: a function of its own per block,
+#: shared by every mode in which those automata are in the same states (a new
+#: mode of a 200-contact chain prints and compiles one block, not the sides of
+#: 200 contacts).  ``sides`` calls them in turn, each on its slice of ``out``;
+#: the price is a few per cent per call (the parameters and the subexpressions
+#: shared across a block's edge are computed once per block).
+SIDE_BLOCK_AUTOMATA = 16
+
+_BLOCK_NAME = r"_(?:sides|sides_raw)_[0-9a-f]{12}"
+
+
+def _side_blocks(spans) -> list | None:
+    """``[(first comparison, end)]`` of each block of automata that has
+    comparisons, from the guards' ``spans`` (``None`` if the guards are not
+    in the automata's order)."""
+    blocks: list = []
+    current = None
+    for block, start, end in spans:
+        if end == start:
+            continue
+        if current is None or block > current:
+            blocks.append((start, end))
+            current = block
+        elif block == current and blocks[-1][1] == start:
+            blocks[-1] = (blocks[-1][0], end)
+        else:
+            return None
+    return blocks
+
+
+def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int) -> str:
+    """``spec`` (``sides`` or ``sides_raw``) as calls of one block function
+    per block of comparisons, followed by the blocks' own source.  A block
+    is named by a hash of its text, so one block is one function for every
+    mode that holds it, in this process and in the disk cache; its text is
+    kept for the model by its outputs (the print memo makes the rest)."""
+    import hashlib
+
+    memo = model.library.side_block_sources
+    calls, texts = [], {}
+    for start, end in blocks:
+        outputs = spec.outputs[per_comparison * start:per_comparison * end]
+        key = (spec.raw, outputs)
+        found = memo.get(key)
+        if found is None:
+            block = FunctionSpec("_block_", spec.arguments, outputs,
+                                 "A block of guard comparison sides " + ("on raw signals (impulse-aware)."
+                                                                         if spec.raw else "with their round-off scales."),
+                                 raw=spec.raw, brief=True)
+            text = function_source(block, model.library.print_memo)
+            name = f"_{spec.name}_" + hashlib.sha1(text.encode()).hexdigest()[:12]
+            found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
+        calls.append((found[0], len(outputs)))
+        texts[found[0]] = found[1]
+    return "\n\n".join([composed_source(spec, calls, model.library.print_memo), *texts.values()])
+
+
+def flat_sides(source: str) -> str:
+    """A generated mode module with a ``sides`` made of blocks written out as
+    one function — each block's statements in turn, its outputs at their
+    places — and the blocks' definitions dropped: the same numbers, for any
+    ``out`` (a standalone export may be handed a list, whose slices are
+    copies, not views).  Other modules are returned as they are."""
+    chunks = _function_chunks(source)
+    if "sides" not in chunks:
+        return source
+    caller = chunks["sides"][1]
+    calls = re.findall(rf"^    ({_BLOCK_NAME})\(x, t, p, u, out\[(\d+):\d+\]\)$", caller, re.MULTILINE)
+    if not calls:
+        return source
+    lines = caller.rstrip("\n").split("\n")
+    end_of_doc = next(k for k in range(1, len(lines)) if lines[k] == '    """') + 1
+    flat = lines[:end_of_doc]
+    for name, start in calls:
+        body = chunks[name][1].rstrip("\n").split("\n")[2:]  # (after the def line and the one-line docstring)
+        for line in body:
+            output = re.match(r"    out\[(\d+)\] = ", line)
+            if output:
+                flat.append(f"    out[{int(start) + int(output.group(1))}] = " + line[output.end():])
+            elif line != "    return out":
+                flat.append(line)
+    flat.append("    return out")
+    source = source.replace(caller, "\n".join(flat) + caller[len(caller.rstrip("\n")):])
+    for name in dict.fromkeys(name for name, _ in calls):
+        source = source.replace(chunks[name][1], "")
+    return source
+
+
+def _function_chunks(source: str) -> dict:
+    """The parts of a generated mode module: ``META`` (the text of its
+    value) and each function by name as ``(first line, text)``."""
+    chunks = {}
+    starts = list(re.finditer(rf"^(?:def (phi|rates|sides|sides_raw|jump|{_BLOCK_NAME})\(x, t, p, u(?:, xdot)?"
+                              r"(?:, out)?\):$|META = )", source, re.MULTILINE))
+    line, counted = 1, 0
+    for k, match in enumerate(starts):
+        end = starts[k + 1].start() if k + 1 < len(starts) else len(source)
+        text = source[match.start():end]
+        line += source.count("\n", counted, match.start())
+        counted = match.start()
+        if match.group(1) is None:
+            chunks["META"] = text[len("META = "):].strip()
+        else:
+            chunks[match.group(1)] = (line, text)
+    return chunks
+
+
+class _Generated:
+    """A generated function of a :class:`CompiledMode`, compiled on first use
+    (:meth:`CompiledMode._function`); assigning one replaces it."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, mode, owner=None):
+        return self if mode is None else mode._function(self.name)
+
+    def __set__(self, mode, function) -> None:
+        mode._namespace[self.name] = function
+
+
+class CompiledMode:
+    """Executable functions and metadata of one mode (see the module docstring)."""
+
+    def __init__(self, model, mode, source: str, meta: dict | None = None):
+        self.model = model
+        self.mode = mode
+        self.source = source
+        self._where = f"<hbg mode {mode.label}>"
+        self._namespace = module_namespace()
+        self._chunks = _function_chunks(source)
+        missing = {"META", "phi", "rates", "sides", "sides_raw"} - set(self._chunks)
+        if missing:  # not a module generate_mode_source wrote
+            raise ValueError(f"the generated source of mode {mode.describe()} lacks {', '.join(sorted(missing))}")
+        meta_text = self._chunks.pop("META")
+        meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
+        self.meta = meta
+        self._functions = frozenset(self._chunks)  # (each compiled apart, checked to call only these)
+        self.independent = np.array(meta["independent"], dtype=int)
+        self.dependent = np.array(meta["dependent"], dtype=int)
+        self.moved = np.array(meta["moved"], dtype=int)
+        self.jump_kind = meta["jump"]
+        self.guards = meta["guards"]
+        self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
+        self.n = meta["n_states"]
+        self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
+        self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
+
+    def _function(self, name: str):
+        """Generated function ``name``, compiled when first asked for (a mode
+        passed through at instants never needs its rates, say).  Its line
+        numbers are those of :attr:`source`."""
+        found = self._namespace.get(name)
+        if found is None and name in self._chunks:
+            first_line, text = self._chunks[name]
+            if name in ("sides", "sides_raw"):
+                self._place_blocks(text)
+            execute(text, self._namespace, self._where, first_line=first_line, also=self._functions)
+            found = self._namespace[name]
+        return found
+
+    def _place_blocks(self, text: str) -> None:
+        """Put the block functions that ``text`` calls into this mode's
+        namespace: the model's, compiled by the first mode that needed them
+        (a block's name is a hash of its text, so equal names are equal
+        functions), else compiled now from this mode's source."""
+        shared = self.model.library.side_block_functions
+        body = text[text.rindex('"""') + 3:]  # (the calls: after the docstring, which lists every output)
+        for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", body)):
+            if block in self._namespace:
+                continue
+            function = shared.get(block)
+            if function is None:
+                function = shared[block] = self._function(block)
+            self._namespace[block] = function
+
+    _phi = _Generated("phi")
+    _rates = _Generated("rates")
+    _sides = _Generated("sides")
+    _sides_raw = _Generated("sides_raw")
+    _jump = _Generated("jump")
+
+    def on_numpy(self, name: str):
+        """Generated function ``name`` run with numpy's math functions, whose
+        results are numpy scalars: where the ``math`` version raises (a
+        division by ``sqrt(0.0)``, an overflow) this one gives ``inf`` or
+        ``NaN`` (under ``np.errstate``) — the values the guard band and the
+        non-finite checks know how to handle."""
+        if self._on_numpy is None:
+            namespace = module_namespace(vectorized=True)
+            execute(self.source, namespace, self._where)
+            self._on_numpy = namespace
+        return self._on_numpy[name]
+
+    # ----------------------------------------------------------- evaluation
+
+    def complete(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Set the dependent entries of ``x`` (in place) from the independent ones."""
+        if len(self.dependent):
+            model = self.model
+            out = np.empty(len(self.dependent))
+            self._phi(x, t, model.parameter_array, model.input_values(t), out)
+            x[self.dependent] = out
+        return x
+
+    def rates(self, x: np.ndarray, t: float, out: np.ndarray | None = None) -> np.ndarray:
+        model = self.model
+        out = np.empty(self.n) if out is None else out
+        return self._rates(x, t, model.parameter_array, model.input_values(t), out)
+
+    def jump(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``x⁺ = g(x)`` (restitution included), exactly as the jump map gives it."""
+        x = np.asarray(x, dtype=float)
+        if self.jump_kind == "identity":
+            return x.copy()
+        if self.jump_kind == "symbolic":
+            return self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
+        return np.asarray(self.model.mode_equations(self.mode).numeric_jump(x, t), dtype=float)
+
+    def pulse(self, x: np.ndarray, x_plus: np.ndarray) -> np.ndarray:
+        """The jump ``x⁺ − x`` with round-off removed: components within
+        ``jump_rtol·(largest moved state) + jump_atol`` are no jump and carry
+        no Dirac pulse (the state itself still takes the exact ``x⁺``): the
+        rule :func:`switching.rules.jumps.jump_pulse`."""
+        x = np.asarray(x, dtype=float)
+        delta = np.empty(x.shape[0])
+        tol = self.model.tolerance
+        jump_pulse(x, np.asarray(x_plus, dtype=float), self.moved, len(self.moved), tol.jump_rtol, tol.jump_atol,
+                   delta)
+        return delta
+
+    def sides(self, x, t) -> np.ndarray:
+        """The comparison triples at ``x`` (a round-off scale may be ``inf``
+        where a derivative is, e.g. ``acos`` at ±1: the band then falls back
+        to the sides' own size, :func:`codegen.runtime.decide`)."""
+        model = self.model
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            try:
+                return self._sides(x, t, model.parameter_array, model.input_values(t), np.empty(self.n_sides))
+            except ArithmeticError:
+                return self.on_numpy("sides")(np.asarray(x, dtype=float), np.float64(t), model.parameter_array,
+                                              model.input_values(t), np.empty(self.n_sides))
+
+    def sides_impulsive(self, x, x_plus, t, pulses: bool = True) -> list:
+        """Comparison triples a posteriori: the sides on ``x_plus`` with the
+        pulses of ``x → x_plus`` (none with ``pulses=False``: a jump that
+        abstracts a continuous approach); as round-off scale the larger of
+        the scales on ``x`` and on ``x_plus`` (the jump's own round-off is of
+        the size of the terms it started from)."""
+        model = self.model
+        finite = self.rates(x_plus, t)
+        delta = self.pulse(x, x_plus) if pulses else np.zeros(self.n)
+        xdot = [Hyper(delta[k], finite[k]) for k in range(self.n)]
+        raw = self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
+        before, after = self.sides(x, t), self.sides(x_plus, t)
+        triples = []
+        for k in range(self.n_relations):
+            scale = _larger(before[3 * k + 2], after[3 * k + 2])
+            triples += [raw[2 * k], raw[2 * k + 1], scale]
+        return triples
+
+    def holds(self, x, t, rtol, atol) -> bool:
+        """Does any guard hold during flow at ``x`` (no jump)?"""
+        if not self.guards:
+            return False
+        sides = self.sides(x, t)
+        return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
+
+
+def _larger(a: float, b: float) -> float:
+    """The larger of two scales, ignoring a non-finite one (0 if both are)."""
+    a = a if math.isfinite(a) else 0.0
+    b = b if math.isfinite(b) else 0.0
+    return a if a > b else b
+
+
+def _count_rel(tree) -> int:
+    kind = tree[0]
+    if kind == "rel":
+        return 1
+    if kind in ("and", "or"):
+        return sum(_count_rel(t) for t in tree[1])
+    if kind == "not":
+        return _count_rel(tree[1])
+    return 0

@@ -1,0 +1,594 @@
+"""The hybrid model: a bond graph, local automata, parameters and an initial state.
+
+Example — an RC circuit whose switch opens when the capacitor is charged::
+
+    >>> from bondgraph import BondGraph, Se, R, C, One
+    >>> from switching import Automaton, HybridModel
+    >>> g = BondGraph("rc")
+    >>> sw = g.add(One("sw", controlled=True))
+    >>> _ = g.connect(Se("V", "V0"), sw)
+    >>> _ = g.connect(sw, R("R", "R"))
+    >>> _ = g.connect(sw, C("C", "C"))
+    >>> switch = Automaton("switch", {"closed": {"sw": True}, "open": {"sw": False}}, "closed")
+    >>> _ = switch.add_transition("closed", "open", "q_C >= 0.5*C*V0")
+    >>> model = HybridModel(g, [switch], {"V0": 1, "R": 1, "C": 1e-3})
+    >>> model.mode_equations("open").f[model.state("q_C")]
+    0
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+from dataclasses import dataclass
+from types import MappingProxyType
+from collections.abc import Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+import sympy as sp
+
+from bondgraph import BondGraph, t as TIME
+from bondgraph.errors import UnknownNameError
+from bondgraph.jump import JUMP_LAWS
+from bondgraph.law_switches import law_switches
+from bondgraph.symbols import rate_symbol
+
+from .automaton import Automaton
+from ..errors import ModelDefinitionError
+from . import definition
+from .definition import InMode
+from ..library.compiled import CompiledMode
+from ..library.mode_library import ModeLibrary
+from .modes import Mode, ModeEquations
+from .law_automata import branches_at, law_automaton
+from ..simulate.run_options import check_sensitivity_options
+from ..simulate.driver import check_option_names, simulate
+
+__all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Tolerances at an instant.
+
+    Guard comparisons use the band ``rtol·max(|lhs|, |rhs|, R) + atol``
+    (``<=`` includes it, ``<`` excludes it), where ``R = max(R(lhs), R(rhs))`` is
+    the comparison's round-off scale: the size of the terms that formed its
+    sides (:mod:`codegen.roundoff`; at an instant, a posteriori, the larger
+    of its values before and after the jump).  A difference that is zero up
+    to the round-off of those terms thus compares as zero, in any units,
+    while a small quantity of a small-scale model still counts.  A
+    comparison on the time alone (a clock, no state) has ``R = 0``: its
+    crossing is located to the round-off of ``t``, not ``rtol·R`` away
+    (:func:`switching.library.compiled.comparison_triples`).  A state
+    change at a jump smaller than ``jump_rtol·(largest moved state) +
+    jump_atol`` is round-off: it is no jump and carries no Dirac pulse.
+    ``atol`` and ``jump_atol`` are absolute, in the quantities' own units, and
+    0 by default: with the round-off scale no absolute part is needed, and one
+    would make decisions depend on the units (a current of 1e-15 A is 'zero'
+    in amperes and not in kiloamperes).  Set them only for a model whose
+    quantities of interest are all of one known size."""
+
+    rtol: float = 1e-13
+    atol: float = 0.0
+    jump_rtol: float = 1e-12
+    jump_atol: float = 0.0
+
+
+class InitialStateProjected(UserWarning):
+    """The given initial state violated the initial mode's constraints and was
+    projected onto them with the mode's jump map."""
+
+
+class HybridModel:
+    """A bond graph with controlled junctions driven by local automata.
+
+    The model is the definition (graph, automata, parameters, signals,
+    inputs) and its validation; what is derived and generated from it mode
+    by mode — equations, code, the code generator's memos, the fingerprint —
+    lives in its mode library, :attr:`library` (:mod:`switching.library.mode_library`),
+    whose methods the model's own (:meth:`mode_equations`,
+    :meth:`compiled_mode`, ...) call.
+
+    Parameters
+    ----------
+    graph : BondGraph
+    automata : sequence of Automaton
+        Every controlled junction is driven by exactly one automaton.
+    parameters : mapping name → number
+        A value for every parameter of the graph, the guards, the signals and
+        the restitution coefficients (all missing ones are listed at once).
+        Every value must be finite (NaN never is): :class:`~bondgraph.errors.ParameterValueError`
+        names the culprit otherwise.
+    initial_state : mapping name → number, optional
+        Initial values by state name; states not given start at 0.
+    signals : mapping name → expression, optional
+        Named signals (sympy expressions, or text parsed without executing
+        code) over states, bond variables (``e_<bond>``, ``f_<bond>``),
+        parameters, ``t`` and earlier signals.  States and bond variables are
+        signals by their own names too.
+    inputs : mapping name → callable(t), optional
+        Values of the graph's declared inputs.
+    tolerance : Tolerance, optional
+        Band for guard comparisons at an instant.
+    max_steps_per_instant : int
+        Cap on discrete steps in one instant (divergence of time otherwise).
+    jump_law : ``"conservation"`` (default) or ``"impulse balance"``
+        How the jump map ``g`` into a mode is derived (:mod:`bondgraph.jump`):
+        by conservation of state through the junction structure, every
+        source finite (the paper's law); or by integrating the mode's own
+        equations over the instant, so that a source modulated by a
+        constraint effort carries a pulse too — a Coulomb friction source
+        driven by the normal force then gives the Newton–Coulomb impact law
+        (tangential impulse ``−σ μ P_n``).  Both agree wherever no source
+        is modulated by a pulsed effort.
+    allow_infinite : iterable of parameter names, optional
+        Parameters that may be ``±inf`` where that is physical (a threshold
+        never reached, an open circuit's resistance).
+    """
+
+    def __init__(
+        self,
+        graph: BondGraph,
+        automata: Sequence[Automaton],
+        parameters: Mapping | None = None,
+        initial_state: Mapping | None = None,
+        signals: Mapping | None = None,
+        inputs: Mapping[str, Callable[[float], float]] | None = None,
+        name: str | None = None,
+        tolerance: Tolerance | None = None,
+        max_steps_per_instant: int = 1000,
+        jump_law: str = "conservation",
+        allow_infinite: Iterable[str] = (),
+    ):
+        if jump_law not in JUMP_LAWS:
+            raise ModelDefinitionError(f"unknown jump_law {jump_law!r}; choose one of: {', '.join(JUMP_LAWS)}")
+        self.jump_law = jump_law
+        graph.validate()
+        self.graph = graph
+        self.name = name or graph.name
+        #: the graph the modes are derived from: ``graph`` with each discontinuity of an element
+        #: law replaced by a branch symbol (:mod:`bondgraph.law_switches`)
+        self.derivation_graph, switches = law_switches(graph)
+        #: law switch name → :class:`bondgraph.law_switches.LawSwitch`; each drives the automaton of that name
+        self.law_switches = {sw.name: sw for sw in switches}
+        definition.check_law_switch_names(graph, self.law_switches, automata)
+        self.automata = tuple(automata) + tuple(law_automaton(sw) for sw in switches)
+        self._initial_branches_set = not switches
+        self._initial_mode = Mode(tuple(a.initial for a in self.automata), tuple(a.name for a in self.automata))
+        self.tolerance = tolerance or Tolerance()
+        self.max_steps_per_instant = int(max_steps_per_instant)
+        self.time = TIME
+        definition.check_automata(graph, self.automata)
+        self.states = tuple(graph.states)
+        self.state_index = {s: k for k, s in enumerate(self.states)}
+        self.rate_symbols = {s: sp.Symbol(f"d{s.name}/dt") for s in self.states}
+        self._names = definition.base_names(graph, self.states)
+        self._signals, self._cross = definition.parse_signals(self._names, signals or {})
+        self._guards = definition.parse_guards(self.automata, {**self._names, **self._signals}, self._signals)
+        self._inputs = definition.check_inputs(graph, inputs or {})
+        self._input_derivatives: dict = {}
+        self.parameter_symbols = definition.collect_parameters(self)
+        self.allow_infinite = frozenset(allow_infinite)
+        self.parameter_values = definition.parameter_values(self, parameters or {})
+        self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
+        self._initial_given = definition.initial_state(self.states, initial_state or {})
+        self._initial = None
+        #: the derived modes, generated functions and code-generation memos (:mod:`switching.library.mode_library`)
+        self.library = ModeLibrary(self)
+
+    # ------------------------------------------------------------ names and values
+
+    @property
+    def input_symbols(self) -> tuple:
+        """The declared inputs ``u``, then their rates ``du/dt`` (an input
+        that fixes dependent storage — a prescribed velocity driving a mass —
+        enters the equations with its derivative; see :meth:`input_values`)."""
+        inputs = tuple(self.graph.inputs.values())
+        return inputs + tuple(rate_symbol(u) for u in inputs)
+
+    def input_values(self, t: float) -> list:
+        """Values of :attr:`input_symbols` at ``t``: each input, then its
+        derivative — exact for an :class:`~switching.ExpressionInput` (the
+        expression differentiated), else a central difference of the input
+        function with step ``h = 6e-6·max(1, |t|)`` (relative error about
+        ``1e-10`` for a smooth input; one-sided where the function is not
+        defined before ``t``)."""
+        values = [float(self._inputs[name](t)) for name in self.graph.inputs]
+        if values:
+            values += [self._input_rate(name, t) for name in self.graph.inputs]
+        return values
+
+    def _input_rate(self, name: str, t: float) -> float:
+        fn = self._inputs[name]
+        rate = self._input_derivatives.get(name)
+        if rate is None and name not in self._input_derivatives:
+            rate = self._input_derivatives[name] = getattr(fn, "derivative", None)
+        if rate is not None:
+            return float(rate(t))
+        h = 6.0e-6 * max(1.0, abs(t))
+        try:
+            return (float(fn(t + h)) - float(fn(t - h))) / (2.0 * h)
+        except (ValueError, ArithmeticError):
+            return (float(fn(t + h)) - float(fn(t))) / h
+
+    def parameter_values_with_inputs(self, t: float) -> dict:
+        values = dict(self.parameter_values)
+        values.update(zip(self.input_symbols, self.input_values(t)))
+        return values
+
+    def state(self, name: str) -> sp.Symbol:
+        return self.graph.state(name)
+
+    @property
+    def signal_names(self) -> tuple:
+        """User signals, then states by name."""
+        return tuple(self._signals) + tuple(s.name for s in self.states)
+
+    @property
+    def signal_definitions(self) -> Mapping:
+        """User signal name → its parsed expression, in the order given (a signal taken in another mode
+        stands here as its own symbol; its definition is in :attr:`cross_signals`)."""
+        return MappingProxyType(self._signals)
+
+    @property
+    def cross_signals(self) -> Mapping:
+        """:class:`InMode` signal name → (its parsed expression, automaton → state it is taken in)."""
+        return MappingProxyType(self._cross)
+
+    @property
+    def guard_conditions(self) -> Mapping:
+        """(automaton name, transition) → (its parsed condition, its text), for every transition."""
+        return MappingProxyType(self._guards)
+
+    def signal_expression(self, name: str) -> sp.Expr:
+        """The defining expression of a named signal (state, bond variable or user signal)."""
+        if name in self._signals:
+            return self._signals[name]
+        if name in self._names and name != "t" and self._names[name] not in self.parameter_symbols:
+            return self._names[name]
+        raise UnknownNameError(
+            f"model {self.name!r} has no signal {name!r}; signals are: {', '.join(self.signal_names)} "
+            "and every bond's e_<bond>, f_<bond>",
+            name,
+        )
+
+    # ------------------------------------------------------------ modes
+
+    @property
+    def initial_mode(self) -> Mode:
+        """The automata's initial states; law switches (:mod:`switching.model.law_automata`)
+        on the side of their surface where the given initial state lies."""
+        if not self._initial_branches_set:
+            self._initial_branches_set = True
+            self._initial_mode = branches_at(self, self._initial_mode, self._initial_given, 0.0)
+        return self._initial_mode
+
+    def starting_mode(self, x, t: float, mode=None) -> Mode:
+        """The mode a run from ``(x, t)`` starts in: ``mode`` (default: the
+        initial mode) with every law switch set by the sign of its surface at
+        ``(x, t)`` (DESIGN: a law discontinuity is decided by the state, not
+        chosen); a mode given as a mapping or label that names a law switch
+        keeps that switch's state."""
+        named = set()
+        if mode is None:
+            base = self.initial_mode
+        else:
+            base = self.mode(mode)
+            if isinstance(mode, Mapping):
+                named = set(mode)
+            elif isinstance(mode, (str, tuple, Mode)):
+                named = set(self.law_switches)
+        if not self.law_switches or named >= set(self.law_switches):
+            return base
+        decided = branches_at(self, base, np.asarray(x, dtype=float), float(t))
+        keep = dict(zip(decided.automata, decided.states))
+        keep.update({name: base.state_of(name) for name in named if name in self.law_switches})
+        return self.mode(keep)
+
+    def mode(self, spec) -> Mode:
+        """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
+        or a mapping {automaton: state} (automata not named keep their initial state)."""
+        names = tuple(a.name for a in self.automata)
+        if isinstance(spec, Mode):
+            states = spec.states
+        elif isinstance(spec, str):
+            states = tuple(spec.split("|")) if spec else ()
+        elif isinstance(spec, Mapping):
+            unknown = set(spec) - set(names)
+            if unknown:
+                raise UnknownNameError(f"no automaton named {sorted(unknown)}; automata: {list(names)}")
+            states = tuple(spec.get(a.name, a.initial) for a in self.automata)
+        else:
+            states = tuple(spec)
+        if len(states) != len(self.automata):
+            raise UnknownNameError(
+                f"mode {spec!r} has {len(states)} state(s) but the model has {len(self.automata)} automata ({', '.join(names)})"
+            )
+        for automaton, state in zip(self.automata, states):
+            if state not in automaton.states:
+                raise UnknownNameError(
+                    f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
+                )
+        return Mode(states, names)
+
+    def configuration_of(self, mode: Mode) -> dict:
+        config = {}
+        for automaton, state in zip(self.automata, mode.states):
+            config.update(automaton.states[state])
+        return config
+
+    def mode_values(self, mode: Mode) -> dict:
+        """Mode-dependent constants set by the automaton states of ``mode`` (symbol → value)."""
+        values = {}
+        for automaton, state in zip(self.automata, mode.states):
+            for name, value in automaton.values.get(state, {}).items():
+                values[sp.Symbol(name)] = value
+        return values
+
+    def restitution_of(self, mode: Mode):
+        """The restitution coefficient of the mode (``None`` if no state carries one)."""
+        found = {}
+        for automaton, state in zip(self.automata, mode.states):
+            if state in automaton.restitution:
+                found[f"{automaton.name}={state}"] = automaton.restitution[state]
+        if not found:
+            return None
+        values = set(found.values())
+        if len(values) > 1:
+            raise ModelDefinitionError(
+                f"mode {mode.describe()} combines different restitution coefficients "
+                + ", ".join(f"{k}: e = {v}" for k, v in found.items())
+                + "; one jump cannot apply two; use one coefficient or separate the contacts",
+                list(found),
+            )
+        return values.pop()
+
+    @functools.cached_property
+    def state_names(self) -> tuple:
+        """The names of :attr:`states`, in order."""
+        return tuple(s.name for s in self.states)
+
+    @functools.cached_property
+    def automaton_index(self) -> dict:
+        """Automaton name → its position in :attr:`automata` (and in a mode's states)."""
+        return {automaton.name: k for k, automaton in enumerate(self.automata)}
+
+    def guards_from(self, mode: Mode) -> list:
+        """(automaton, transition, condition, text) of every transition leaving ``mode``."""
+        out = []
+        for automaton, state in zip(self.automata, mode.states):
+            for tr in automaton.transitions_from(state):
+                condition, text = self._guards[(automaton.name, tr)]
+                out.append((automaton.name, tr, condition, text))
+        return out
+
+    # ------------------------------------------------------------ the mode library (switching.library.mode_library)
+
+    def mode_equations(self, mode) -> ModeEquations:
+        """f, g, h and guards of one mode, derived on first request and cached
+        (:meth:`ModeLibrary.mode_equations`).  Asking for a mode never derives any other."""
+        return self.library.mode_equations(mode)
+
+    @property
+    def derived_modes(self) -> tuple:
+        return self.library.derived_modes
+
+    @property
+    def derivation_count(self) -> int:
+        """How many modes' equations the library has derived."""
+        return self.library.derivation_count
+
+    @property
+    def fingerprint(self) -> str:
+        """A hash of the model's symbolic definition (structure, laws, guards,
+        signals, parameter order) and the toolkit version: the disk-cache key
+        (:func:`switching.library.mode_library.definition_fingerprint`)."""
+        return self.library.fingerprint
+
+    @property
+    def cache(self):
+        """The disk cache of generated source (:class:`codegen.cache.SourceCache`) of the library."""
+        return self.library.cache
+
+    @cache.setter
+    def cache(self, cache) -> None:
+        self.library.cache = cache
+
+    def compiled_mode(self, mode) -> CompiledMode:
+        """The generated numerical functions of a mode: from memory, else from
+        the disk cache, else derived and generated now (and cached)."""
+        return self.library.compiled_mode(mode)
+
+    def signal_function(self, mode, names):
+        """Generated ``fn(x, t, p, u, out)`` giving the finite parts of the
+        named signals in one mode; ``x`` may be an ``(n, N)`` array of N
+        samples (numpy functions are used)."""
+        return self.library.signal_function(mode, names)
+
+    def export_module(self, path, modes="visited") -> list:
+        """Write the generated functions of several modes to one standalone
+        Python module that needs neither sympy nor this toolkit.
+
+        ``modes``: ``"visited"`` (those compiled so far), ``"reachable"``
+        (explored from the initial mode by :meth:`verify`), or a list.
+        Returns the mode labels written."""
+        return self.library.export_module(path, modes)
+
+    @property
+    def visited_modes(self) -> tuple:
+        """The modes whose numerical functions exist in this process (visited
+        by a simulation, resolution or verification so far)."""
+        return self.library.visited_modes
+
+    def compiled_model(self, modes="visited"):
+        """The numba module of this model for a set of modes, built once per
+        set (see :mod:`switching.library.jit_model`): ``"visited"`` (those with
+        generated functions so far, and the initial mode), ``"reachable"``
+        (explored from the initial mode by :meth:`verify`), or a list.  The
+        ``*-jit`` methods start from the visited set, which includes the
+        modes compiled before by any process sharing the disk cache
+        (remembered there; the set only grows); a mode first reached during
+        a run is resolved in Python at that instant, compiled, and run by the
+        kernel from its next call."""
+        return self.library.compiled_model(modes)
+
+    def mode_source(self, mode) -> str:
+        """The generated Python source of one mode's functions."""
+        return self.library.mode_source(mode)
+
+    def take_definition(self, other: HybridModel) -> None:
+        """Take ``other``'s definition — parameter values, initial state,
+        inputs, tolerances, every attribute — and keep this model's
+        :attr:`library` (its derived modes, generated code and memos, all of
+        which depend on the structure alone).  This is how a sweep shares one
+        library between the runs of one structure
+        (:func:`switching.sweep.batch.shared_model`); ``other`` must be of the same
+        type and fingerprint (:class:`ModelDefinitionError` otherwise).  This
+        model stays the same object: what refers to it (its compiled modes and
+        kernels) reads the new values."""
+        if type(other) is not type(self) or other.fingerprint != self.fingerprint:
+            raise ModelDefinitionError(
+                f"model {other.name!r} cannot take the place of {self.name!r} on its mode library: "
+                "a library is shared only by models of one type and fingerprint (one structure)", [other.name])
+        if other is self:
+            return
+        library = self.library
+        vars(self).clear()
+        vars(self).update(vars(other))
+        self.library = library
+
+    # ------------------------------------------------------------ initial state
+
+    @property
+    def given_initial_state(self) -> np.ndarray:
+        """The initial state as given (``initial_state=`` of the model, zeros
+        elsewhere), before any projection onto the initial mode's constraints."""
+        return self._initial_given.copy()
+
+    def initial_state(self) -> np.ndarray:
+        """The initial state vector, projected onto the initial mode's
+        constraints with its jump map (an :class:`InitialStateProjected`
+        warning says so when that changes it)."""
+        if self._initial is None:
+            x0 = self._initial_given
+            projected = np.asarray(self._project_initial(x0), dtype=float)
+            self.initial_projection = None
+            if not np.allclose(projected, x0, rtol=1e-12, atol=1e-14):
+                changed = [
+                    f"{s}: {a:.6g} → {b:.6g}" for s, a, b in zip(self.states, x0, projected) if not np.isclose(a, b)
+                ]
+                self.initial_projection = (x0.copy(), projected.copy())
+                warnings.warn(
+                    f"initial state violates the constraints of mode {self.initial_mode.describe()}; projected by "
+                    f"conservation of state: {', '.join(changed)}",
+                    InitialStateProjected,
+                    stacklevel=2,
+                )
+            self._initial = projected
+        return self._initial.copy()
+
+    def _project_initial(self, x0: np.ndarray) -> np.ndarray:
+        """``g(x0)`` of the initial mode's jump map (no restitution), at ``t = 0``.
+        Where the mode carries no restitution its generated jump function is
+        that map, so a process whose cache holds the mode's code derives
+        nothing; otherwise the symbolic map is used."""
+        mode = self.initial_mode
+        if self.restitution_of(mode) is None:
+            compiled = self.compiled_mode(mode)
+            if compiled.jump_kind in ("identity", "symbolic"):
+                return compiled.jump(np.asarray(x0, dtype=float), 0.0)
+        me = self.mode_equations(mode)
+        return me.jump.apply(x0, 0.0, self.parameter_values_with_inputs(0.0)) if not me.jump.is_identity else x0
+
+    # ------------------------------------------------------------ instants
+
+    def resolve(self, x, mode=None, t: float = 0.0, max_steps: int | None = None):
+        """Resolve the instant at time ``t`` from the a priori state ``x`` in
+        ``mode`` (default: the initial mode); returns an
+        :class:`~switching.simulate.resolution.Instant`.  See DESIGN §6."""
+        from ..simulate.resolution import resolve_instant
+
+        mode = self.initial_mode if mode is None else self.mode(mode)
+        return resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
+
+    def simulate(self, t_end: float, method: str = "RK45", **options):
+        """Simulate from the initial state (or ``x0=``) to ``t_end``; returns a
+        :class:`~switching.simulate.trajectory.Trajectory`.
+
+        ``method``: ``"euler"`` or ``"rk4"`` with step ``dt=``; ``"RK45"``,
+        ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
+        ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``);
+        ``"euler-jit"``, ``"rk4-jit"``, ``"RK45-jit"``: the same in one
+        compiled kernel (numba; compiled once per installation, each mode's
+        functions compiled on first use), see :meth:`compiled_model`
+        (``progress`` is then called at each return of the kernel, not at
+        every step; inputs must be expressions of ``t``, ExpressionInput);
+        ``"auto"``: ``"RK45-jit"`` when its compilation is cached or paid for
+        by the run's expected length, else ``"RK45"`` (``stats`` says which
+        and why).  Output:
+        every step (default), ``output="events"`` (instants only) or
+        ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
+        ``progress``: a callable receiving the time after every step.
+        ``keep_instants=False`` keeps neither the instants' records nor their
+        samples (only their count, ``trajectory.instant_count``, and the time
+        spent in each mode, ``time_in_modes()``): with ``t_eval`` or
+        ``output="events"`` the memory of a long run then stays bounded.
+        ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run.
+        ``max_steps`` (default 10 000 000) bounds the steps of a run: options
+        implying more (``(t_end − t0)/dt``, ``(t_end − t0)/max_step``), a
+        step below the resolution of ``t`` (``t + dt == t``), too many guard
+        samples or sample times are refused before anything runs
+        (:class:`~switching.errors.WorkLimitError`), and a run that takes
+        more steps stops with :class:`~switching.errors.StepLimitError`.
+        Every option is checked, its kind and bounds, before anything runs
+        (:mod:`switching.simulate.run_options` lists them with their units).
+        A failed run raises a :class:`~switching.errors.SimulationError`
+        carrying the trajectory computed so far (``error.trajectory``);
+        Ctrl-C raises :class:`~switching.errors.SimulationInterrupted`, a
+        ``KeyboardInterrupt`` that carries it too.  A flow that would start
+        from non-finite rates or guard sides (a zero inductance) raises
+        :class:`~switching.errors.NonFiniteStateError` naming them at once.
+        ``event_samples`` (default 3): guards are also tested at this many
+        interior points of every step, and searched between them (an
+        extremum of a comparison that comes within reach of its threshold,
+        two comparisons of one guard changing truth), so a guard holding only
+        briefly inside a step is still found — by the Python methods and the
+        ``*-jit`` kernels alike.
+        ``stiffness_check=False`` turns off the stiffness tests of the
+        explicit methods (the run then goes on whatever the stability of the
+        step; Python and compiled methods alike).
+        Discontinuous element laws (``sign``, ``Heaviside``, ``Piecewise``)
+        are law switches (:mod:`switching.model.law_automata`): their crossings are
+        located as events and a state held on a surface slides on it.
+        ``sensitivities=["e", "x0:y"]``: also the forward sensitivities
+        ``∂x/∂p`` of the run through its instants, with respect to model
+        parameters and (``x0:<state>``) initial states
+        (:mod:`switching.analysis.sensitivity`; ``sensitivity_rtol=``,
+        ``sensitivity_atol=`` set the tolerances of their integration,
+        default 1e-10 and 1e-12): ``trajectory.sensitivity(name, p)``,
+        ``trajectory.event_time_sensitivity(k, p)``.  Python methods only.
+        See :func:`switching.simulate.driver.simulate`.
+        """
+        check_option_names(options)
+        sensitivities = options.pop("sensitivities", None)
+        rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
+        check_sensitivity_options(sensitivities, rtol, atol)
+        if sensitivities is not None:
+            from ..analysis.sensitivity_run import simulate_with_sensitivities
+
+            return simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
+        return simulate(self, t_end, method, **options)
+
+    def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):
+        """Static divergence-of-time check from sampled states on each
+        reachable mode's guard boundaries; see :func:`switching.analysis.verify.verify`."""
+        from ..analysis.verify import verify
+
+        return verify(self, samples=samples, seed=seed, max_modes=max_modes, scale=scale)
+
+    def __repr__(self) -> str:
+        return (
+            f"HybridModel({self.name!r}, {len(self.states)} states, "
+            f"automata={[a.name for a in self.automata]}, derived modes={len(self.library.equations)})"
+        )

@@ -1,0 +1,274 @@
+"""Modes and their equations.
+
+A :class:`Mode` is the tuple of the current states of all local automata; it
+fixes the configuration of every controlled junction.  Its
+:class:`ModeEquations` bundle (derived lazily, once, on first request):
+
+* **f** — ``dx/dt = f(x, t)`` of the configuration (every state, dependent
+  ones by the chain rule);
+* **g** — the jump map into the mode, from conservation of state; with a
+  restitution coefficient ``e`` carried by one of the mode's automaton states,
+  ``x⁺ = x + (1 + e)(g(x) − x)``;
+* **h** — named signals, each as a *raw* expression of the states, ``t``,
+  parameters and state derivatives ``ẋ`` (:meth:`ModeEquations.signal`): its
+  finite part substitutes ``ẋ = f(x)``; its impulse at a jump ``x → x⁺`` is
+  ``a(x)ᵀ (x⁺ − x)`` with ``a = ∂s/∂ẋ``;
+* **guards** — the transitions leaving the mode's automaton states, with their
+  conditions in terms of raw signals.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from bondgraph.elements import C, I
+
+from .law_automata import SLIDING, expand_rates, sliding_values
+
+__all__ = ["Mode", "ModeEquations", "SignalForm", "GuardForm"]
+
+
+@dataclass(frozen=True)
+class Mode:
+    """The states of all automata, in the model's automaton order."""
+
+    states: tuple
+    automata: tuple = field(compare=False, hash=False)
+
+    @property
+    def label(self) -> str:
+        """A short readable label: the automaton states joined by ``|``."""
+        return "|".join(self.states)
+
+    def describe(self) -> str:
+        return ", ".join(f"{a}={s}" for a, s in zip(self.automata, self.states))
+
+    def state_of(self, automaton: str) -> str:
+        return self.states[self.automata.index(automaton)]
+
+    def __str__(self) -> str:
+        return self.label
+
+
+@dataclass(frozen=True)
+class SignalForm:
+    """A signal in one mode: ``raw`` (may contain ``ẋ`` symbols), ``finite``
+    (``ẋ = f(x)`` substituted) and ``impulse`` coefficients ``a_k = ∂raw/∂ẋ_k``
+    (state → expression; only non-zero ones are kept)."""
+
+    name: str
+    raw: sp.Expr
+    finite: sp.Expr
+    impulse: dict
+
+    @property
+    def can_pulse(self) -> bool:
+        return bool(self.impulse)
+
+
+@dataclass(frozen=True)
+class GuardForm:
+    """A transition leaving the mode, with its condition in raw signals."""
+
+    automaton: str
+    transition: object
+    condition: sp.Basic
+    text: str
+
+
+class ModeEquations:
+    """Everything derived for one mode (see the module docstring).
+
+    Attributes: ``mode``, ``configuration``, ``equations``
+    (:class:`bondgraph.ConfigurationEquations`), ``jump``
+    (:class:`bondgraph.JumpMap`), ``restitution`` (expression or ``None``),
+    ``guards`` (list of :class:`GuardForm`).
+    """
+
+    def __init__(self, model, mode: Mode):
+        self.model = model
+        self.mode = mode
+        self.configuration = model.configuration_of(mode)
+        graph = model.derivation_graph
+        self.values = model.mode_values(mode)
+        # a hybrid model is closed: declared ports are for composing it, not inputs of its modes
+        equations = graph.equations(self.configuration, open_ports=False)
+        self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
+        self.restitution = model.restitution_of(mode)
+        sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]
+        if sliding:  # σ of each sliding law switch from ṡ = 0 (switching.model.law_automata)
+            free = {sw.sigma for sw in sliding}
+            self.equations = equations.substituted({k: v for k, v in self.values.items() if k not in free})
+            self.states = self.equations.states
+            self._bond_values = self._raw_bond_values(graph)
+            self.free_rates = self.equations.rates
+            self.values.update(sliding_values(self, sliding, self.to_raw))
+        else:
+            self.free_rates = None
+        self.equations = equations.substituted(self.values)
+        self.states = self.equations.states
+        self._bond_values = self._raw_bond_values(graph)
+        #: ``dx/dt`` with the branches of sliding law switches still free (``f`` in other modes)
+        self.free_rates = self.free_rates or self.equations.rates
+        self.guards = [
+            GuardForm(auto, tr, self.to_raw(cond), text)
+            for auto, tr, cond, text in model.guards_from(mode)
+        ]
+        self._signals: dict[str, SignalForm] = {}
+        self._numeric_f = None
+
+    # ------------------------------------------------------------ symbolic
+
+    def _raw_bond_values(self, graph) -> dict:
+        """Bond symbol → raw expression in this mode.  A storage element's own
+        co-energy (I: flow, C: effort) is taken from its own state, so signals
+        evaluated a priori on a state off this mode's constraints see the
+        physical value (e.g. the velocity of each mass)."""
+        eq = self.equations
+        values = {}
+        for name, bond in graph.bonds.items():
+            values[bond.effort] = eq.efforts[name]
+            values[bond.flow] = eq.flows[name]
+        for el in graph.storage:
+            (bond,) = graph.bonds_of(el.name)
+            s = bond.sign_at(el.name)
+            if isinstance(el, I):
+                values[bond.flow] = s * el.output(el.state).xreplace(self.values)
+            elif isinstance(el, C):
+                values[bond.effort] = el.output(el.state).xreplace(self.values)
+        return values
+
+    def to_raw(self, expr: sp.Basic) -> sp.Basic:
+        """Replace bond variables in ``expr`` by this mode's raw expressions
+        (and signals taken in another mode by their expressions of ``x``)."""
+        free, has_rates = self.model.library.symbols_of(expr)
+        bonds, values, taken = self._bond_values, self.values, self.model.cross_signals
+        if not (has_rates or taken or any(s in bonds or s in values for s in free)):
+            return expr  # (a guard on states and parameters: every contact of a ball chain)
+        if taken:
+            cross = {s: self.model.library.cross_signal(self.mode, s.name, self) for s in free
+                     if s.name in taken and isinstance(s, sp.Symbol)}
+            if cross:
+                expr = expr.xreplace(cross)
+                free = expr.free_symbols
+        subs = {s: self._bond_values[s] for s in free if s in self._bond_values}
+        if subs:
+            expr = expr.xreplace(subs)
+        expr = expand_rates(expr, self, self.to_raw)  # branch symbols still free in the rates it forms
+        if not self.values:
+            return expr
+        values = {s: self.values[s] for s in expr.free_symbols if s in self.values}
+        return expr.xreplace(values) if values else expr
+
+    @property
+    def f(self) -> dict:
+        """``dx/dt`` for every state (the configuration's rates)."""
+        return self.equations.rates
+
+    @property
+    def g(self) -> dict | None:
+        """``x⁺`` for every state as expressions of ``x``, restitution
+        included; ``None`` when the storage is nonlinear (numerical jump)."""
+        base = self.jump.expressions
+        if base is None:
+            return None
+        if self.restitution is None:
+            return dict(base)
+        e = self.restitution
+        return {x: x if base[x] is x else x + (1 + e) * (base[x] - x) for x in self.states}
+
+    def finite(self, raw: sp.Expr) -> sp.Expr:
+        """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
+        rates = self._rates_by_symbol
+        subs = {s: rates[s] for s in self.model.library.symbols_of(raw)[0] if s in rates}
+        return raw.xreplace(subs) if subs else raw
+
+    @functools.cached_property
+    def _rates_by_symbol(self) -> dict:
+        """``ẋ`` symbol → ``f(x)``, built once per mode."""
+        return {self.equations.rate_symbols[x]: self.f[x] for x in self.states}
+
+    def signal(self, name: str) -> SignalForm:
+        """The form of a named signal in this mode (derived on first request)."""
+        if name not in self._signals:
+            raw = self.to_raw(self.model.signal_expression(name))
+            impulse = {}
+            for x in self.states:
+                rate = self.equations.rate_symbols[x]
+                if raw.has(rate):
+                    impulse[x] = sp.diff(raw, rate)
+            self._signals[name] = SignalForm(name, raw, self.finite(raw), impulse)
+        return self._signals[name]
+
+    def state_space(self, outputs=None, inputs=None):
+        """``A, B, C, D`` of this mode (with its constants substituted), as
+        :meth:`bondgraph.ConfigurationEquations.state_space`; outputs may also
+        name the model's signals."""
+        if outputs is not None and not isinstance(outputs, dict):
+            outputs = [outputs] if isinstance(outputs, (str, sp.Basic)) else outputs
+            outputs = {str(o): self.model.signal_expression(o) if isinstance(o, str) else o for o in outputs}
+        elif isinstance(outputs, dict):
+            outputs = {k: self.model.signal_expression(v) if isinstance(v, str) else v for k, v in outputs.items()}
+        return self.equations.state_space(outputs, inputs)
+
+    @property
+    def h(self) -> dict:
+        """Every named signal of the model in this mode."""
+        return {name: self.signal(name) for name in self.model.signal_names}
+
+    # ------------------------------------------------------------ numerical
+
+    def rates(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Numerical ``f(x, t)``."""
+        if self._numeric_f is None:
+            from codegen import vector_function
+
+            model = self.model
+            self._numeric_f = vector_function(
+                [self.f[s] for s in self.states], self.states, model.time, model.parameter_symbols, model.input_symbols
+            )
+        return self._numeric_f(x, t, self.model.parameter_array, self.model.input_values(t))
+
+    def apply_jump(self, x: np.ndarray, t: float) -> np.ndarray:
+        """Numerical ``x⁺ = g(x)`` into this mode, restitution included (the
+        symbolic-free path for nonlinear storage; generated code does the rest)."""
+        x = np.asarray(x, dtype=float)
+        if self.jump.is_identity:
+            return x.copy()
+        values = self.model.parameter_values_with_inputs(t)
+        plus = self.jump.apply(x, t, values)
+        if self.restitution is not None:
+            e = float(self.restitution.xreplace(values)) if self.restitution.free_symbols else float(self.restitution)
+            plus = x + (1.0 + e) * (plus - x)
+        return plus
+
+    numeric_jump = apply_jump
+
+    def __repr__(self) -> str:
+        return f"ModeEquations({self.mode.describe()})"
+
+    def pretty(self) -> str:
+        """A text listing of f, g (when symbolic), the guards and the constraints."""
+        lines = [f"mode {self.mode.describe()}", self.equations.pretty()]
+        g = self.g
+        if self.jump.is_identity:
+            lines.append("  g: identity (no dependent storage)")
+        elif g is None:
+            lines.append("  g: numerical (nonlinear storage)")
+        else:
+            lines.append("  g (x⁺ =):" + (f"  [restitution e = {self.restitution}]" if self.restitution is not None else ""))
+            for x in self.states:
+                if g[x] != x:
+                    lines.append(f"    {x}⁺ = {g[x]}")
+        if self.guards:
+            lines.append("  guards:")
+            for guard in self.guards:
+                tr = guard.transition
+                lines.append(f"    {guard.automaton}: {tr.source} → {tr.target} when {guard.text} ({tr.when})")
+        return "\n".join(lines)
+
+    __str__ = pretty

@@ -1,0 +1,366 @@
+"""Event detection on one step of a flow: the first time a guard holds.
+
+A guard is a boolean combination of comparisons; each comparison splits into
+one-sided *parts* (``==`` into two, ``!=`` into one that holds off the band)
+whose *margin* is ``sign·(left − right)`` measured against the tolerance
+band.  :class:`GuardScan` tests the guards at the step's end and at sample
+points inside it; between points it searches for a guard that holds only
+briefly — an extremum of a margin that comes within reach of its threshold
+(a parabola through three points, refined by Brent's method,
+:mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
+:func:`locate_event` bisects the step's interpolant down to adjacent
+floating-point numbers for the first time a guard holds.  The compiled
+kernel (:mod:`switching.simulate.kernel.loop`) ports the same search.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import weakref
+
+from ..rules.maximize import maximize_begin, maximize_next
+
+__all__ = ["GuardScan", "guard_parts", "locate_event"]
+
+_FLIPPED = {">=": "<", ">": "<=", "<=": ">", "<": ">=", "==": "!=", "!=": "=="}
+# one-sided parts of an (effective) comparison: (sign, inclusive); the part holds when
+# sign·(left − right) + (band if inclusive else −band) is ≥ 0 (inclusive) or > 0 (strict)
+_PARTS = {">=": ((1, True),), ">": ((1, False),), "<=": ((-1, True),), "<": ((-1, False),),
+          "==": ((1, True), (-1, True)), "!=": ((0, False),)}
+_OVERSHOOT = 3.0  # a sampled extremum is refined when 3× its predicted rise would reach the guard
+_GUARD_FORMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def guard_parts(trees) -> tuple[list, list, list, dict]:
+    """The guards' one-sided *parts* for event detection (see :class:`_GuardForm`).
+
+    Returns ``parts`` — ``(relation, sign, inclusive, guard)`` for every part,
+    a comparison under ``not`` counting reversed — each guard as an expression
+    of its parts' truths ``q[i]`` and as one of its comparisons' truths
+    ``r<k>``, and the operator of each comparison ``k``."""
+    parts, of_parts, of_relations, ops = [], [], [], {}
+
+    def walk(tree, positive, g):
+        kind = tree[0]
+        if kind in ("and", "or"):
+            pairs = [walk(sub, positive, g) for sub in tree[1]]
+            return tuple("(" + f" {kind} ".join(p[j] for p in pairs) + ")" for j in (0, 1))
+        if kind == "not":
+            q, r = walk(tree[1], not positive, g)
+            return f"(not {q})", f"(not {r})"
+        if kind == "const":
+            return repr(bool(tree[1])), repr(bool(tree[1]))
+        _, k, op, _text = tree
+        ops[k] = op
+        first = len(parts)
+        for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
+            parts.append((k, sign, inclusive, g))
+        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
+        return (f"({mine})" if positive else f"(not ({mine}))"), f"r{k}"
+
+    for g, tree in enumerate(trees):
+        q, r = walk(tree, True, g)
+        of_parts.append(q)
+        of_relations.append(r)
+    return parts, of_parts, of_relations, ops
+
+
+class _GuardForm:
+    """The guards of one compiled mode for event detection, as one generated
+    function ``evaluate(sides, rtol, atol) -> (margins, truths, holds)``:
+
+    * ``holds``: a guard holds, decided exactly as
+      :func:`codegen.runtime.decide` and :meth:`CompiledMode.holds` do;
+    * the *parts* of every comparison, one-sided, in the direction that can
+      make its guard hold (a comparison under ``not`` counts reversed; ``==``
+      has two parts, one per side of its band; ``!=`` one part, tracked but
+      never refined): ``margins`` — ``±(left − right) ± band``, ≥ 0
+      (inclusive) or > 0 (strict) exactly where the part holds — and
+      ``truths``."""
+
+    def __init__(self, cm):
+        parts, of_parts, terms, ops = guard_parts([guard["tree"] for guard in cm.guards])
+        self.parts = [(k, sign, inclusive) for k, sign, inclusive, _ in parts]  # (relation, sign, inclusive)
+        self.by_guard = [[i for i, part in enumerate(parts) if part[3] == g] for g in range(len(cm.guards))]
+        # each guard from its parts' truths (for possible(): which guards could hold)
+        self.guard_of_parts = [eval("lambda q: " + expression) for expression in of_parts]  # our own expressions
+        ops = [ops.get(k) for k in range(cm.n_relations)]
+        truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
+                 "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
+        lines = ["def evaluate(s, rtol, atol):"]
+        for k, op in enumerate(ops):
+            if op is None:
+                continue
+            lines.append(f"    left = s[{3 * k}]; right = s[{3 * k + 1}]; d{k} = left - right; left = abs(left); "
+                         f"right = abs(right); scale = right if right > left else left")  # = max(|left|, |right|)
+            # the round-off scale widens the band when finite (codegen.runtime.decide)
+            lines.append(f"    r = s[{3 * k + 2}]; scale = r if scale < r < INF else scale")
+            lines.append(f"    b{k} = rtol * scale + atol if scale < INF else 0.0")  # band 0 if scale is not finite
+            lines.append(f"    r{k} = " + truth[op].format(k=k))
+        margins, truths = [], []
+        for i, (k, sign, inclusive) in enumerate(self.parts):
+            if sign:
+                lines.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} {'+' if inclusive else '-'} b{k}")
+                margins.append(f"m{i}")
+                truths.append(f"m{i} {'>=' if inclusive else '>'} 0.0")
+            else:
+                margins.append("None")
+                truths.append(f"abs(d{k}) > b{k}")
+        lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
+                     f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
+        namespace = {"INF": math.inf}
+        exec("\n".join(lines), namespace)  # our own code, built from the guard trees
+        self.evaluate = namespace["evaluate"]
+        self.source = "\n".join(lines)
+        self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+
+    @classmethod
+    def of(cls, cm):
+        form = _GUARD_FORMS.get(cm)
+        if form is None:
+            form = _GUARD_FORMS[cm] = cls(cm)
+        return form
+
+
+class _Point:
+    """The guards at one time: ``margins`` of the parts, their ``truths``,
+    and whether a guard ``holds`` (exactly as :meth:`CompiledMode.holds`)."""
+
+    __slots__ = ("tau", "margins", "truths", "holds")
+
+    def __init__(self, tau, margins, truths, holds):
+        self.tau, self.margins, self.truths, self.holds = tau, margins, truths, holds
+
+
+class GuardScan:
+    """Event detection over the steps of one flow.
+
+    Per step the guards are evaluated at ``samples`` interior points and the
+    end, as the comparisons' values (the points).  Besides a guard holding at
+    a point, two things inside a step are looked for between the points:
+
+    * a comparison's difference with an extremum between points that comes
+      within reach of its threshold (a parabola through three points, the
+      previous step's last one included, predicts the extremum): the
+      extremum is refined (Brent's method on the step's interpolant) and
+      becomes a point;
+    * two or more comparisons of one guard changing their truth value
+      between two points: each change is located by bisection and the guards
+      are tested just after each one, so a guard that holds only between
+      them is seen.
+
+    ``first_hold`` returns the first pair ``(a, b)`` of times with no guard
+    holding at ``a`` and one holding at ``b`` (for :func:`locate_event`)."""
+
+    def __init__(self, cm, sides, stepper, state_at, t0, x0, rtol, atol, samples):
+        self.cm, self.stepper, self.state_at = cm, stepper, state_at
+        self.rtol, self.atol, self.samples = rtol, atol, samples
+        self.form = _GuardForm.of(cm)
+        self.sides = sides  # sides(x, t): the guards' comparison sides, a list of floats
+        self.start = self.point(t0, x0)
+        self.before = None  # the previous step's last point before its end
+
+    # ------------------------------------------------------------ evaluation
+
+    def state(self, tau):
+        return self.state_at(tau, self.stepper.interpolate(tau))
+
+    def point(self, tau, x=None) -> _Point:
+        sides = self.sides(self.state(tau) if x is None else x, tau)
+        return _Point(tau, *self.form.evaluate(sides, self.rtol, self.atol))
+
+    def margin(self, i, tau) -> float:
+        """The margin of part ``i`` at ``tau``."""
+        return self.form.evaluate(self.sides(self.state(tau), tau), self.rtol, self.atol)[0][i]
+
+    # ------------------------------------------------------------ the step
+
+    def first_hold(self, t_prev, t_new, x_new):
+        n = self.samples
+        h = t_new - t_prev
+        points = [self.start]
+        for j in range(1, n + 1):
+            tau = t_prev + h * j / (n + 1)
+            if points[-1].tau < tau < t_new:  # a step of a few ulps has fewer distinct points
+                points.append(self.point(tau))
+        end = self.point(t_new, x_new)
+        points.append(end)
+        last = next((i for i in range(1, len(points)) if points[i].holds), None)
+        extra = self.extrema(points, last, t_prev, t_new)
+        if extra:
+            points = sorted(points + extra, key=lambda point: point.tau)
+        for i in range(1, len(points)):
+            a, b = points[i - 1], points[i]
+            if b.holds:  # the first hold in (a, b]; then a hold between the changes before it?
+                lo, tau = self.locate(a, b)
+                inside = self.pieces(a, lo) if lo is not a else None
+                if inside is not None:
+                    lo, tau = self.locate(a, inside)
+                return self.verified(a, b, lo, tau)
+            inside = self.pieces(a, b)
+            if inside is not None:
+                return self.verified(a, inside, *self.locate(a, inside))
+        self.before, self.start = points[-2], end
+        return None
+
+    def locate(self, a, b):
+        """``(lo, tau)``: bisection of ``(a, b]`` (``a`` a point where no guard
+        holds, ``b`` one where one does) down to adjacent floating-point
+        numbers, ``lo`` the last point seen not holding — as :func:`locate_event`."""
+        lo, hi = a, b.tau
+        for _ in range(200):
+            mid = 0.5 * (lo.tau + hi)
+            if mid <= lo.tau or mid >= hi:
+                break
+            point = self.point(mid)
+            if point.holds:
+                hi = mid
+            else:
+                lo = point
+        return lo, hi
+
+    def verified(self, a, b, lo, tau):
+        """The bracket ``(lo, tau)`` for :func:`locate_event`, ``tau`` checked with
+        ``CompiledMode.holds`` itself (else the plain bracket ``(a, b)``)."""
+        if self.cm.holds(self.state(tau), tau, self.rtol, self.atol):
+            return lo.tau, tau
+        return a.tau, b.tau
+
+    def extrema(self, points, last, t_prev, t_new) -> list:
+        """Points at refined extrema of the parts' margins (see the class)."""
+        first = 0 if self.before is None else 1  # the index of t_prev in ``extended``
+        extended = ([] if self.before is None else [self.before]) + points[: len(points) if last is None else last + 1]
+        count = len(extended)
+        if count < 3:
+            return []
+        taus = [point.tau for point in extended]
+        columns = list(zip(*[point.margins for point in extended]))
+        found = []
+        for i in self.form.tracked:
+            m = columns[i]
+            top, bottom = max(m), min(m)
+            if bottom > 0.0 or top + (1.0 + _OVERSHOOT) * (top - bottom) < 0.0:
+                continue  # holds all along, or far from its threshold all along
+            for j in range(first, count):
+                if extended[j].truths[i]:
+                    continue
+                if 0 < j < count - 1:
+                    if not (m[j] >= m[j - 1] and m[j] >= m[j + 1]):
+                        continue
+                    triple, low, high, window = (j - 1, j, j + 1), taus[j - 1], taus[j + 1], None
+                elif j == count - 1 and last is None and m[j] > m[j - 1]:  # rising at the step's end
+                    triple, low, high = (j - 2, j - 1, j), taus[j - 1], taus[j]
+                    window = (taus[j - 1], 2 * taus[j] - taus[j - 1])
+                elif j == 0 and m[0] > m[1]:  # falling from the flow's start
+                    triple, low, high = (0, 1, 2), taus[0], taus[1]
+                    window = (2 * taus[0] - taus[1], taus[1])
+                else:
+                    continue
+                peak = _parabola_peak([taus[k] for k in triple], [m[k] for k in triple])
+                if peak is None:
+                    continue
+                at, value = peak
+                reference = max(m[k] for k in triple)
+                if window is not None and not window[0] < at < window[1]:
+                    continue
+                if value + _OVERSHOOT * (value - reference) < 0.0:
+                    continue
+                low, high = max(low, t_prev), min(high, t_new)
+                if not high > low:
+                    continue
+                tau = _peak(functools.partial(self.margin, i), low, high)
+                if all(tau != point.tau for point in extended + found):
+                    found.append(self.point(tau))
+        return found
+
+    def pieces(self, a, b):
+        """A point inside ``(a, b)`` where a guard holds although it holds at
+        neither end, found from comparisons changing truth in between."""
+        if a.truths == b.truths:
+            return None
+        changed = set()
+        for g, mine in enumerate(self.form.by_guard):
+            switching = [i for i in mine if a.truths[i] != b.truths[i]]
+            if len(switching) >= 2 and self.possible(g, a.truths, switching):
+                changed.update(switching)
+        if not changed:
+            return None
+        times = sorted({self.switch(i, a, b) for i in changed})
+        for tau in times:
+            if tau < b.tau:
+                point = self.point(tau)
+                if point.holds:
+                    return point
+        return None
+
+    def possible(self, g, truths, switching) -> bool:
+        """Can guard ``g`` hold for some truth values of the ``switching``
+        parts, the others as in ``truths``?"""
+        guard = self.form.guard_of_parts[g]
+        q = list(truths)
+        for combination in range(1 << len(switching)):
+            for bit, i in enumerate(switching):
+                q[i] = bool(combination >> bit & 1)
+            if guard(q):
+                return True
+        return False
+
+    def switch(self, i, a, b) -> float:
+        """The first time after which part ``i`` has its truth value at ``b``
+        (bisection to adjacent floating-point numbers)."""
+        _, sign, inclusive = self.form.parts[i]
+        lo, hi, truth_lo = a.tau, b.tau, a.truths[i]
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            if sign:
+                margin = self.margin(i, mid)
+                truth = margin >= 0.0 if inclusive else margin > 0.0
+            else:
+                truth = self.point(mid).truths[i]
+            if truth == truth_lo:
+                lo = mid
+            else:
+                hi = mid
+        return hi
+
+
+def _parabola_peak(t, m):
+    """``(time, value)`` of the maximum of the parabola through three points,
+    ``None`` if it is not concave."""
+    if not t[0] < t[1] < t[2]:
+        return None
+    d1 = (m[1] - m[0]) / (t[1] - t[0])
+    d2 = (m[2] - m[1]) / (t[2] - t[1])
+    curvature = (d2 - d1) / (t[2] - t[0])
+    if not curvature < 0.0:
+        return None
+    at = 0.5 * (t[0] + t[1]) - d1 / (2 * curvature)
+    return at, m[0] + d1 * (at - t[0]) + curvature * (at - t[0]) * (at - t[1])
+
+
+def _peak(f, a, b) -> float:
+    """A maximum of ``f`` on ``[a, b]``, or the first point found where
+    ``f ≥ 0`` (the part holds): the rule
+    :mod:`switching.rules.maximize` (Brent's method) evaluating ``f``."""
+    state = maximize_begin(a, b)
+    done = False
+    while not done:
+        done, state = maximize_next(state, f(state[-1]))
+    return state[-1]
+
+
+def locate_event(cm, stepper, state_at, a, b, rtol, atol) -> float:
+    """The first time in ``(a, b]`` at which a guard holds on the interpolant
+    (bisection down to adjacent floating-point numbers)."""
+    for _ in range(200):
+        mid = 0.5 * (a + b)
+        if mid <= a or mid >= b:
+            break
+        if cm.holds(state_at(mid, stepper.interpolate(mid)), mid, rtol, atol):
+            b = mid
+        else:
+            a = mid
+    return b

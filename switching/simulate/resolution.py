@@ -1,0 +1,425 @@
+"""Mode resolution at an instant (the paper's selMode, Eq. 11, Alg. 1–2; DESIGN §6).
+
+From an a priori state ``x`` in mode α:
+
+1. evaluate the guards of the current candidate mode β on ``(x, x⁺)`` with
+   ``x⁺ = g_β(x)`` — always from the a priori ``x`` of the last real mode;
+   a priori guards see ``x``, a posteriori guards see ``x⁺`` and the impulses
+   of the jump ``x → x⁺``;
+2. if some hold, every automaton with a holding guard steps (the first of
+   its holding transitions, in the order they were added) and β was
+   *mythical*; a mode repeating in one mythical chain is a divergence of time;
+3. if none holds, β is real: ``x ← x⁺``.  If a guard now holds on the updated
+   ``x`` (with ``x⁺ = x``), β was a *pinnacle* and resolution continues;
+   otherwise β is *continuous* and the instant ends.  A repeated
+   (mode, x) pair among pinnacles, or more steps than the cap, is an error.
+
+A candidate reached only by transitions marked ``pulses=False`` (a jump that
+abstracts a continuous approach) judges its a posteriori guards without the
+jump's Dirac pulses.  Where no pulse is involved — the mode the instant began
+in when its own jump is round-off, and the check after a real jump — guards
+are decided on the finite sides exactly as event detection decides them in
+flow, so a located crossing holds, and a mode found continuous flows without
+a guard holding at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from codegen.runtime import PulseError
+
+from ..model.automaton import A_POSTERIORI
+from ..library.compiled import decide_tree
+from ..errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
+from ..model.modes import Mode
+
+__all__ = ["Instant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
+
+
+@dataclass(frozen=True)
+class FiredGuard:
+    """A transition whose guard held, with the values of its comparisons."""
+
+    automaton: str
+    source: str
+    target: str
+    guard: str
+    when: str
+    comparisons: tuple  # codegen.runtime.Comparison: text, left, right, result, band, margin
+    pulses: bool = True  # False: the transition's jump abstracts a continuous approach (no Dirac pulses)
+
+    @property
+    def near_edge(self) -> list:
+        """The comparisons decided within :data:`EDGE_ULPS` units in the last
+        place of their band's edge: round-off could have flipped them."""
+        return [c for c in self.comparisons if c.edge_ulps <= EDGE_ULPS]
+
+    def __str__(self) -> str:
+        values = "; ".join(f"{text}: {left} vs {right} → {result}" for text, left, right, result in self.comparisons)
+        return f"{self.automaton}: {self.source} → {self.target} [{self.guard}] ({self.when}; {values})"
+
+
+@dataclass(frozen=True)
+class Step:
+    """One mode passed at an instant.
+
+    ``kind``: ``"start"`` (the mode the instant began in, left without a
+    jump), ``"mythical"``, ``"pinnacle"`` or ``"continuous"``.  ``x_before`` /
+    ``x_after``: the state on entering and leaving the mode (equal unless it
+    was real and jumped); ``fired``: the guards that made it leave.
+    """
+
+    mode: Mode
+    kind: str
+    x_before: np.ndarray = field(repr=False)
+    x_after: np.ndarray = field(repr=False)
+    fired: tuple = ()
+
+    @property
+    def jumped(self) -> bool:
+        return not np.array_equal(self.x_before, self.x_after)
+
+    def __str__(self) -> str:
+        text = f"{self.mode.label} ({self.kind})"
+        if self.fired:
+            text += " --" + "; ".join(str(f) for f in self.fired) + "-->"
+        return text
+
+
+@dataclass
+class Instant:
+    """The record of one instant: every mode passed, with kinds and states."""
+
+    t: float
+    steps: list
+    model: object = field(repr=False, default=None)
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["model"] = None  # pickled without the model (generated functions do not pickle)
+        return state
+
+    @property
+    def x_before(self) -> np.ndarray:
+        return self.steps[0].x_before
+
+    @property
+    def x_after(self) -> np.ndarray:
+        return self.steps[-1].x_after
+
+    @property
+    def mode_before(self) -> Mode:
+        return self.steps[0].mode
+
+    @property
+    def mode_after(self) -> Mode:
+        return self.steps[-1].mode
+
+    @property
+    def modes(self) -> list:
+        return [s.mode for s in self.steps]
+
+    @property
+    def kinds(self) -> list:
+        return [s.kind for s in self.steps]
+
+    @property
+    def mythical(self) -> list:
+        return [s.mode for s in self.steps if s.kind == "mythical"]
+
+    @property
+    def pinnacles(self) -> list:
+        return [s.mode for s in self.steps if s.kind == "pinnacle"]
+
+    @property
+    def real_steps(self) -> list:
+        return [s for s in self.steps if s.kind in ("pinnacle", "continuous") and s.jumped]
+
+    def impulse(self, signal: str) -> float:
+        """Total impulse area of a named signal over the instant's jumps:
+        ``Σ a_β(x)ᵀ(x⁺ − x)`` over the real steps (``a = ∂s/∂ẋ`` in the mode jumped into)."""
+        total = 0.0
+        for step in self.real_steps:
+            total += impulse_area(self.model, step.mode, signal, step.x_before, step.x_after, self.t)
+        return total
+
+    def __str__(self) -> str:
+        lines = [f"instant at t = {self.t:.12g}:"]
+        for step in self.steps:
+            lines.append(f"  {step.mode.describe()}  [{step.kind}]")
+            for fired in step.fired:
+                lines.append(f"      fired {fired}")
+            if step.jumped:
+                changes = ", ".join(
+                    f"{s}: {a:.6g} → {b:.6g}"
+                    for s, a, b in zip(self.model.states, step.x_before, step.x_after)
+                    if a != b
+                )
+                lines.append(f"      jump {changes}")
+        return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ guards
+
+
+def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_in_flow: bool = False,
+                    pulses: bool = True) -> list:
+    """The first holding transition of each automaton in compiled mode ``cm``.
+
+    A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
+    with the impulses of the jump ``x → x_plus``.  ``as_in_flow``: every
+    guard on the finite sides at ``x``, exactly as event detection tests
+    them during flow (for an instant whose jump carries no pulse, so that a
+    located event is seen to hold by the same arithmetic that located it).
+    ``pulses=False``: a posteriori guards see the finite values only (the
+    mode was entered by transitions whose jump abstracts a continuous
+    approach, :meth:`Automaton.add_transition`)."""
+    fired = []
+    done = set()
+    prior = post = None
+    if as_in_flow:
+        prior = post = cm.sides(x, t)
+    rtol, atol = model.tolerance.rtol, model.tolerance.atol
+    for guard in cm.guards:
+        if guard["automaton"] in done:
+            continue
+        if guard["when"] == A_POSTERIORI:
+            if post is None:
+                try:
+                    post = cm.sides_impulsive(x, x_plus, t, pulses)
+                except PulseError as exc:
+                    raise ImpulseError(
+                        f"a guard of mode {cm.mode.describe()} at t = {t:.12g} combines pulses wrongly: {exc}"
+                    ) from None
+            sides = post
+        else:
+            if prior is None:
+                prior = cm.sides(x, t)
+            sides = prior
+        if decide_tree(guard["tree"], sides, rtol, atol):
+            comparisons: list = []  # the figures of a guard that fired, for the record (decided alike again)
+            decide_tree(guard["tree"], sides, rtol, atol, comparisons)
+            done.add(guard["automaton"])
+            fired.append(
+                FiredGuard(guard["automaton"], guard["source"], guard["target"], guard["text"], guard["when"],
+                           tuple(comparisons), guard.get("pulses", True))
+            )
+    return fired
+
+
+def impulse_area(model, mode: Mode, signal: str, x: np.ndarray, x_plus: np.ndarray, t: float) -> float:
+    """``a(x)ᵀ(x⁺ − x)`` of ``signal`` in ``mode`` (``a = ∂s/∂ẋ``)."""
+    from codegen import vector_function
+
+    me = model.mode_equations(mode)
+    form = me.signal(signal)
+    if not form.impulse:
+        return 0.0
+    states = list(form.impulse)
+    coefficients = vector_function([form.impulse[s] for s in states], model.states, model.time,
+                                   model.parameter_symbols, model.input_symbols)
+    a = coefficients(x, t, model.parameter_array, model.input_values(t))
+    idx = [model.state_index[s] for s in states]
+    return float(np.dot(a, (x_plus - x)[idx]))
+
+
+# ------------------------------------------------------------------ resolution
+
+
+def _next_mode(model, mode: Mode, fired: list) -> Mode:
+    states = list(mode.states)
+    names = list(mode.automata)
+    for f in fired:
+        states[names.index(f.automaton)] = f.target
+    return Mode(tuple(states), mode.automata)
+
+
+#: a comparison decided within this many units in the last place of its band's edge is
+#: reported as possibly decided by round-off (divergence-of-time messages)
+EDGE_ULPS = 64
+#: near-edge comparisons listed in a divergence-of-time message
+SHOWN_NEAR = 1
+#: steps shown at the start and at the end of a long loop in an error message
+SHOWN_FIRST, SHOWN_LAST = 3, 3
+#: states listed by name and value when a pinnacle repeats a state
+SHOWN_STATES = 16
+
+_ADVICE = (
+    "Make the guards leave only one mode consistent with each state (e.g. add a threshold such as "
+    "a separating-velocity condition or a holding current below the actual one), or model the "
+    "fast dynamics continuously."
+)
+
+
+def _step_lines(numbered) -> list:
+    """Lines for ``(number, step)`` pairs: all of them if few, else the first
+    :data:`SHOWN_FIRST` and last :data:`SHOWN_LAST` with the count left out
+    between (the exception's ``loop`` keeps every step)."""
+    numbered = list(numbered)
+    if len(numbered) > SHOWN_FIRST + SHOWN_LAST + 1:
+        left_out = len(numbered) - SHOWN_FIRST - SHOWN_LAST
+        shown = numbered[:SHOWN_FIRST] + [None] + numbered[-SHOWN_LAST:]
+    else:
+        left_out, shown = 0, numbered
+    lines = []
+    for item in shown:
+        if item is None:
+            lines.append(f"  … {left_out} more steps …")
+            continue
+        number, step = item
+        lines.append(f"  step {number}: {step.mode.describe()} [{step.kind}]")
+        for f in step.fired:
+            lines.append(f"      fired {f}")
+    return lines
+
+
+def _state_text(model, x: np.ndarray) -> str:
+    """``name = value`` for the states of ``x`` (the first :data:`SHOWN_STATES`)."""
+    pairs = [f"{s} = {v:.12g}" for s, v in zip(model.states, x)]
+    if len(pairs) > SHOWN_STATES:
+        pairs = pairs[:SHOWN_STATES] + [f"… {len(pairs) - SHOWN_STATES} more states"]
+    return ", ".join(pairs)
+
+
+def _roundoff_lines(numbered) -> list:
+    """Whether any guard of the loop was decided within :data:`EDGE_ULPS`
+    ulps of its band's edge (round-off could have decided it) or all with
+    room to spare (the loop is in the guards and the physics)."""
+    near = [(number, f, c) for number, step in numbered for f in step.fired for c in f.near_edge]
+    if not near:
+        return [f"Round-off: none; every comparison in the loop was decided more than {EDGE_ULPS} ulps from the "
+                "edge of its band, so the loop is in the model's guards and physics."]
+    lines = [f"Round-off: possibly; {len(near)} comparison(s) in the loop were decided within {EDGE_ULPS} ulps of the "
+             "edge of their band (a located crossing sits there; otherwise rerun with a wider "
+             "Tolerance(rtol=...) to tell), e.g.:"]
+    for number, fired, c in near[:SHOWN_NEAR]:
+        lines.append(f"      step {number}, {fired.automaton}: {c.text}: {c.left} vs {c.right} "
+                     f"(band {c.band:.3g}, {c.edge_ulps:.0f} ulps from its edge)")
+    return lines
+
+
+def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
+    """The divergence-of-time message: what repeats, the steps (numbered as
+    in the instant, long loops shortened), ``detail`` lines, whether
+    round-off decided a guard of the loop, ``advice``."""
+    numbered = list(numbered)
+    lines = [f"divergence of time at t = {t:.12g}: {kind_text}; the loop:"]
+    lines += _step_lines(numbered)
+    lines += list(detail)
+    lines += _roundoff_lines(numbered)
+    lines.append(advice)
+    return "\n".join(lines)
+
+
+def _pinnacle_repeat_message(model, t, steps, first: int, x: np.ndarray) -> str:
+    """Pinnacle ``steps[-1]`` came back to the state it had at ``steps[first]``."""
+    last = len(steps) - 1
+    mode = steps[-1].mode
+    numbered = [(k + 1, s) for k, s in enumerate(steps) if s.kind == "pinnacle"]
+    cycle = sum(1 for s in steps[first + 1 :] if s.kind == "pinnacle")
+    detail = [
+        f"Repeating: mode {mode.describe()} at step {last + 1} has the state it had at step {first + 1} "
+        f"(equal within a relative 1e-12), so the {cycle} pinnacle(s) of steps {first + 2}–{last + 1} would repeat "
+        f"for ever; the state: {_state_text(model, x)}.",
+    ]
+    return _loop_message(
+        t, numbered, f"pinnacle {mode.describe()} repeats with the same state after {len(numbered)} pinnacles",
+        detail,
+    )
+
+
+def _too_many_message(model, t, steps, max_steps: int) -> str:
+    lines = [
+        f"at t = {t:.12g}: more than {max_steps} discrete steps at one instant in model {model.name!r} "
+        "(no mode or state repeated, but possibly a divergence of time); the steps:"
+    ]
+    lines += _step_lines((k + 1, s) for k, s in enumerate(steps))
+    x = steps[-1].x_after if steps else None
+    if x is not None:
+        lines.append(f"The state after step {len(steps)}: {_state_text(model, x)}.")
+    raise_it = (
+        f"HybridModel(..., max_steps_per_instant={10 * max_steps}) or model.max_steps_per_instant = {10 * max_steps} "
+        "before simulating"
+    )
+    if max_steps != getattr(model, "max_steps_per_instant", max_steps):
+        raise_it = f"the max_steps= argument of resolve (the model's own cap is {model.max_steps_per_instant})"
+    lines.append(
+        f"If the instant is meant to be this long (e.g. a light ball rattling between heavy ones), raise the cap "
+        f"(now {max_steps}): {raise_it}. Otherwise " + _ADVICE[0].lower() + _ADVICE[1:]
+    )
+    return "\n".join(lines)
+
+
+def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) -> Instant:
+    """Resolve the instant at ``t`` from a priori ``x`` in ``mode``; see the module docstring."""
+    x = np.array(x, dtype=float)
+    steps: list[Step] = []
+    instant = Instant(t, steps, model)
+    chain = [mode]
+    chain_start = 0  # index in `steps` where the current mythical chain began
+    pinnacles: dict[Mode, list] = {}  # (step index, state) of each pass of each pinnacle mode
+    current = mode
+    pulses = True  # False while the candidate was reached only by transitions marked pulses=False
+    for n in range(max_steps):
+        cm = model.compiled_mode(current)
+        x_plus = cm.jump(x, t)
+        # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
+        # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
+        quiet_start = n == 0 and not np.any(cm.pulse(x, x_plus))
+        fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet_start, pulses=pulses)
+        if fired:
+            kind = "start" if quiet_start else "mythical"
+            steps.append(Step(current, kind, x, x, tuple(fired)))
+            nxt = _next_mode(model, current, fired)
+            if nxt in chain:
+                first = chain.index(nxt)
+                loop = steps[chain_start + first :]
+                numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
+                raise DivergenceOfTimeError(
+                    _loop_message(t, numbered, f"mode {nxt.describe()} repeats in a chain of mythical modes"),
+                    loop=loop,
+                    instant=instant,
+                )
+            chain.append(nxt)
+            current = nxt
+            pulses = any(f.pulses for f in fired)
+            continue
+        x_before, x = x, x_plus
+        if not np.all(np.isfinite(x)):
+            from bondgraph.errors import HybridBondGraphError
+
+            raise HybridBondGraphError(
+                f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
+                + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
+            )
+        # no jump from here: every guard is decided as flow will decide it
+        fired = evaluate_guards(model, cm, x, x, t, as_in_flow=True)
+        if fired:
+            # a loop of pinnacles repeats a state: compare with this mode's recent passes
+            # (bounded work per pinnacle; longer cycles end at the step cap)
+            for other_index, other_x in pinnacles.get(current, ())[-64:]:
+                if np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
+                    steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
+                    loop = [s for s in steps if s.kind == "pinnacle"]
+                    raise DivergenceOfTimeError(
+                        _pinnacle_repeat_message(model, t, steps, other_index, x),
+                        loop=loop,
+                        instant=instant,
+                    )
+            pinnacles.setdefault(current, []).append((len(steps), x.copy()))
+            steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
+            current = _next_mode(model, current, fired)
+            pulses = any(f.pulses for f in fired)
+            chain = [current]
+            chain_start = len(steps)
+            continue
+        steps.append(Step(current, "continuous", x_before, x, ()))
+        return instant
+    raise TooManyStepsError(
+        _too_many_message(model, t, steps, max_steps),
+        loop=steps[-10:],
+        instant=instant,
+    )

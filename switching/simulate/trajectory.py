@@ -1,0 +1,360 @@
+"""Simulation results on hybrid time.
+
+A :class:`Trajectory` holds samples ``(t_k, x_k, mode_k)``; at every
+instant it holds two samples with the same time: the state just before (in
+the mode that was flowing) and just after (in the mode that flows next), so
+jumps are kept, not smeared.  ``events`` lists the
+:class:`~switching.simulate.resolution.Instant` records; ``event_index[k]`` is the
+sample index of the "after" sample of event ``k``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import warnings
+import weakref
+from collections import Counter
+from typing import NamedTuple
+
+import numpy as np
+
+from bondgraph.elements import R, OnePort, Source, Storage
+from bondgraph.energy import energy_function
+from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
+
+__all__ = ["Trajectory", "EnergyRecord"]
+
+#: relative round-off band of the energy ledger: a gain below this fraction of
+#: the run's stored energy at its instants is not reported
+ENERGY_ROUNDOFF = 1e-9
+
+_energy_functions: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+#: signal names ``power:<element>`` (and the totals ``power:supplied``, …) give power flows
+POWER_PREFIX = "power:"
+_POWER_TOTALS = ("supplied", "dissipated", "stored")
+
+
+class EnergyRecord(NamedTuple):
+    """The energy ledger of one instant [s, J]: ``lost = before - after``."""
+
+    t: float
+    before: float
+    after: float
+    lost: float
+
+
+def _energy_evaluator(model):
+    """``bondgraph.energy_function`` for a model's graph and parameter values, cached per model."""
+    key = tuple(model.parameter_array)
+    cached = _energy_functions.get(model)
+    if cached is None or cached[0] != key:
+        cached = key, energy_function(model.graph, model.states, model.parameter_values, model.input_symbols)
+        _energy_functions[model] = cached
+    return cached[1]
+
+
+class Trajectory:
+    """Samples of a hybrid run.
+
+    Attributes
+    ----------
+    t : ndarray (N,)            sample times [s]
+    x : ndarray (N, n)          states, columns in ``state_names`` order
+    state_names : list[str]
+    modes : list[Mode]          the mode of each sample
+    events : list[Instant]      every instant resolved, in order
+    event_index : list[int]     the sample index just after each event
+    stopped : str | None        why the run ended early (``"zeno"``) or None
+    stats : dict                method, steps, wall time, ``"instants"`` (the count, kept or not), …
+    sensitivities : Sensitivities | None   ``∂x/∂p`` of a run with ``simulate(..., sensitivities=[...])``
+                                (:meth:`sensitivity`, :meth:`event_time_sensitivity`)
+
+    Power flows: :meth:`power` (into one element), :meth:`power_balance`
+    (supplied, dissipated, stored); energy: :meth:`energy`, :meth:`energy_ledger`.
+
+    A trajectory pickles (a sweep's worker sends it back) without its model:
+    an unpickled one has ``model = None`` and gives states, times, modes and
+    summaries, but :meth:`signal` needs the model attached again
+    (``trajectory.model = model``).
+    """
+
+    def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None, mode_time=None,
+                 instants_kept=True):
+        self.model = model
+        self.model_name = model.name
+        self.t = np.asarray(t, dtype=float)
+        self.x = np.asarray(x, dtype=float).reshape(len(self.t), len(model.states))
+        self.state_names = [s.name for s in model.states]
+        self.modes = list(modes)
+        self.events = list(events)
+        self.event_index = list(event_index)
+        self.stopped = stopped
+        self.stats = dict(stats or {})
+        self._mode_time = None if mode_time is None else dict(mode_time)
+        self.instants_kept = instants_kept
+        #: :class:`switching.analysis.sensitivity.Sensitivities` of a run with ``sensitivities=[...]``, else None
+        self.sensitivities = None
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def mode_labels(self) -> list[str]:
+        return [m.label for m in self.modes]
+
+    @property
+    def event_times(self) -> np.ndarray:
+        return np.array([e.t for e in self.events])
+
+    @property
+    def instant_count(self) -> int:
+        """Instants of the run (also when ``keep_instants=False`` kept none of them)."""
+        return int(self.stats.get("instants", len(self.events)))
+
+    def state(self, name: str) -> np.ndarray:
+        """The column of one state."""
+        if self.model is None or name in self.state_names:
+            if name not in self.state_names:
+                raise UnknownNameError(f"no state {name!r}; states are: {', '.join(self.state_names)}", name)
+            return self.x[:, self.state_names.index(name)]
+        return self.x[:, self.state_names.index(self.model.state(name).name)]
+
+    def signal(self, name: str) -> np.ndarray:
+        """A named signal's finite part at every sample, evaluated in each
+        sample's mode (generated code, one vectorized call per mode).
+        ``"power:<element>"`` is the power into a one-port element
+        (:meth:`power`), ``"power:supplied"``, ``"power:dissipated"`` and
+        ``"power:stored"`` the totals of :meth:`power_balance` — usable
+        wherever signal names are (plots, CSV, sweep metrics)."""
+        if name in self.state_names:
+            return self.state(name)
+        if name.startswith(POWER_PREFIX):
+            which = name[len(POWER_PREFIX):]
+            if which in _POWER_TOTALS and which not in self._needs_model().graph.elements:
+                return self.power_balance()[which]
+            return self.power(which)
+        model = self._needs_model()
+        out = np.empty(len(self.t))
+        labels = np.array(self.mode_labels)
+        for mode in dict.fromkeys(self.modes):
+            mask = labels == mode.label
+            fn = model.signal_function(mode, [name])
+            times = self.t[mask]
+            inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
+            values = np.empty((1, int(mask.sum())))
+            fn(self.x[mask].T, times, model.parameter_array, inputs, values)
+            out[mask] = values[0]
+        return out
+
+    # ---------------------------------------------------------------- sensitivities
+
+    def _sensitivities(self):
+        record = getattr(self, "sensitivities", None)
+        if record is None:
+            raise HybridBondGraphError(
+                "this run has no sensitivities: simulate with sensitivities=[...] naming the parameters "
+                "(and x0:<state> for initial states)")
+        return record
+
+    def sensitivity(self, name: str, p: str) -> np.ndarray:
+        """``∂s/∂p`` of a state or named signal ``s`` at every sample, for a
+        parameter ``p`` given in ``simulate(..., sensitivities=[...])``
+        (``"x0:<state>"`` for an initial state).  At fixed time: at an
+        instant's two samples, the sensitivity just before and just after it.
+        A signal's is its finite part's, by the chain rule
+        ``∂s/∂x·∂x/∂p + ∂s/∂p`` in each sample's mode (:mod:`switching.analysis.sensitivity`)."""
+        from ..analysis.sensitivity import signal_sensitivity
+
+        self._sensitivities()
+        return signal_sensitivity(self, name, p)
+
+    def event_time_sensitivity(self, k: int, p: str) -> float:
+        """``∂t_k/∂p`` of instant ``k`` (``events[k]``) for a parameter ``p``
+        given in ``simulate(..., sensitivities=[...])`` (0 for an instant at
+        the start of the run)."""
+        record = self._sensitivities()
+        return float(record.event_times[k, record.column(p)])
+
+    def _needs_model(self):
+        if self.model is None:
+            raise HybridBondGraphError(
+                f"this trajectory of {self.model_name!r} was unpickled without its model, which signals need: "
+                "attach the model first (trajectory.model = model)")
+        return self.model
+
+    # ---------------------------------------------------------------- energy
+
+    def _stored_energy(self, x, times) -> np.ndarray:
+        model = self._needs_model()
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
+        return _energy_evaluator(model)(np.asarray(x, dtype=float).reshape(len(times), -1), times, inputs)
+
+    def energy(self) -> np.ndarray:
+        """The energy stored in the C and I elements at every sample [J]
+        (``bondgraph.stored_energy``: each law integrated from 0)."""
+        return self._stored_energy(self.x, self.t)
+
+    def power(self, element: str) -> np.ndarray:
+        """The power flowing into a one-port element [W] at every sample:
+        ``e·f`` of its bond, signed by the bond's power direction (finite
+        parts, in each sample's mode).  For an R element it is the power it
+        dissipates (``≥ 0`` for a passive law), for a C or I element the rate
+        of its stored energy, for a source minus the power it supplies (see
+        :meth:`power_balance`)."""
+        model = self._needs_model()
+        if not isinstance(model.graph.element(element), OnePort):
+            raise HybridBondGraphError(
+                f"{element!r} is a {type(model.graph.element(element)).__name__}, not a one-port element: "
+                "power() is for sources, R, C and I elements (junctions and TF/GY pass power on)")
+        (bond,) = model.graph.bonds_of(element)
+        return bond.sign_at(element) * self.signal(bond.effort.name) * self.signal(bond.flow.name)
+
+    def power_balance(self) -> dict:
+        """The model's power flows [W] at every sample: ``"supplied"`` (the
+        power the sources deliver, summed), ``"dissipated"`` (taken by the R
+        elements) and ``"stored"`` (into the C and I elements: the rate of
+        :meth:`energy`), with ``supplied = dissipated + stored`` during flow
+        (the junction structure, TF and GY conserve power).  A source
+        modulated to act as friction (a Coulomb force as an ``Se``) counts
+        among the sources: what it takes out is negative supply."""
+        model = self._needs_model()
+        out = {key: np.zeros(len(self.t)) for key in ("supplied", "dissipated", "stored")}
+        for name, element in model.graph.elements.items():
+            if isinstance(element, Source):
+                out["supplied"] -= self.power(name)
+            elif isinstance(element, R):
+                out["dissipated"] += self.power(name)
+            elif isinstance(element, Storage):
+                out["stored"] += self.power(name)
+        return out
+
+    def energy_ledger(self, warn: bool = True) -> list:
+        """One :class:`EnergyRecord` ``(t, before, after, lost)`` per kept
+        instant: the stored energy just before it (a priori state) and after
+        its last jump, and ``lost = before - after``.  An instant that gains
+        energy by more than round-off (``ENERGY_ROUNDOFF`` of the run's
+        energy at its instants) warns with :class:`~bondgraph.EnergyGainWarning`."""
+        if not self.events:
+            self._needs_model()
+            return []
+        times = [e.t for e in self.events]
+        before = self._stored_energy([e.x_before for e in self.events], times)
+        after = self._stored_energy([e.x_after for e in self.events], times)
+        scale = max(float(np.max(np.abs(before))), float(np.max(np.abs(after))))
+        records = []
+        for instant, b, a in zip(self.events, before, after):
+            if warn and a - b > ENERGY_ROUNDOFF * scale:
+                modes = " → ".join(f"{s.mode.describe()} [{s.kind}]" for s in instant.steps)
+                warnings.warn(f"the instant at t = {instant.t:.12g} ({modes}) creates {a - b:.6g} J of stored "
+                              f"energy ({b:.6g} J before, {a:.6g} J after): a jump of a passive model only loses "
+                              "energy", EnergyGainWarning, stacklevel=2)
+            records.append(EnergyRecord(float(instant.t), float(b), float(a), float(b - a)))
+        return records
+
+    # ---------------------------------------------------------------- summaries
+
+    def time_in_modes(self) -> dict:
+        """Total time spent flowing in each mode [s], as the run counted it
+        (exact whatever samples were kept), else from the samples."""
+        if self._mode_time is not None:
+            return {mode: spent for mode, spent in self._mode_time.items() if spent > 0}
+        spent: Counter = Counter()
+        for k in range(len(self.t) - 1):
+            if self.modes[k] == self.modes[k + 1]:
+                spent[self.modes[k]] += self.t[k + 1] - self.t[k]
+        return dict(spent)
+
+    def summary(self) -> str:
+        """Modes visited, time in each, event count, mythical modes passed."""
+        if not len(self.t):
+            return f"trajectory of {self.model_name!r}: no samples"
+        lines = [
+            f"trajectory of {self.model_name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
+            f"{len(self.t)} samples, {self.instant_count} instants"
+            + ("" if self.instants_kept else " (not kept: keep_instants=False)")
+            + (f", stopped early ({self.stopped})" if self.stopped else "")
+        ]
+        spent = self.time_in_modes()
+        kinds: dict = {}
+        for instant in self.events:
+            for step in instant.steps:
+                kinds.setdefault(step.mode, Counter())[step.kind] += 1
+        modes = list(dict.fromkeys(self.modes + list(spent) + [s.mode for e in self.events for s in e.steps]))
+        width = max([len("mode")] + [len(m.describe()) for m in modes])
+        lines.append(f"  {'mode':<{width}}  {'time [s]':>9}  passed as")
+        for mode in modes:
+            passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
+            lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>9.4g}  {passed}")
+        if self.instants_kept:
+            mythical = sum(len(e.mythical) for e in self.events)
+            pinnacles = sum(len(e.pinnacles) for e in self.events)
+            lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
+            if self.events and self.model is not None:
+                try:
+                    ledger = self.energy_ledger(warn=False)
+                except HybridBondGraphError:  # a law sympy cannot integrate: no ledger
+                    ledger = None
+                if ledger is not None:
+                    lost = sum(r.lost for r in ledger)
+                    lines.append(f"  energy lost at instants: {lost:.6g} J")
+        for key, value in self.stats.items():
+            lines.append(f"  {key}: {value}")
+        return "\n".join(lines)
+
+    __str__ = summary
+
+    # ---------------------------------------------------------------- export
+
+    def _table(self, signals=()):
+        columns = {"t": self.t}
+        for k, name in enumerate(self.state_names):
+            columns[name] = self.x[:, k]
+        for name in signals:
+            columns[name] = self.signal(name)
+        return columns
+
+    def to_csv(self, path=None, signals=()) -> str | None:
+        """Write ``t``, every state, the mode label and the requested signals as CSV."""
+        columns = self._table(signals)
+        buffer = io.StringIO()
+        writer = csv.writer(buffer)
+        writer.writerow(list(columns) + ["mode"])
+        for k in range(len(self.t)):
+            writer.writerow([repr(float(col[k])) for col in columns.values()] + [self.modes[k].label])
+        text = buffer.getvalue()
+        if path is None:
+            return text
+        with open(path, "w", newline="") as handle:
+            handle.write(text)
+        return None
+
+    def to_npz(self, path, signals=()) -> None:
+        """Save arrays ``t``, ``x``, ``state_names``, ``modes`` (labels), ``event_times`` and signals."""
+        extra = {f"signal:{name}": self.signal(name) for name in signals}
+        np.savez(
+            path,
+            t=self.t,
+            x=self.x,
+            state_names=np.array(self.state_names),
+            modes=np.array(self.mode_labels),
+            event_times=self.event_times,
+            **extra,
+        )
+
+    def to_dataframe(self, signals=()):
+        """A pandas DataFrame (pandas is optional: ``pip install pandas``)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError("to_dataframe() needs pandas: pip install pandas") from exc
+        frame = pd.DataFrame(self._table(signals))
+        frame["mode"] = self.mode_labels
+        return frame

@@ -1,0 +1,231 @@
+"""The semantics written once (switching.rules): each rule is defined in its
+rule module and nowhere else, the Python path and the kernel use that very
+function, and it gives the same results called and compiled."""
+
+import ast
+import math
+import random
+from pathlib import Path
+
+import pytest
+
+from switching import rules
+from switching.rules.maximize import GOLDEN, maximize_begin, maximize_next
+from checkout import ROOT
+
+PACKAGES = ("bondgraph", "codegen", "models", "switching")
+
+
+def _rule_names():
+    """Each rule's name (and its module's, e.g. ``maximize``) → the rule module's file."""
+    names = {}
+    for module in rules.MODULES:
+        path = Path(module.__file__).resolve()
+        names[module.__name__.rsplit(".", 1)[1]] = path
+        for name in module.RULES:
+            names[name] = path
+    return names
+
+
+def test_the_rule_modules_list_their_rules():
+    """``RULES`` of a rule module names exactly its public functions, each
+    defined there (not imported)."""
+    for module in rules.MODULES:
+        tree = ast.parse(Path(module.__file__).read_text())
+        public = {n.name for n in tree.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+        assert set(module.RULES) == public, module.__name__
+        for name in module.RULES:
+            assert getattr(module, name).__module__ == module.__name__
+
+
+def test_no_rule_is_defined_twice():
+    """No function elsewhere in the packages is named as a rule (or as its
+    module), with or without leading underscores: a second copy of a rule
+    would have to be fixed apart from the first."""
+    names = _rule_names()
+    twice = []
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    home = names.get(node.name.lstrip("_"))
+                    if home is not None and home != path.resolve():
+                        twice.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} (the rule is in "
+                                     f"{home.relative_to(ROOT)})")
+    assert not twice, "rules defined again:\n" + "\n".join(twice)
+
+
+def test_the_kernel_compiles_the_rules_themselves():
+    """Every rule is compiled by the kernel from the rule's own function object."""
+    pytest.importorskip("numba")
+    from numba.core.dispatcher import Dispatcher
+
+    from switching.simulate.kernel import loop as kernel
+
+    compiled = {value.py_func for value in vars(kernel).values() if isinstance(value, Dispatcher)}
+    for module in rules.MODULES:
+        for name in module.RULES:
+            assert getattr(module, name) in compiled, f"{module.__name__}.{name}"
+
+
+# ---------------------------------------------------------------- Brent's maximisation
+
+
+def _peak(margin, a, b):
+    state = maximize_begin(a, b)
+    done, evaluations = False, 0
+    while not done:
+        done, state = maximize_next(state, margin(state[-1]))
+        evaluations += 1
+    return state[-1], evaluations
+
+
+def test_brent_finds_the_maximum_of_a_parabola_to_its_tolerance():
+    """The margin stays below 0: the search ends at the maximum before its
+    cap of evaluations, as close as the margin's round-off lets values tell
+    points apart (√ε relative: the parabola is flat to ε within 1e-8 of its top)."""
+    for peak in (0.1, 0.37, 0.5, 0.93):
+        tau, evaluations = _peak(lambda t, p=peak: -1.0 - (t - p) ** 2, 0.0, 1.0)
+        assert abs(tau - peak) < 3e-8 and evaluations < 40
+    tau, evaluations = _peak(lambda t: -1.0 - (t - 1.0) ** 2, 0.0, 1.0)  # at the end of the interval
+    assert 1.0 - 3e-8 < tau <= 1.0 and evaluations < 50
+
+
+def test_brent_stops_at_the_first_point_where_the_margin_is_not_negative():
+    tau, evaluations = _peak(lambda t: 1.0, 2.0, 4.0)
+    assert (tau, evaluations) == (2.0 + GOLDEN * 2.0, 1)  # the golden section, evaluated first
+    seen = []
+
+    def margin(t):
+        seen.append(t)
+        return 1e-3 - (t - 0.8) ** 2  # ≥ 0 within 0.03 of 0.8
+
+    tau, _ = _peak(margin, 0.0, 1.0)
+    points = list(seen)
+    assert tau == points[-1] and margin(tau) >= 0.0 and all(margin(t) < 0.0 for t in points[:-1])
+
+
+def test_brent_python_and_compiled_agree_to_the_bit():
+    """The rule called by Python and compiled by numba: the same points, the
+    same answer, on smooth and non-smooth margins."""
+    numba = pytest.importorskip("numba")
+    begin, step = numba.njit(maximize_begin), numba.njit(maximize_next)
+    rng = random.Random(27)
+    for _ in range(300):
+        c, w, h = rng.uniform(-1, 1), rng.uniform(0.01, 3), rng.uniform(-2, 0.3)
+        power, wiggle = rng.choice([1, 2, 4]), rng.uniform(-0.1, 0.1)
+        a = rng.uniform(-2, 0)
+        b = a + rng.uniform(1e-9, 3)
+
+        def margin(t):
+            return h - w * abs(t - c) ** power + wiggle * math.sin(7 * t)
+
+        python, compiled = maximize_begin(a, b), begin(a, b)
+        done = False
+        while not done:
+            assert python == compiled
+            value = margin(python[-1])
+            done, python = maximize_next(python, value)
+            done_compiled, compiled = step(compiled, value)
+            assert done_compiled == done
+        assert python == compiled
+
+
+# ---------------------------------------------------------------- the fixed-step steppers
+
+
+def test_the_steppers_are_eulers_step_and_the_classical_rk4():
+    """On y' = y from y = 1: Euler gives 1 + h, RK4 the Taylor polynomial of
+    eᴴ to h⁴; on arrays, component by component the same as on floats."""
+    import numpy as np
+
+    from switching.rules.steppers import euler_step, rk4_combine
+
+    h = 0.1
+    assert euler_step(1.0, 1.0, h) == 1.0 + h
+    k1 = 1.0
+    k2 = euler_step(1.0, k1, h / 2)
+    k3 = euler_step(1.0, k2, h / 2)
+    k4 = euler_step(1.0, k3, h)
+    assert abs(rk4_combine(1.0, k1, k2, k3, k4, h) - (1 + h + h**2 / 2 + h**3 / 6 + h**4 / 24)) < 1e-16
+    rng = np.random.default_rng(27)
+    y, f1, f2, f3, f4 = rng.normal(size=(5, 50))
+    whole = rk4_combine(y, f1, f2, f3, f4, h)
+    assert list(whole) == [rk4_combine(*values, h) for values in zip(y.tolist(), f1.tolist(), f2.tolist(),
+                                                                      f3.tolist(), f4.tolist())]
+    assert list(euler_step(y, f1, h)) == [euler_step(a, b, h) for a, b in zip(y.tolist(), f1.tolist())]
+
+
+def test_the_hermite_interpolant_meets_the_ends_and_is_exact_for_cubics():
+    """Values and slopes at both ends; a cubic reproduced inside the step."""
+    from switching.rules.steppers import hermite_cubic
+
+    def cubic(t):
+        return 1.0 - 2.0 * t + 0.5 * t**2 + 3.0 * t**3
+
+    def slope(t):
+        return -2.0 + t + 9.0 * t**2
+
+    t0, h = 0.25, 0.5
+    ends = (cubic(t0), slope(t0), cubic(t0 + h), slope(t0 + h), h)
+    assert hermite_cubic(*ends, 0.0) == cubic(t0) and hermite_cubic(*ends, 1.0) == cubic(t0 + h)
+    for theta in (0.1, 0.5, 0.77):
+        assert abs(hermite_cubic(*ends, theta) - cubic(t0 + theta * h)) < 1e-14
+
+
+def test_the_steppers_python_and_compiled_agree_to_the_bit():
+    numba = pytest.importorskip("numba")
+    import numpy as np
+
+    from switching.rules.steppers import euler_step, hermite_cubic, rk4_combine
+
+    euler, combine, hermite = numba.njit(euler_step), numba.njit(rk4_combine), numba.njit(hermite_cubic)
+    rng = np.random.default_rng(6)
+    for values in rng.normal(size=(200, 5)).tolist():
+        h = abs(values[0]) * 1e-2
+        assert euler(values[1], values[2], h) == euler_step(values[1], values[2], h)
+        assert combine(*values, h) == rk4_combine(*values, h)
+        theta = abs(values[4]) % 1.0
+        assert hermite(*values[:4], h, theta) == hermite_cubic(*values[:4], h, theta)
+
+
+# ---------------------------------------------------------------- the pulse at a jump
+
+
+def _pulse_cases():
+    import numpy as np
+
+    yield np.array([1.0, 2.0, 3.0]), np.array([1.0 + 1e-15, -2.0, 3.0]), np.array([0, 1]), 2  # round-off and a jump
+    yield np.array([1.0, 2.0]), np.array([1.0 + 1e-15, 2.0 - 4e-16]), np.array([0, 1]), 2  # round-off only
+    yield np.array([1.0, 2.0]), np.array([5.0, 2.0]), np.array([0, 1]), 0  # no moved state: no pulse
+    yield np.array([1e-20, 0.0]), np.array([0.0, 0.0]), np.array([1]), 1  # below the absolute band
+    yield np.array([1.0, math.nan]), np.array([0.5, math.nan]), np.array([0, 1]), 2  # NaN does not count in s
+    yield np.array([0.0, 1e3]), np.array([1e-10, -1e3]), np.array([0, 1]), 2  # small beside a large state
+
+
+def test_the_pulse_drops_round_off_within_the_band():
+    import numpy as np
+
+    from switching.rules.jumps import jump_pulse
+
+    rtol, atol = 1e-12, 1e-15
+    expected = [([0.0, -4.0, 0.0], False), ([0.0, 0.0], True), ([0.0, 0.0], True), ([0.0, 0.0], True),
+                ([-0.5, math.nan], False), ([0.0, -2e3], False)]
+    for (x, xp, moved, count), (delta, none) in zip(_pulse_cases(), expected, strict=True):
+        d = np.empty(len(x))
+        assert jump_pulse(x, xp, moved, count, rtol, atol, d) == none
+        np.testing.assert_array_equal(d, delta)
+
+
+def test_the_pulse_python_and_compiled_agree_to_the_bit():
+    numba = pytest.importorskip("numba")
+    import numpy as np
+
+    from switching.rules.jumps import jump_pulse
+
+    compiled = numba.njit(jump_pulse)
+    for x, xp, moved, count in _pulse_cases():
+        d_python, d_compiled = np.empty(len(x)), np.empty(len(x))
+        assert jump_pulse(x, xp, moved, count, 1e-12, 1e-15, d_python) == compiled(x, xp, moved, count, 1e-12,
+                                                                                     1e-15, d_compiled)
+        assert d_python.tobytes() == d_compiled.tobytes()

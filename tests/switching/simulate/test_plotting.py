@@ -1,0 +1,53 @@
+"""Plots are produced with the expected structure for a known run."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
+from matplotlib.patches import Polygon  # noqa: E402
+
+from models import bouncing_ball, falling_rod  # noqa: E402
+from switching.simulate.plotting import draw_bond_graph, mode_graph, phase_portrait, plot_trajectory  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ball_run():
+    return bouncing_ball.build().simulate(2.5, "RK45", rtol=1e-9)
+
+
+def test_trajectory_plot_has_one_axis_per_signal_and_shades_each_flow(ball_run, tmp_path):
+    fig = plot_trajectory(ball_run, ["y", "v"])
+    assert len(fig.axes) == 2
+    # 5 flight intervals between 4 bounces: five shaded spans per axis (pinnacles have no duration)
+    spans = [p for p in fig.axes[0].patches if isinstance(p, (Rectangle, Polygon))]
+    assert len(spans) == 5
+    # one vertical line per instant, solid (each bounce is a pinnacle)
+    vlines = [ln for ln in fig.axes[0].lines if len(set(ln.get_xdata())) == 1]
+    assert len(vlines) == 4 and all(ln.get_linestyle() == "-" for ln in vlines)
+    path = tmp_path / "ball.png"
+    fig.savefig(path)
+    assert path.stat().st_size > 10_000
+
+
+def test_mythical_only_instants_are_dashed_and_phase_portrait_draws_jumps():
+    run = falling_rod.build(mu=0.002).simulate(0.4, "RK45", rtol=1e-9, atol=1e-12)
+    fig = plot_trajectory(run, ["theta"])
+    vlines = [ln for ln in fig.axes[0].lines if len(set(ln.get_xdata())) == 1]
+    assert [ln.get_linestyle() for ln in vlines] == ["--"]  # the impact passed only a mythical mode
+    ax = phase_portrait(run, "theta", "tip_vy")
+    dotted = [ln for ln in ax.lines if ln.get_linestyle() == ":"]
+    assert len(dotted) == 1 and np.isclose(dotted[0].get_ydata()[1], 0.0, atol=1e-12)
+
+
+def test_mode_graph_and_bond_graph_drawing(ball_run):
+    graph, _ = mode_graph(ball_run)
+    assert set(graph.nodes) == {"flight", "impact"}
+    assert graph.edges["flight", "impact"]["count"] == 4 and graph.edges["impact", "flight"]["count"] == 4
+    model = falling_rod.build()
+    ax = draw_bond_graph(model.graph, model.configuration_of(model.mode("contact|stuck")))
+    labels = {t.get_gid(): t.get_text() for t in ax.texts}
+    assert labels["element:rod/I_J"] == "I: rod/I_J"
+    assert labels["element:cx"] == r"$\mathbf{0}_{\mathrm{cx}}^{\mathrm{on}}$"  # 0-junction cx, switched on
