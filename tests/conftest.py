@@ -1,8 +1,15 @@
 import os
+import sys
 import tempfile
+from pathlib import Path
 
 import pytest
 import sympy as sp
+
+# the test modules share model builders (``from test_jump import nonlinear_capacitor_pair``) as they did in one
+# folder: every folder of the tests is importable, whichever file pytest collects first
+sys.path[:0] = [str(folder) for folder in sorted(Path(__file__).resolve().parent.rglob("*"))
+                if folder.is_dir() and folder.name != "__pycache__" and str(folder) not in sys.path]
 
 # generated code goes to a private cache for the test session, never to ~/.cache
 os.environ.setdefault("HBG_CACHE_DIR", tempfile.mkdtemp(prefix="hbg-test-cache-"))

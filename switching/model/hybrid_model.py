@@ -19,7 +19,6 @@ Example — an RC circuit whose switch opens when the capacitor is charged::
 from __future__ import annotations
 
 import functools
-import warnings
 from dataclasses import dataclass
 from types import MappingProxyType
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -40,7 +39,11 @@ from .definition import InMode
 from ..library.compiled import CompiledMode
 from ..library.mode_library import ModeLibrary
 from .modes import Mode, ModeEquations
-from .law_automata import branches_at, law_automaton
+from .initial_state import InitialStateProjected
+from . import initial_state
+from .inputs import InputValues
+from .law_automata import branches_at, law_automaton, starting_mode
+from .mode_space import ModeSpace
 from ..simulate.run_options import check_sensitivity_options
 from ..simulate.driver import check_option_names, simulate
 
@@ -73,11 +76,6 @@ class Tolerance:
     atol: float = 0.0
     jump_rtol: float = 1e-12
     jump_atol: float = 0.0
-
-
-class InitialStateProjected(UserWarning):
-    """The given initial state violated the initial mode's constraints and was
-    projected onto them with the mode's jump map."""
 
 
 class HybridModel:
@@ -166,8 +164,10 @@ class HybridModel:
         self._names = definition.base_names(graph, self.states)
         self._signals, self._cross = definition.parse_signals(self._names, signals or {})
         self._guards = definition.parse_guards(self.automata, {**self._names, **self._signals}, self._signals)
+        #: the modes of :attr:`automata`, named, configured and left by their guards
+        self.mode_space = ModeSpace(self.automata, self._guards)
         self._inputs = definition.check_inputs(graph, inputs or {})
-        self._input_derivatives: dict = {}
+        self.input_signals = InputValues(tuple(graph.inputs), self._inputs)
         self.parameter_symbols = definition.collect_parameters(self)
         self.allow_infinite = frozenset(allow_infinite)
         self.parameter_values = definition.parameter_values(self, parameters or {})
@@ -189,28 +189,8 @@ class HybridModel:
 
     def input_values(self, t: float) -> list:
         """Values of :attr:`input_symbols` at ``t``: each input, then its
-        derivative — exact for an :class:`~switching.ExpressionInput` (the
-        expression differentiated), else a central difference of the input
-        function with step ``h = 6e-6·max(1, |t|)`` (relative error about
-        ``1e-10`` for a smooth input; one-sided where the function is not
-        defined before ``t``)."""
-        values = [float(self._inputs[name](t)) for name in self.graph.inputs]
-        if values:
-            values += [self._input_rate(name, t) for name in self.graph.inputs]
-        return values
-
-    def _input_rate(self, name: str, t: float) -> float:
-        fn = self._inputs[name]
-        rate = self._input_derivatives.get(name)
-        if rate is None and name not in self._input_derivatives:
-            rate = self._input_derivatives[name] = getattr(fn, "derivative", None)
-        if rate is not None:
-            return float(rate(t))
-        h = 6.0e-6 * max(1.0, abs(t))
-        try:
-            return (float(fn(t + h)) - float(fn(t - h))) / (2.0 * h)
-        except (ValueError, ArithmeticError):
-            return (float(fn(t + h)) - float(fn(t))) / h
+        derivative (:class:`switching.model.inputs.InputValues`)."""
+        return self.input_signals.values(t)
 
     def parameter_values_with_inputs(self, t: float) -> dict:
         values = dict(self.parameter_values)
@@ -266,10 +246,9 @@ class HybridModel:
 
     def starting_mode(self, x, t: float, mode=None) -> Mode:
         """The mode a run from ``(x, t)`` starts in: ``mode`` (default: the
-        initial mode) with every law switch set by the sign of its surface at
-        ``(x, t)`` (DESIGN: a law discontinuity is decided by the state, not
-        chosen); a mode given as a mapping or label that names a law switch
-        keeps that switch's state."""
+        initial mode) with its law switches decided by the state
+        (:func:`switching.model.law_automata.starting_mode`); a mode given as
+        a mapping or label that names a law switch keeps that switch's state."""
         named = set()
         if mode is None:
             base = self.initial_mode
@@ -279,70 +258,24 @@ class HybridModel:
                 named = set(mode)
             elif isinstance(mode, (str, tuple, Mode)):
                 named = set(self.law_switches)
-        if not self.law_switches or named >= set(self.law_switches):
-            return base
-        decided = branches_at(self, base, np.asarray(x, dtype=float), float(t))
-        keep = dict(zip(decided.automata, decided.states))
-        keep.update({name: base.state_of(name) for name in named if name in self.law_switches})
-        return self.mode(keep)
+        return starting_mode(self, base, named, x, t)
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
         or a mapping {automaton: state} (automata not named keep their initial state)."""
-        names = tuple(a.name for a in self.automata)
-        if isinstance(spec, Mode):
-            states = spec.states
-        elif isinstance(spec, str):
-            states = tuple(spec.split("|")) if spec else ()
-        elif isinstance(spec, Mapping):
-            unknown = set(spec) - set(names)
-            if unknown:
-                raise UnknownNameError(f"no automaton named {sorted(unknown)}; automata: {list(names)}")
-            states = tuple(spec.get(a.name, a.initial) for a in self.automata)
-        else:
-            states = tuple(spec)
-        if len(states) != len(self.automata):
-            raise UnknownNameError(
-                f"mode {spec!r} has {len(states)} state(s) but the model has {len(self.automata)} automata ({', '.join(names)})"
-            )
-        for automaton, state in zip(self.automata, states):
-            if state not in automaton.states:
-                raise UnknownNameError(
-                    f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
-                )
-        return Mode(states, names)
+        return self.mode_space.mode(spec)
 
     def configuration_of(self, mode: Mode) -> dict:
-        config = {}
-        for automaton, state in zip(self.automata, mode.states):
-            config.update(automaton.states[state])
-        return config
+        """Controlled junction name → on or off in ``mode``."""
+        return self.mode_space.configuration_of(mode)
 
     def mode_values(self, mode: Mode) -> dict:
         """Mode-dependent constants set by the automaton states of ``mode`` (symbol → value)."""
-        values = {}
-        for automaton, state in zip(self.automata, mode.states):
-            for name, value in automaton.values.get(state, {}).items():
-                values[sp.Symbol(name)] = value
-        return values
+        return self.mode_space.mode_values(mode)
 
     def restitution_of(self, mode: Mode):
         """The restitution coefficient of the mode (``None`` if no state carries one)."""
-        found = {}
-        for automaton, state in zip(self.automata, mode.states):
-            if state in automaton.restitution:
-                found[f"{automaton.name}={state}"] = automaton.restitution[state]
-        if not found:
-            return None
-        values = set(found.values())
-        if len(values) > 1:
-            raise ModelDefinitionError(
-                f"mode {mode.describe()} combines different restitution coefficients "
-                + ", ".join(f"{k}: e = {v}" for k, v in found.items())
-                + "; one jump cannot apply two; use one coefficient or separate the contacts",
-                list(found),
-            )
-        return values.pop()
+        return self.mode_space.restitution_of(mode)
 
     @functools.cached_property
     def state_names(self) -> tuple:
@@ -356,12 +289,7 @@ class HybridModel:
 
     def guards_from(self, mode: Mode) -> list:
         """(automaton, transition, condition, text) of every transition leaving ``mode``."""
-        out = []
-        for automaton, state in zip(self.automata, mode.states):
-            for tr in automaton.transitions_from(state):
-                condition, text = self._guards[(automaton.name, tr)]
-                out.append((automaton.name, tr, condition, text))
-        return out
+        return self.mode_space.guards_from(mode)
 
     # ------------------------------------------------------------ the mode library (switching.library.mode_library)
 
@@ -469,37 +397,11 @@ class HybridModel:
     def initial_state(self) -> np.ndarray:
         """The initial state vector, projected onto the initial mode's
         constraints with its jump map (an :class:`InitialStateProjected`
-        warning says so when that changes it)."""
+        warning says so when that changes it; :attr:`initial_projection` is then
+        ``(given, projected)``, else ``None``)."""
         if self._initial is None:
-            x0 = self._initial_given
-            projected = np.asarray(self._project_initial(x0), dtype=float)
-            self.initial_projection = None
-            if not np.allclose(projected, x0, rtol=1e-12, atol=1e-14):
-                changed = [
-                    f"{s}: {a:.6g} → {b:.6g}" for s, a, b in zip(self.states, x0, projected) if not np.isclose(a, b)
-                ]
-                self.initial_projection = (x0.copy(), projected.copy())
-                warnings.warn(
-                    f"initial state violates the constraints of mode {self.initial_mode.describe()}; projected by "
-                    f"conservation of state: {', '.join(changed)}",
-                    InitialStateProjected,
-                    stacklevel=2,
-                )
-            self._initial = projected
+            self._initial, self.initial_projection = initial_state.initial_state(self, self._initial_given)
         return self._initial.copy()
-
-    def _project_initial(self, x0: np.ndarray) -> np.ndarray:
-        """``g(x0)`` of the initial mode's jump map (no restitution), at ``t = 0``.
-        Where the mode carries no restitution its generated jump function is
-        that map, so a process whose cache holds the mode's code derives
-        nothing; otherwise the symbolic map is used."""
-        mode = self.initial_mode
-        if self.restitution_of(mode) is None:
-            compiled = self.compiled_mode(mode)
-            if compiled.jump_kind in ("identity", "symbolic"):
-                return compiled.jump(np.asarray(x0, dtype=float), 0.0)
-        me = self.mode_equations(mode)
-        return me.jump.apply(x0, 0.0, self.parameter_values_with_inputs(0.0)) if not me.jump.is_identity else x0
 
     # ------------------------------------------------------------ instants
 

@@ -180,3 +180,16 @@ def branches_at(model, mode, x: np.ndarray, t: float):
             ) from None
         states[switch.name] = POSITIVE if s > 0 else NEGATIVE if s < 0 else SLIDING
     return model.mode(states)
+
+
+
+def starting_mode(model, base, named: set, x, t: float):
+    """``base`` with every law switch not in ``named`` set by the sign of its
+    surface at ``(x, t)`` (a law discontinuity is decided by the state, not
+    chosen); the switches in ``named`` keep their state in ``base``."""
+    if not model.law_switches or named >= set(model.law_switches):
+        return base
+    decided = branches_at(model, base, np.asarray(x, dtype=float), float(t))
+    keep = dict(zip(decided.automata, decided.states))
+    keep.update({name: base.state_of(name) for name in named if name in model.law_switches})
+    return model.mode(keep)

@@ -5,7 +5,6 @@ two outputs may not name one file; a model file's initial value that is not a
 finite real number is a model-file error naming the file, line and value.
 """
 
-import sys
 
 import matplotlib
 
@@ -20,9 +19,6 @@ except ImportError:  # Python 3.10
 
 from models import cli  # noqa: E402
 
-from checkout import TESTS  # noqa: E402
-
-sys.path.insert(0, str(TESTS / "codegen"))
 from test_generated_code_safety import RELAY, write_toml  # noqa: E402
 
 

@@ -1,0 +1,93 @@
+"""The modes of a model's automata: a mode named in any of its spellings, its
+junction configuration, its constants, its restitution and the transitions
+leaving it.  A mode is one state per automaton, ``(s_1, …, s_n)``; the model
+has ``∏ |S_a|`` of them, named here, never enumerated."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import sympy as sp
+
+from bondgraph.errors import UnknownNameError
+
+from ..errors import ModelDefinitionError
+from .modes import Mode
+
+
+class ModeSpace:
+    """The modes of ``automata`` (in their order) with the parsed guards of
+    their transitions, ``guards[(automaton name, transition)] = (condition, text)``."""
+
+    def __init__(self, automata: Sequence, guards: Mapping):
+        self.automata = tuple(automata)
+        self.names = tuple(a.name for a in self.automata)
+        self.guards = guards
+
+    def mode(self, spec) -> Mode:
+        """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
+        or a mapping {automaton: state} (automata not named keep their initial state)."""
+        if isinstance(spec, Mode):
+            states = spec.states
+        elif isinstance(spec, str):
+            states = tuple(spec.split("|")) if spec else ()
+        elif isinstance(spec, Mapping):
+            unknown = set(spec) - set(self.names)
+            if unknown:
+                raise UnknownNameError(f"no automaton named {sorted(unknown)}; automata: {list(self.names)}")
+            states = tuple(spec.get(a.name, a.initial) for a in self.automata)
+        else:
+            states = tuple(spec)
+        if len(states) != len(self.automata):
+            raise UnknownNameError(f"mode {spec!r} has {len(states)} state(s) but the model has "
+                                   f"{len(self.automata)} automata ({', '.join(self.names)})")
+        for automaton, state in zip(self.automata, states):
+            if state not in automaton.states:
+                raise UnknownNameError(
+                    f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
+                )
+        return Mode(states, self.names)
+
+    def configuration_of(self, mode: Mode) -> dict:
+        """Controlled junction name → on (``True``) or off, as the states of ``mode`` set them."""
+        config = {}
+        for automaton, state in zip(self.automata, mode.states):
+            config.update(automaton.states[state])
+        return config
+
+    def mode_values(self, mode: Mode) -> dict:
+        """Mode-dependent constants set by the automaton states of ``mode`` (symbol → value)."""
+        values = {}
+        for automaton, state in zip(self.automata, mode.states):
+            for name, value in automaton.values.get(state, {}).items():
+                values[sp.Symbol(name)] = value
+        return values
+
+    def restitution_of(self, mode: Mode):
+        """The restitution coefficient ``e`` of the mode's jump (``x⁺`` of the
+        impacted velocities ``= −e ·`` their value before), ``None`` if no state
+        carries one; two different coefficients in one mode are an error."""
+        found = {}
+        for automaton, state in zip(self.automata, mode.states):
+            if state in automaton.restitution:
+                found[f"{automaton.name}={state}"] = automaton.restitution[state]
+        if not found:
+            return None
+        values = set(found.values())
+        if len(values) > 1:
+            raise ModelDefinitionError(
+                f"mode {mode.describe()} combines different restitution coefficients "
+                + ", ".join(f"{k}: e = {v}" for k, v in found.items())
+                + "; one jump cannot apply two; use one coefficient or separate the contacts",
+                list(found),
+            )
+        return values.pop()
+
+    def guards_from(self, mode: Mode) -> list:
+        """(automaton, transition, condition, text) of every transition leaving ``mode``."""
+        out = []
+        for automaton, state in zip(self.automata, mode.states):
+            for tr in automaton.transitions_from(state):
+                condition, text = self.guards[(automaton.name, tr)]
+                out.append((automaton.name, tr, condition, text))
+        return out
