@@ -60,3 +60,16 @@ from .analysis.fitting import FitError as FitError
 from .analysis.fitting import FitResult as FitResult
 from .analysis.fitting import fit as fit
 from .analysis.fitting import sample_indices as sample_indices
+
+# the model's methods reach the floors above it through these (switching.model.services)
+from .model.services import provide as _provide  # noqa: E402
+from .library.mode_library import ModeLibrary as _ModeLibrary  # noqa: E402
+from .simulate.driver import check_option_names as _check_option_names, simulate as _simulate  # noqa: E402
+from .simulate.run_options import check_sensitivity_options as _check_sensitivity_options  # noqa: E402
+from .simulate.resolution import resolve_instant as _resolve_instant  # noqa: E402
+from .analysis.sensitivity_run import simulate_with_sensitivities as _simulate_with_sensitivities  # noqa: E402
+from .analysis.verify import verify as _verify  # noqa: E402
+
+_provide(library=_ModeLibrary, simulate=_simulate, check_option_names=_check_option_names,
+         check_sensitivity_options=_check_sensitivity_options, resolve_instant=_resolve_instant,
+         simulate_with_sensitivities=_simulate_with_sensitivities, verify=_verify, save=save_model)

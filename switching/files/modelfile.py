@@ -152,7 +152,6 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from ..model.expression_input import ExpressionInput
-from ..model.hybrid_model import HybridModel
 from .build import FileInfo, LoadedModel, file_info
 from .errors import (
     MAX_DEPTH,
@@ -291,7 +290,3 @@ def save_model(model, path, *, run: dict | None = None, description: str | None 
     text = dumps_model(model, run=run, description=description, display=str(path))
     Path(path).write_text(text, encoding="utf-8")
 
-
-# The file format sits above the model (it builds models): a model's ``save`` is this module's writer,
-# given to the class here rather than imported by it.
-HybridModel.save = save_model

@@ -36,16 +36,13 @@ from .automaton import Automaton
 from ..errors import ModelDefinitionError
 from . import definition
 from .definition import InMode
-from ..library.compiled import CompiledMode
-from ..library.mode_library import ModeLibrary
 from .modes import Mode, ModeEquations
 from .initial_state import InitialStateProjected
 from . import initial_state
 from .inputs import InputValues
 from .law_automata import branches_at, law_automaton, starting_mode
 from .mode_space import ModeSpace
-from ..simulate.run_options import check_sensitivity_options
-from ..simulate.driver import check_option_names, simulate
+from .services import SERVICES
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
 
@@ -175,7 +172,7 @@ class HybridModel:
         self._initial_given = definition.initial_state(self.states, initial_state or {})
         self._initial = None
         #: the derived modes, generated functions and code-generation memos (:mod:`switching.library.mode_library`)
-        self.library = ModeLibrary(self)
+        self.library = SERVICES.library(self)
 
     # ------------------------------------------------------------ names and values
 
@@ -323,7 +320,7 @@ class HybridModel:
     def cache(self, cache) -> None:
         self.library.cache = cache
 
-    def compiled_mode(self, mode) -> CompiledMode:
+    def compiled_mode(self, mode):
         """The generated numerical functions of a mode: from memory, else from
         the disk cache, else derived and generated now (and cached)."""
         return self.library.compiled_mode(mode)
@@ -409,10 +406,8 @@ class HybridModel:
         """Resolve the instant at time ``t`` from the a priori state ``x`` in
         ``mode`` (default: the initial mode); returns an
         :class:`~switching.simulate.resolution.Instant`.  See DESIGN §6."""
-        from ..simulate.resolution import resolve_instant
-
         mode = self.initial_mode if mode is None else self.mode(mode)
-        return resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
+        return SERVICES.resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
 
     def simulate(self, t_end: float, method: str = "RK45", **options):
         """Simulate from the initial state (or ``x0=``) to ``t_end``; returns a
@@ -472,22 +467,23 @@ class HybridModel:
         ``trajectory.event_time_sensitivity(k, p)``.  Python methods only.
         See :func:`switching.simulate.driver.simulate`.
         """
-        check_option_names(options)
+        SERVICES.check_option_names(options)
         sensitivities = options.pop("sensitivities", None)
         rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
-        check_sensitivity_options(sensitivities, rtol, atol)
+        SERVICES.check_sensitivity_options(sensitivities, rtol, atol)
         if sensitivities is not None:
-            from ..analysis.sensitivity_run import simulate_with_sensitivities
-
-            return simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
-        return simulate(self, t_end, method, **options)
+            return SERVICES.simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
+        return SERVICES.simulate(self, t_end, method, **options)
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):
         """Static divergence-of-time check from sampled states on each
         reachable mode's guard boundaries; see :func:`switching.analysis.verify.verify`."""
-        from ..analysis.verify import verify
+        return SERVICES.verify(self, samples=samples, seed=seed, max_modes=max_modes, scale=scale)
 
-        return verify(self, samples=samples, seed=seed, max_modes=max_modes, scale=scale)
+    def save(self, path, *, run: dict | None = None, description: str | None = None) -> None:
+        """Write the model to the model file ``path``, checked to read back to
+        the same model; see :func:`switching.files.modelfile.save_model`."""
+        SERVICES.save(self, path, run=run, description=description)
 
     def __repr__(self) -> str:
         return (

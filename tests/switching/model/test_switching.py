@@ -288,3 +288,31 @@ def test_asking_for_one_mode_derives_one_mode():
     q7, q3 = model.state("q_C7"), model.state("q_C3")
     assert sp.simplify(me.f[q7] - (sp.Symbol("V") - q7 / sp.Symbol("C")) / sp.Symbol("R")) == 0
     assert me.f[q3] == 0
+
+
+def test_the_model_wing_imports_no_wing_above_it():
+    """``switching/model/`` is the definition: the library, the simulator,
+    the analyses and model files are reached through the services they
+    register (switching.model.services), never imported by it."""
+    import ast
+    from pathlib import Path
+
+    import switching.model as package
+
+    above = ("library", "simulate", "analysis", "sweep", "files")
+    for path in Path(package.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                target = ("." * node.level) + (node.module or "")
+                assert not any(target.startswith((f"..{w}", f"switching.{w}")) for w in above), (path.name, target)
+
+
+def test_every_model_service_is_registered():
+    from dataclasses import fields
+
+    from switching.model.services import SERVICES, Services, provide
+
+    for field in fields(Services):
+        assert getattr(SERVICES, field.name).__name__ != "missing", field.name
+    with pytest.raises(TypeError, match="no model service 'plot'"):
+        provide(plot=print)
