@@ -25,7 +25,7 @@ The steps, each failing at the line of its culprit:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -33,9 +33,12 @@ from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
 from bondgraph import t as TIME
 from bondgraph.errors import HybridBondGraphError
 
-from ..model.automaton import A_POSTERIORI, A_PRIORI
+from .automaton_table import AUTOMATON_KEYS, read_automaton
 from .errors import MAX_ELEMENTS, ModelFileError
+from .instances import (Entry, bring_instance, graph_share_bind, instance_mapping, share_bind,
+                        sub_graph)
 from .source import Source, did_you_mean, is_number, kind_of
+from .specs import LAW_NAMES, SIGNAL_NAMES, AutomatonSpec, InModeSpec, Parameter, Part, TransitionSpec
 
 __all__ = ["Part", "Parameter", "TransitionSpec", "AutomatonSpec", "InModeSpec", "build_part",
            "LAW_NAMES", "SIGNAL_NAMES"]
@@ -52,70 +55,6 @@ _ELEMENT_KEYS = {
     "1": ("controlled",),
 }
 _INSTANCE_KEYS = ("component", "file", "share", "bind", "parameters", "args")
-_AUTOMATON_KEYS = ("initial", "states", "restitution", "values", "transitions")
-_TRANSITION_KEYS = ("from", "to", "guard", "when", "pulses")
-_WHEN = {"a priori": A_PRIORI, "a posteriori": A_POSTERIORI}
-
-#: what the names of an element law may be
-LAW_NAMES = "t, a parameter, state, input, bond variable or mode constant"
-#: what the names of a signal or guard may be
-SIGNAL_NAMES = "t, a parameter, state, input, bond variable, mode constant or signal"
-
-
-@dataclass
-class Parameter:
-    """A declared parameter: its value [in ``unit``] and what it is."""
-
-    value: float
-    unit: str | None = None
-    description: str | None = None
-    allow_infinite: bool = False
-    where: tuple = ()  # (source, keys) of the declaration
-
-
-@dataclass
-class TransitionSpec:
-    source: str
-    target: str
-    condition: object  # sympy Boolean, signals substituted
-    text: str | None  # the guard as written (None for a renamed sub-model guard)
-    when: str
-    pulses: bool
-    where: tuple = ()
-
-
-@dataclass
-class AutomatonSpec:
-    name: str
-    states: dict
-    initial: str
-    restitution: dict
-    values: dict
-    transitions: list
-    where: tuple = ()
-
-
-@dataclass
-class InModeSpec:
-    expression: sp.Expr
-    states: dict
-
-
-@dataclass
-class Part:
-    """Everything one file defines, its sub-model instances placed."""
-
-    source: Source
-    graph: BondGraph
-    parameters: dict = field(default_factory=dict)  # name → Parameter
-    inputs: dict = field(default_factory=dict)  # name → sympy expression of t and parameters
-    automata: list = field(default_factory=list)  # AutomatonSpec
-    signals: dict = field(default_factory=dict)  # name → sympy expression or InModeSpec
-    initial: dict = field(default_factory=dict)  # state name → sympy expression of parameters
-    initial_where: dict = field(default_factory=dict)  # state name → (Source, keys) of its initial value
-    constants: set = field(default_factory=set)  # mode-constant names
-    settings: dict = field(default_factory=dict)  # name, description, jump_law, … (used for the top file)
-
 
 # ------------------------------------------------------------------ names
 
@@ -139,19 +78,6 @@ class _Names:
         return {name: (TIME if name == "t" else sp.Symbol(name)) for name in every}
 
 
-@dataclass
-class _Entry:
-    """One entry of [elements]: an element, or an instance of a sub-model."""
-
-    name: str
-    keys: tuple
-    spec: dict
-    kind: str  # element type, or "instance"
-    sub: object = None  # BondGraph (component) or Part (file)
-    instance: object = None  # the placed Instance
-    mapping: dict = field(default_factory=dict)  # inner symbol name → expression in this part
-
-
 class _PartBuilder:
     """Builds one :class:`Part` from its source (the steps of the module docstring)."""
 
@@ -162,7 +88,7 @@ class _PartBuilder:
         self.depth = depth
         self.data = src.data
         self.names = _Names()
-        self.entries: list[_Entry] = []
+        self.entries: list[Entry] = []
 
     def build(self) -> None:
         self._declare_parameters()
@@ -239,7 +165,7 @@ class _PartBuilder:
                 sub = self.reader.sub_part(src, keys, culprit, spec, self.depth)
                 graph = sub if isinstance(sub, BondGraph) else sub.graph
                 count += len(graph.elements)
-                entry = _Entry(name, keys, spec, "instance", sub)
+                entry = Entry(name, keys, spec, "instance", sub)
             else:
                 if "type" not in spec:
                     raise src.error("an element needs type = one of " + ", ".join(map(repr, _ELEMENT_KEYS))
@@ -250,7 +176,7 @@ class _PartBuilder:
                                     + ", ".join(map(repr, _ELEMENT_KEYS)), keys + ("type",), culprit)
                 src.table(spec, keys, "the table", allowed=("type",) + _ELEMENT_KEYS[kind], culprit=culprit)
                 count += 1
-                entry = _Entry(name, keys, spec, kind)
+                entry = Entry(name, keys, spec, kind)
             if count > MAX_ELEMENTS:
                 raise src.error(f"the model has more than {MAX_ELEMENTS} elements (sub-models included)",
                                 keys, culprit)
@@ -263,14 +189,14 @@ class _PartBuilder:
             if entry.kind != "instance":
                 continue
             scratch = BondGraph("scratch")
-            share, bind = self._share_bind(entry)
+            share, bind = share_bind(self.src, entry)
             bound = {k: sp.Dummy(k) for k in bind}  # the names only matter here, not the bound values
-            graph_share, graph_bind = self._graph_share_bind(entry, share, bound)
+            graph_share, graph_bind = graph_share_bind(entry, share, bound)
             try:
-                instance = scratch.add_submodel(self._sub_graph(entry), entry.name, bind=graph_bind, share=graph_share)
+                instance = scratch.add_submodel(sub_graph(entry), entry.name, bind=graph_bind, share=graph_share)
             except HybridBondGraphError as exc:
                 raise self.src.error(str(exc), entry.keys, f"sub-model instance {entry.name!r}") from None
-            mapping = self._instance_mapping(entry, instance, share, bound)
+            mapping = instance_mapping(self.src, entry, instance, share, bound)
             self.names.states |= {s.name for s in scratch.states}
             self.names.bond_variables |= {s.name for s in scratch.bond_symbols()}
             self.names.inputs |= set(scratch.inputs)
@@ -286,65 +212,6 @@ class _PartBuilder:
                 self.names.inputs |= {mapping[i].name for i in sub.inputs
                                       if isinstance(mapping[i], sp.Symbol) and not isinstance(mapping[i], sp.Dummy)}
             self.names.parameters -= self.names.constants
-
-    def _sub_graph(self, entry) -> BondGraph:
-        return entry.sub if isinstance(entry.sub, BondGraph) else entry.sub.graph
-
-    def _share_bind(self, entry) -> tuple[list, dict]:
-        src, keys, culprit = self.src, entry.keys, f"sub-model instance {entry.name!r}"
-        share = entry.spec.get("share", [])
-        if not isinstance(share, list) or not all(isinstance(s, str) for s in share):
-            raise src.error('share must be an array of names, e.g. share = ["g"]', keys, culprit)
-        bind = src.table(entry.spec.get("bind", {}), keys + ("bind",), "bind", example='bind = { k = "k_spring" }')
-        inner = self._inner_names(entry)
-        for name in list(share) + list(bind):
-            if name not in inner:
-                raise src.error(f"{name!r} is no parameter or input of the sub-model{did_you_mean(name, inner)}; "
-                                f"its parameters and inputs: {', '.join(sorted(inner)) or '(none)'}", keys, culprit)
-        both = set(share) & set(bind)
-        if both:
-            raise src.error(f"{sorted(both)} are both shared and bound; choose one", keys, culprit)
-        return list(share), dict(bind)
-
-    def _inner_names(self, entry) -> set:
-        """The parameters and inputs of the sub-model (what share/bind may name)."""
-        graph = self._sub_graph(entry)
-        names = {s.name for s in graph.parameters} | set(graph.inputs)
-        if isinstance(entry.sub, Part):
-            names |= set(entry.sub.parameters) | set(entry.sub.inputs)
-            names -= entry.sub.constants
-        return names
-
-    def _graph_share_bind(self, entry, share, bind):
-        graph = self._sub_graph(entry)
-        known = {s.name for s in graph.parameters} | set(graph.inputs)
-        return [s for s in share if s in known], {k: v for k, v in bind.items() if k in known}
-
-    def _instance_mapping(self, entry, instance, share, bound: dict) -> dict:
-        """inner name → expression in this part, for every symbol of the sub-model."""
-        graph = self._sub_graph(entry)
-        mapping = {}
-        inner = [s.name for s in graph.states] + [s.name for s in graph.bond_symbols()]
-        inner += list(graph.inputs) + [s.name for s in graph.parameters]
-        for name in inner:
-            mapping[name] = instance.symbol(name)
-        if isinstance(entry.sub, Part):
-            sub = entry.sub
-            extra = set(sub.parameters) | set(sub.inputs) | sub.constants
-            for name in extra - set(mapping):
-                if name in bound:
-                    mapping[name] = bound[name]
-                elif name in share:
-                    mapping[name] = sp.Symbol(name)
-                else:
-                    mapping[name] = sp.Symbol(f"{entry.name}/{name}")
-            for name in sub.signals:
-                mapping[name] = sp.Symbol(f"{entry.name}/{name}")
-            for name in sub.constants:
-                if not isinstance(mapping[name], sp.Symbol) or isinstance(mapping[name], sp.Dummy):
-                    raise self.src.error(f"{name!r} is a mode constant of the sub-model; it cannot be bound",
-                                         entry.keys, f"sub-model instance {entry.name!r}")
-        return mapping
 
     def _read_bonds(self) -> list:
         src = self.src
@@ -381,7 +248,7 @@ class _PartBuilder:
         automata = src.table(self.data.get("automata", {}), ("automata",), "[automata]")
         for auto_name, spec in automata.items():
             keys = ("automata", auto_name)
-            spec = src.table(spec, keys, "the table", allowed=_AUTOMATON_KEYS, culprit=f"automaton {auto_name!r}")
+            spec = src.table(spec, keys, "the table", allowed=AUTOMATON_KEYS, culprit=f"automaton {auto_name!r}")
             values = src.table(spec.get("values", {}), keys + ("values",), "values",
                                example="values = { stuck = { sigma = 0 }, slide = { sigma = 1 } }")
             for state, table_ in values.items():
@@ -477,21 +344,21 @@ class _PartBuilder:
 
     def _place(self, entry, symbols):
         src, culprit = self.src, f"sub-model instance {entry.name!r}"
-        share, bind_text = self._share_bind(entry)
+        share, bind_text = share_bind(self.src, entry)
         law = self.names.law()
         bound = {k: self.reader.parse(src, entry.keys + ("bind", k), culprit, v, symbols, law, f"bind {k}")
                  for k, v in bind_text.items()}
-        graph_share, graph_bind = self._graph_share_bind(entry, share, bound)
+        graph_share, graph_bind = graph_share_bind(entry, share, bound)
         graph = self.part.graph
-        if len(graph.elements) + len(self._sub_graph(entry).elements) > MAX_ELEMENTS:
+        if len(graph.elements) + len(sub_graph(entry).elements) > MAX_ELEMENTS:
             raise src.error(f"the model has more than {MAX_ELEMENTS} elements (sub-models included)",
                             entry.keys, culprit)
         try:
-            entry.instance = graph.add_submodel(self._sub_graph(entry), entry.name, bind=graph_bind,
+            entry.instance = graph.add_submodel(sub_graph(entry), entry.name, bind=graph_bind,
                                                 share=graph_share)
         except HybridBondGraphError as exc:
             raise src.error(str(exc), entry.keys, culprit) from None
-        entry.mapping = self._instance_mapping(entry, entry.instance, share, bound)
+        entry.mapping = instance_mapping(self.src, entry, entry.instance, share, bound)
 
     def _endpoint(self, ref: str, keys, culprit: str) -> str:
         """An element name, or ``instance.port`` resolved to the element behind the port."""
@@ -503,7 +370,7 @@ class _PartBuilder:
                 instances = [e.name for e in self.entries if e.kind == "instance"]
                 raise self.src.error(f"{ref!r}: there is no sub-model instance {instance_name!r}"
                                      f"{did_you_mean(instance_name, instances)}", keys, culprit)
-            ports = self._sub_graph(entry).ports
+            ports = sub_graph(entry).ports
             if port not in ports:
                 raise self.src.error(f"{ref!r}: instance {instance_name!r} has no port {port!r}; its ports: "
                                      f"{', '.join(ports) or '(none)'}", keys, culprit)
@@ -566,72 +433,11 @@ class _PartBuilder:
     def _sub_model_extras(self):
         """Bring each instance's automata, signals, parameter values, inputs and
         initial state into this part, renamed."""
-        part = self.part
-        declared = set(part.parameters)  # this file's own declarations
+        declared = set(self.part.parameters)  # this file's own declarations
         provided: dict[str, tuple] = {}  # parameter → (Parameter, instance) given by a sub-model
         for entry in self.entries:
-            if entry.kind != "instance":
-                continue
-            src, culprit = self.src, f"sub-model instance {entry.name!r}"
-            mapping = entry.mapping
-            symbol_map = {sp.Symbol(k): v for k, v in mapping.items()}
-            values = src.table(entry.spec.get("parameters", {}), entry.keys + ("parameters",), "parameters",
-                               example="parameters = { m = 2.0 }")
-            sub = entry.sub
-            defaults = dict(sub.parameters) if isinstance(sub, Part) else {}
-            inner = self._inner_names(entry)
-            for name, value in values.items():
-                if name not in inner:
-                    raise src.error(f"parameters: {name!r} is no parameter of the sub-model"
-                                    f"{did_you_mean(name, inner)}", entry.keys, culprit)
-                if not is_number(value) or not math.isfinite(value):
-                    raise src.error(f"parameters: {name} must be a finite number, not {value!r}", entry.keys, culprit)
-                old = defaults.get(name)
-                defaults[name] = replace(old, value=float(value)) if old else Parameter(float(value), where=(src, entry.keys))
-            for name, parameter in defaults.items():
-                target = mapping.get(name, sp.Symbol(f"{entry.name}/{name}"))
-                if not isinstance(target, sp.Symbol) or target.name in declared:
-                    continue  # bound to an expression, or this file's own declaration wins
-                earlier = provided.get(target.name)
-                if earlier is not None:
-                    if earlier[0].value != parameter.value:
-                        raise src.error(
-                            f"shared parameter {target.name!r} has the value {earlier[0].value} in instance "
-                            f"{earlier[1]!r} and {parameter.value} here; declare it in [parameters] to choose",
-                            entry.keys, culprit)
-                    continue
-                provided[target.name] = (parameter, entry.name)
-                part.parameters[target.name] = parameter
-            if not isinstance(sub, Part):
-                continue
-            for spec in sub.automata:
-                part.automata.append(self._renamed_automaton(spec, entry, symbol_map))
-            for name, signal in sub.signals.items():
-                if isinstance(signal, InModeSpec):
-                    states = {f"{entry.name}/{a}": s for a, s in signal.states.items()}
-                    part.signals[f"{entry.name}/{name}"] = InModeSpec(signal.expression.xreplace(symbol_map), states)
-                else:
-                    part.signals[f"{entry.name}/{name}"] = signal.xreplace(symbol_map)
-            for name, expr in sub.inputs.items():
-                target = mapping[name]
-                if isinstance(target, sp.Symbol) and target.name not in part.inputs:
-                    part.inputs[target.name] = expr.xreplace(symbol_map)
-            for name, expr in sub.initial.items():
-                part.initial[mapping[name].name] = expr.xreplace(symbol_map)
-                if name in sub.initial_where:
-                    part.initial_where[mapping[name].name] = sub.initial_where[name]
-            part.constants |= {mapping[c].name for c in sub.constants}
-
-    def _renamed_automaton(self, spec: AutomatonSpec, entry, symbol_map) -> AutomatonSpec:
-        prefix = entry.name
-        states = {s: {f"{prefix}/{j}": on for j, on in setting.items()} for s, setting in spec.states.items()}
-        values = {s: {symbol_map[sp.Symbol(k)].name: v.xreplace(symbol_map) for k, v in table.items()}
-                  for s, table in spec.values.items()}
-        transitions = [replace(tr, condition=tr.condition.xreplace(symbol_map), text=None, where=(self.src, entry.keys))
-                       for tr in spec.transitions]
-        return AutomatonSpec(f"{prefix}/{spec.name}", states, spec.initial,
-                             {s: e.xreplace(symbol_map) for s, e in spec.restitution.items()}, values,
-                             transitions, (self.src, entry.keys))
+            if entry.kind == "instance":
+                bring_instance(self.src, self.part, entry, declared, provided)
 
     # ---------------------------------------------------------- own automata and signals
 
@@ -671,91 +477,12 @@ class _PartBuilder:
         guard_names = {**symbols, **signal_values}
         guard_allowed = law | set(signal_values)
         for name, spec in self.data.get("automata", {}).items():
-            part.automata.append(self._automaton(name, spec, symbols, guard_names, guard_allowed))
+            part.automata.append(read_automaton(self.reader, src, part.graph, names.parameters, name, spec, symbols,
+                                                guard_names, guard_allowed))
         for automaton in part.automata:
             for state, table in automaton.values.items():
                 for constant in table:
                     part.constants.add(constant)
-
-    def _automaton(self, name, spec, symbols, guard_names, guard_allowed) -> AutomatonSpec:
-        src = self.src
-        keys = ("automata", name)
-        culprit = f"automaton {name!r}"
-        src.name(name, keys, "automaton name")
-        src.table(spec, keys, "the table", allowed=_AUTOMATON_KEYS, required=("initial", "states"), culprit=culprit)
-        states_table = src.table(spec["states"], keys + ("states",), "states",
-                                 example="states = { on = { sw = true }, off = { sw = false } }")
-        if not states_table:
-            raise src.error("an automaton needs at least one state", keys, culprit)
-        states = {}
-        for state, setting in states_table.items():
-            skeys = keys + ("states", state)
-            src.name(state, skeys, "state name")
-            setting = src.table(setting, skeys, f"state {state!r}", example="{ sw = true }")
-            for junction, on in setting.items():
-                if not isinstance(on, bool):
-                    raise src.error(f"junction {junction!r} is switched on (true) or off (false), not {on!r}",
-                                    skeys, culprit)
-                element = self.part.graph.elements.get(junction)
-                if element is None or element.kind not in ("0", "1") or not element.controlled:
-                    what = "no element" if element is None else "not a controlled junction"
-                    controlled = self.part.graph.controlled_junctions
-                    raise src.error(f"state {state!r} switches {junction!r}, which is {what} of this model"
-                                    f"{did_you_mean(junction, controlled)}; controlled junctions: "
-                                    f"{', '.join(controlled) or '(none)'}", skeys, culprit)
-            states[state] = dict(setting)
-        initial = spec["initial"]
-        if initial not in states:
-            raise src.error(f"initial state {initial!r} is not one of its states {list(states)}",
-                            keys + ("initial",), culprit)
-        parameters = self.names.parameters
-        restitution = {}
-        for state, value in src.table(spec.get("restitution", {}), keys + ("restitution",), "restitution").items():
-            self._known_state(state, states, keys + ("restitution",), culprit)
-            restitution[state] = self.reader.parse(src, keys + ("restitution",), culprit, value, symbols, parameters,
-                                                   f"the restitution coefficient of state {state!r}",
-                                                   expected="a declared parameter")
-        values = {}
-        for state, table in spec.get("values", {}).items():
-            self._known_state(state, states, keys + ("values",), culprit)
-            values[state] = {k: self.reader.parse(src, keys + ("values", state), culprit, v, symbols, parameters,
-                                                  f"mode constant {k!r} of state {state!r}",
-                                                  expected="a declared parameter")
-                             for k, v in table.items()}
-        transitions = []
-        items = spec.get("transitions", [])
-        if not isinstance(items, list):
-            raise src.error("transitions is an array of tables: [[automata.NAME.transitions]]",
-                            keys + ("transitions",), culprit)
-        for k, item in enumerate(items):
-            tkeys = keys + ("transitions", k)
-            tculprit = f"transition {k + 1} of automaton {name!r}"
-            src.table(item, tkeys, "the table", allowed=_TRANSITION_KEYS, required=("from", "to", "guard"),
-                      culprit=tculprit)
-            for end in ("from", "to"):
-                self._known_state(item[end], states, tkeys + (end,), tculprit)
-            if item["from"] == item["to"]:
-                raise src.error(f"from and to are both {item['from']!r}; a transition leads to another state",
-                                tkeys, tculprit)
-            when = item.get("when", "a priori")
-            if when not in _WHEN:
-                raise src.error(f"when must be 'a priori' or 'a posteriori', not {when!r}", tkeys + ("when",),
-                                tculprit)
-            pulses = item.get("pulses", True)
-            if not isinstance(pulses, bool):
-                raise src.error(f"pulses must be true or false, not {kind_of(pulses)}", tkeys + ("pulses",), tculprit)
-            text = src.text_value(item["guard"], tkeys + ("guard",), "the guard", tculprit)
-            condition = self.reader.parse(src, tkeys + ("guard",), tculprit, text, guard_names, guard_allowed,
-                                          "the guard", condition=True, numbers=False,
-                                          expected=SIGNAL_NAMES)
-            transitions.append(TransitionSpec(item["from"], item["to"], condition, text, _WHEN[when], pulses,
-                                              (src, tkeys)))
-        return AutomatonSpec(name, states, initial, restitution, values, transitions, (src, keys))
-
-    def _known_state(self, state, states, keys, culprit):
-        if state not in states:
-            raise self.src.error(f"unknown state {state!r}{did_you_mean(state, states)}; states: "
-                                 f"{', '.join(states)}", keys, culprit)
 
     # ---------------------------------------------------------- inputs, initial state
 
