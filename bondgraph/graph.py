@@ -25,10 +25,10 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from .derivation import Derivations
 from .elements import Element, Junction, OnePort, OpenPort, Storage, TwoPort
 from .errors import (
     DuplicateNameError,
-    HybridBondGraphError,
     InvalidGraphError,
     MissingParameterError,
     UnknownNameError,
@@ -158,13 +158,14 @@ class BondGraph:
         self.open_ports: dict[str, tuple[str, str]] = {}
         self._bonds_of: dict[str, list[str]] = {}
         self._version = 0
-        self._cache: dict = {}
+        #: what is derived from the graph, kept until it changes (:class:`bondgraph.derivation.Derivations`)
+        self.derived = Derivations()
 
     # ------------------------------------------------------------ building
 
     def _changed(self) -> None:
         self._version += 1
-        self._cache.clear()
+        self.derived.clear()
 
     def add(self, element: Element) -> Element:
         """Add an element; its name must be new.  Returns the element."""
@@ -425,10 +426,10 @@ class BondGraph:
 
     @property
     def controlled_junctions(self) -> tuple[str, ...]:
-        found = self._cache.get("controlled junctions")
+        found = self.derived.entries.get("controlled junctions")
         if found is None:
             found = tuple(n for n, e in self.elements.items() if isinstance(e, Junction) and e.controlled)
-            self._cache["controlled junctions"] = found
+            self.derived.entries["controlled junctions"] = found
         return found
 
     def bond_symbols(self) -> set[sp.Symbol]:
@@ -529,7 +530,7 @@ class BondGraph:
         merged = dict(config or {})
         merged.update(on)
         controlled = self.controlled_junctions
-        known = self._memo("controlled junction set", lambda: frozenset(controlled))
+        known = self.derived.memo("controlled junction set", lambda: frozenset(controlled))
         for name, value in merged.items():
             if name in known and isinstance(value, (bool, int)):
                 continue
@@ -546,11 +547,7 @@ class BondGraph:
         return {name: bool(merged.get(name, True)) for name in controlled}
 
     def _cached(self, kind: str, config, compute):
-        config = self.configuration(config)
-        key = (kind, tuple(sorted(config.items())))
-        if key not in self._cache:
-            self._cache[key] = compute(config)
-        return self._cache[key]
+        return self.derived.per_configuration(kind, self.configuration(config), compute)
 
     def open_view(self, port_causality: Mapping[str, str] | None = None) -> "BondGraph":
         """The graph as derived on its own: every declared port left **open**.
@@ -636,7 +633,7 @@ class BondGraph:
         graph = self.open_view(port_causality) if open_ports else self
         ports = self._port_key("", port_causality, open_ports)
         return self._cached(self._port_key("causality", port_causality, open_ports), config,
-                            lambda c: self._derive_causality(graph, c, ports))
+                            lambda c: self.derived.causality(graph, c, ports))
 
     def equations(self, config: Configuration | None = None, port_causality: Mapping[str, str] | None = None,
                   open_ports: bool = True):
@@ -656,7 +653,7 @@ class BondGraph:
         return self._cached(
             self._port_key("equations", port_causality, open_ports),
             config,
-            lambda c: self._derive_equations(graph, c, self.causality(c, port_causality, open_ports), ports),
+            lambda c: self.derived.equations(graph, c, self.causality(c, port_causality, open_ports), ports),
         )
 
     def jump_map(self, config: Configuration | None = None, law: str = "conservation"):
@@ -666,34 +663,6 @@ class BondGraph:
         # derived on this graph itself: its declared ports closed, as the jump needs the whole graph
         return self._cached(f"jump {law}", config,
                             lambda c: derive_jump_map(self, self.equations(c, open_ports=False), law))
-
-    # -------------------------------------------- derivation island by island
-
-    def _memo(self, key, compute):
-        """``compute()`` kept in the graph's cache under ``key`` (dropped when the graph changes)."""
-        if key not in self._cache:
-            self._cache[key] = compute()
-        return self._cache[key]
-
-    def _islands(self, graph, config: dict, ports: str):
-        """The islands of ``config`` (:mod:`bondgraph.islands`) in ``graph``
-        (this graph, or its open view ``ports``), or ``None`` when the
-        configuration is all one piece (or has no junction off: no island
-        of it could serve another configuration)."""
-        from .islands import element_couplings, islands
-
-        if all(config.values()):
-            return None
-        key = (ports, tuple(config.items()))
-        last = self._cache.get("islands")  # (kept for one configuration: its causality, then its equations)
-        if last is None or last[0] != key:
-            couplings = self._memo(("island couplings", ports), lambda: element_couplings(graph))
-            parts = islands(graph, config, couplings)
-            last = self._cache["islands"] = (key, parts if len(parts) > 1 else None)
-        return last[1]
-
-    def _island_graph(self, graph, island, ports: str):
-        return self._memo(("island graph", ports, island.key), lambda: graph.island_graph(island))
 
     def island_graph(self, island) -> "BondGraph":
         """The island (:class:`bondgraph.islands.Island`) as a graph of its own:
@@ -709,64 +678,6 @@ class BondGraph:
         sub.inputs = dict(self.inputs)
         sub.open_ports = {p: (outside, b) for p, (outside, b) in self.open_ports.items() if b in held}
         return sub
-
-    def _island_causality(self, graph, island, ports: str):
-        """The causality of one island, kept for every configuration holding it."""
-        from .causality import assign_causality
-        from .islands import has_modulated_two_port
-
-        def derive():
-            rank = self._memo(("modulated two-port", ports), lambda: has_modulated_two_port(graph))
-            return assign_causality(self._island_graph(graph, island, ports), dict(island.key[1]), validate=False,
-                                    rank_storage=rank)
-
-        return self._memo(("island causality", ports, island.key), derive)
-
-    def _island_equations(self, graph, island, ports: str):
-        """The equations of one island, kept for every configuration holding it."""
-        from .equations import derive_equations
-
-        return self._memo(("island equations", ports, island.key),
-                          lambda: derive_equations(self._island_graph(graph, island, ports), dict(island.key[1]),
-                                                   self._island_causality(graph, island, ports)))
-
-    def _checked(self, graph, ports: str) -> None:
-        """Validate ``graph`` once per version of this graph (it raises every time while invalid)."""
-        if ("validated", ports) not in self._cache:
-            graph.validate()
-            self._cache[("validated", ports)] = True
-
-    def _derive_causality(self, graph, config: dict, ports: str):
-        """The causality of ``config``: assembled from its islands' (each
-        derived once for all configurations holding it) when it has several;
-        a conflict in an island is reported by the whole graph's derivation."""
-        from .causality import assign_causality
-        from .islands import merge_causality
-
-        self._checked(graph, ports)
-        parts = self._islands(graph, config, ports)
-        if parts is None:
-            return assign_causality(graph, config, validate=False)
-        try:
-            pieces = [self._island_causality(graph, island, ports) for island in parts]
-        except HybridBondGraphError:
-            return assign_causality(graph, config, validate=False)
-        return merge_causality(graph, config, pieces)
-
-    def _derive_equations(self, graph, config: dict, causality, ports: str):
-        """The equations of ``config``, assembled from its islands' like
-        :meth:`_derive_causality`."""
-        from .equations import derive_equations
-        from .islands import merge_equations
-
-        parts = self._islands(graph, config, ports)
-        if parts is None:
-            return derive_equations(graph, config, causality)
-        try:
-            pieces = [self._island_equations(graph, island, ports) for island in parts]
-        except HybridBondGraphError:
-            return derive_equations(graph, config, causality)
-        return merge_equations(graph, config, causality, pieces)
 
     @property
     def version(self) -> int:

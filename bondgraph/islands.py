@@ -121,7 +121,7 @@ def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
 
 def _controlled(graph) -> frozenset:
     """The names of the graph's controlled junctions."""
-    return graph._memo("controlled junction set", lambda: frozenset(graph.controlled_junctions))
+    return graph.derived.memo("controlled junction set", lambda: frozenset(graph.controlled_junctions))
 
 
 def has_modulated_two_port(graph) -> bool:
@@ -151,7 +151,7 @@ def merge_causality(graph, config: dict, parts: list):
     independent = [el.state for el in graph.storage if el.state not in dependent_set]
     independent.extend(graph.displacements)
     dependent = tuple(el.state for el in graph.storage if el.state in dependent_set)
-    rate_symbols = dict(graph._memo("rate symbols", lambda: {s: rate_symbol(s) for s in graph.states}))
+    rate_symbols = dict(graph.derived.memo("rate symbols", lambda: {s: rate_symbol(s) for s in graph.states}))
     return Causality(
         configuration=dict(config),
         effort_by={b: effort_by[b] for b in graph.bonds if b in effort_by},

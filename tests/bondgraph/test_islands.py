@@ -135,11 +135,11 @@ def test_a_configuration_that_switches_one_contact_derives_only_the_islands_next
     contacts = graph.controlled_junctions
     free = {c: False for c in contacts}
     graph.equations(free, open_ports=False)
-    derived = {k for k in graph._cache if k[0] == "island equations"}
+    derived = {k for k in graph.derived.entries if k[0] == "island equations"}
     assert len(derived) == len(islands(graph, graph.configuration(free)))
     one_on = dict(free, **{contacts[5]: True})
     graph.equations(one_on, open_ports=False)
-    new = {k for k in graph._cache if k[0] == "island equations"} - derived
+    new = {k for k in graph.derived.entries if k[0] == "island equations"} - derived
     assert len(new) == 1  # the two balls the contact joins: one island, derived anew
     assert len(islands(graph, graph.configuration(one_on))) == len(derived) - 1
 

@@ -50,12 +50,12 @@ def reference_mode(model, mode, monkeypatch):
     monkeypatch.setattr(algebra, "dependency_components", networkx_components)
     monkeypatch.setattr(equations, "tidy", simplified)
     graph = model.derivation_graph
-    graph._cache.clear()  # derive again, not from the graph's own cache
+    graph.derived.entries.clear()  # derive again, not from the graph's own cache
     try:
         return ModeEquations(model, mode)
     finally:
         monkeypatch.undo()
-        graph._cache.clear()
+        graph.derived.entries.clear()
 
 
 def test_f_g_and_guard_sides_agree_with_the_plain_derivation(visited, monkeypatch):

@@ -281,7 +281,7 @@ def test_asking_for_one_mode_derives_one_mode():
     me = model.mode_equations(mode)
     assert model.derivation_count == 1
     assert model.derived_modes == (mode,)
-    equations_cached = [k for k in model.graph._cache if k[0] == "equations"]
+    equations_cached = [k for k in model.graph.derived.entries if k[0] == "equations"]
     assert len(equations_cached) == 1
     assert model.mode_equations(mode) is me and model.derivation_count == 1
     # and the mode has the expected equations: cell 7 charges, the others do not
