@@ -9,6 +9,7 @@ derive their own from these bases, so the hierarchy stays single.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 
 __all__ = [
@@ -34,6 +35,18 @@ def _restore(cls, args, state):
     error.args = args
     error.__dict__.update(state)
     return error
+
+
+def close_names(name: str, known, n: int = 3) -> list[str]:
+    """Up to ``n`` names of ``known`` that ``name`` may be a misspelling of (closest first)."""
+    return difflib.get_close_matches(str(name), [str(k) for k in known], n=n)
+
+
+def did_you_mean(name: str, known) -> str:
+    """`` (did you mean 'a' or 'b'?)`` for the names of ``known`` close to ``name``, else ``''``:
+    the hint every error about an unknown name ends with."""
+    close = close_names(name, known)
+    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
 
 
 class HybridBondGraphError(Exception):
@@ -122,8 +135,6 @@ class UnknownParameterError(HybridBondGraphError, KeyError):
     model uses (usually a typo); the message offers the closest names."""
 
     def __init__(self, unknown: Iterable[str], known: Iterable[str]):
-        import difflib
-
         self.unknown = tuple(sorted(unknown))
         known = sorted(known)
         lines = [
@@ -131,7 +142,7 @@ class UnknownParameterError(HybridBondGraphError, KeyError):
             f"uses; the model's parameters are: {', '.join(known) if known else '(none)'}"
         ]
         for name in self.unknown:
-            close = difflib.get_close_matches(name, known, n=3)
+            close = close_names(name, known)
             if close:
                 lines.append(f"  {name}: did you mean {' or '.join(map(repr, close))}?")
         super().__init__("\n".join(lines))

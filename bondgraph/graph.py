@@ -33,6 +33,7 @@ from .errors import (
     MissingParameterError,
     UnknownNameError,
     UnknownParameterError,
+    did_you_mean,
 )
 from .symbols import check_name, t
 
@@ -192,10 +193,7 @@ class BondGraph:
         return name
 
     def _suggest(self, name: str) -> str:
-        import difflib
-
-        close = difflib.get_close_matches(str(name), list(self.elements), n=3)
-        return f" (did you mean {', '.join(map(repr, close))}?)" if close else ""
+        return did_you_mean(name, self.elements)
 
     def connect(self, tail, head, name: str | None = None) -> Bond:
         """Draw a bond with positive power from ``tail`` to ``head``.

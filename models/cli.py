@@ -71,6 +71,7 @@ import sys
 import time
 
 from bondgraph import HybridBondGraphError
+from bondgraph.errors import did_you_mean
 
 from . import MODELS, load
 from .graphs import GRAPHS
@@ -115,28 +116,47 @@ def _finite(value: str) -> str:
     return ""
 
 
-def _parse_sets(items, defaults) -> dict:
+def _parse_sets(items, defaults, others: dict | None = None) -> dict:
+    """``--set name=value`` items → parameter values (numbers checked finite).
+    A name that is no parameter goes to ``others`` (name → number) when given
+    (an initial state, checked once the model is built), else is a usage error."""
     values = {}
     for item in items:
         if "=" not in item:
             raise _UsageError(f"--set expects name=value, got {item!r}")
         name, _, value = item.partition("=")
         name = name.strip()
-        if name not in defaults:
+        if name not in defaults and others is None:
             raise _UsageError(f"unknown parameter {name!r}; parameters: {', '.join(defaults)}")
-        if isinstance(defaults[name], (bool, str)):  # parsed and checked by the model
+        if name in defaults and isinstance(defaults[name], (bool, str)):  # parsed and checked by the model
             values[name] = value.strip()
             continue
+        what = "parameter" if name in defaults else "initial state"
         try:
             number = float(value)
         except ValueError:
-            raise _UsageError(f"parameter {name!r} needs a number, got {value!r}") from None
+            raise _UsageError(f"{what} {name!r} needs a number, got {value!r}") from None
         problem = _finite(value)
         if problem:
-            raise _UsageError(f"--set {name}={value.strip()}: parameter {name!r} must be a finite number, "
+            raise _UsageError(f"--set {name}={value.strip()}: {what} {name!r} must be a finite number, "
                               f"got {value.strip()!r} ({problem})")
-        values[name] = number
+        (values if name in defaults else others)[name] = number
     return values
+
+
+def _initial_state(model, states: dict, defaults):
+    """The run's ``x0``: the model's initial state as given, with the states
+    named in ``states`` (name → value, from ``--set``) replaced; ``None`` when none is named."""
+    if not states:
+        return None
+    unknown = [name for name in states if name not in model.state_names]
+    if unknown:
+        raise _UsageError(f"unknown parameter or state {unknown[0]!r}{did_you_mean(unknown[0], [*defaults, *model.state_names])}; "
+                          f"parameters: {', '.join(defaults) or '(none)'}; states: {', '.join(model.state_names)}")
+    x0 = model.given_initial_state
+    for name, value in states.items():
+        x0[model.state_names.index(name)] = value
+    return x0
 
 
 def _build(args):
@@ -162,13 +182,15 @@ def _run_options(args, module) -> tuple[float, str, dict]:
     if method not in METHODS and method != "auto":
         raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}, auto")
     _positive("--t-end", t_end)
-    for option, value in (("--dt", args.dt), ("--rtol", args.rtol)):
+    atol, max_step = getattr(args, "atol", None), getattr(args, "max_step", None)
+    for option, value in (("--dt", args.dt), ("--rtol", args.rtol), ("--atol", atol), ("--max-step", max_step)):
         if value is not None:
             _positive(option, value)
     options = {}
     if method.removesuffix("-jit") in FIXED_STEP:
-        if args.rtol is not None:
-            raise _UsageError(f"--rtol is for adaptive methods; {method} is fixed-step: give --dt")
+        for option, value in (("--rtol", args.rtol), ("--atol", atol), ("--max-step", max_step)):
+            if value is not None:
+                raise _UsageError(f"{option} is for adaptive methods; {method} is fixed-step: give --dt")
         if args.dt is None:
             raise _UsageError(f"method {method} is fixed-step: give --dt")
         options["dt"] = args.dt
@@ -176,13 +198,15 @@ def _run_options(args, module) -> tuple[float, str, dict]:
         if args.dt is not None:
             raise _UsageError(f"--dt is for euler and rk4; {method} is adaptive: give --rtol")
         options.update({k: v for k, v in run.items() if k in ("rtol", "atol", "max_step")})
-        if args.rtol is not None:
-            options["rtol"] = args.rtol
+        for key, value in (("rtol", args.rtol), ("atol", atol), ("max_step", max_step)):
+            if value is not None:
+                options[key] = value
     return t_end, method, options
 
 
 #: the command line's flag for an option of ``simulate``
-_FLAGS = {"dt": "--dt", "rtol": "--rtol", "max_steps": "--max-steps", "t_end": "--t-end", "t_eval": "--samples"}
+_FLAGS = {"dt": "--dt", "rtol": "--rtol", "atol": "--atol", "max_step": "--max-step", "max_steps": "--max-steps",
+          "t_end": "--t-end", "t_eval": "--samples", "x0": "--set"}
 
 
 def _check_run(model, t_end, method, options) -> None:
@@ -400,7 +424,8 @@ def _cmd_list(args) -> int:
 
 def _cmd_run(args) -> int:
     module = _module(args.model)
-    parameters = _parse_sets(args.set or [], module.DEFAULTS)
+    states: dict = {}
+    parameters = _parse_sets(args.set or [], module.DEFAULTS, states)
     t_end, method, options = _run_options(args, module)
     if args.samples < 0 or args.samples == 1:
         raise _UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
@@ -411,6 +436,9 @@ def _cmd_run(args) -> int:
         if path:
             _check_output(option, path, plot=option == "--plot")
     model = module.build(**parameters)
+    x0 = _initial_state(model, states, module.DEFAULTS)
+    if x0 is not None:
+        options["x0"] = x0
     signals = [s for s in (args.signals.split(",") if args.signals else module.SIGNALS) if s]
     for s in signals:
         if s not in model.signal_names and s not in {b.effort.name for b in model.graph.bonds.values()} | {
@@ -757,23 +785,40 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(message)
 
 
+#: what every command's MODEL argument may be
+_MODEL_HELP = "a shipped model's name (hbg list shows them) or the path of a model file (.toml)"
+#: what --set may set
+_SET_HELP = "override a parameter (repeatable; hbg list shows each model's parameters)"
+_RUN_SET_HELP = ("override a parameter, or set the initial value of a state by its name (q_C=1e-3, rod/theta=0.5); "
+                 "repeatable")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="hbg", description="Hybrid bond graph toolkit")
+    from bondgraph import __version__
+
+    parser = _Parser(prog="hbg", description="Hybrid bond graph toolkit: simulate, inspect, draw and save "
+                     "switching physical systems modelled as hybrid bond graphs")
+    parser.add_argument("--version", action="version", version=f"hbg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="shipped models with their parameters").set_defaults(run=_cmd_list)
 
-    p = sub.add_parser("run", help="simulate a shipped model")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("--t-end", type=float, dest="t_end")
+    p = sub.add_parser("run", help="simulate a shipped model or a model file: print a summary, write the plot and "
+                       "data asked for")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_RUN_SET_HELP)
+    p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of the run in s (default: the "
+                   "model's)")
     p.add_argument("--method", help="integration method (default: the model's, else RK45); 'auto': the compiled "
                    "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--dt", type=float, help="step of euler / rk4")
     group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
-    p.add_argument("--plot", metavar="FILE.png")
-    p.add_argument("--csv", metavar="FILE")
-    p.add_argument("--npz", metavar="FILE")
+    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
+    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
+                   help="the longest step an adaptive method may take, in s")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the signals (PNG, SVG or PDF by the extension)")
+    p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")
+    p.add_argument("--npz", metavar="FILE", help="write the run as numpy arrays (t, x, modes, signals, instants)")
     p.add_argument("--signals", help="comma-separated signals to plot/save")
     p.add_argument("--samples", type=int, default=500,
                    help="write at most this many rows, at equally spaced times (default 500, at least 2; "
@@ -795,36 +840,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_run)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
     p.add_argument("--mode", help="one mode, by label (states joined by |)")
-    p.add_argument("--latex", action="store_true")
+    p.add_argument("--latex", action="store_true", help="print the equations as LaTeX")
     p.add_argument("--state-space", action="store_true",
                    help="print the A, B, C, D matrices of each (linear) mode instead (inputs: the sources' values)")
     p.set_defaults(run=_cmd_modes)
 
     p = sub.add_parser("verify", help="static divergence-of-time check")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
     p.add_argument("--samples", type=int, default=10, help="sampled states per mode (at least 1)")
     p.set_defaults(run=_cmd_verify)
 
     p = sub.add_parser("codegen", help="export the generated per-mode functions")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("-o", "--output", required=True, metavar="DIR")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="the folder the module is written to (created if missing)")
     p.set_defaults(run=_cmd_codegen)
 
     p = sub.add_parser("save", help="write a model to a model file (TOML)")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("-o", "--output", required=True, metavar="FILE.toml")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
+    p.add_argument("-o", "--output", required=True, metavar="FILE.toml", help="the model file written")
     p.set_defaults(run=_cmd_save)
 
     p = sub.add_parser("draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
                                     "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
-    p.add_argument("model")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
     p.add_argument("--mode", metavar="LABEL", help="the mode drawn (default: the initial mode)")
     p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")
     p.add_argument("-o", "--output", required=True, metavar="FILE.png|FILE.svg",
@@ -832,15 +878,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_draw)
 
     p = sub.add_parser("sweep", help="one run per point of a parameter grid, on Dask: a CSV row per run, a plot")
-    p.add_argument("model")
+    p.add_argument("model", help=_MODEL_HELP)
     p.add_argument("--grid", action="append", required=True, metavar="NAME=START:STOP:COUNT|NAME=V1,V2,...",
                    help="a parameter's values (repeatable; the grid is every combination, the first varying slowest)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter fixed for every run (repeatable)")
-    p.add_argument("--t-end", type=float, dest="t_end")
-    p.add_argument("--method")
+    p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of every run in s (default: "
+                   "the model's)")
+    p.add_argument("--method", help="integration method of every run (default: the model's, else RK45)")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--dt", type=float, help="step of euler / rk4")
     group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
+    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
+    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
+                   help="the longest step an adaptive method may take, in s")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
     group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
@@ -857,11 +907,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("graphs", help="list the shipped plain bond graphs").set_defaults(run=_cmd_graphs)
     p = sub.add_parser("equations", help="equations of a shipped plain bond graph")
-    p.add_argument("name")
-    p.add_argument("--off", action="append", default=[], metavar="JUNCTION")
-    p.add_argument("--n", type=int, default=None)
-    p.add_argument("--signals", action="store_true")
-    p.add_argument("--latex", action="store_true")
+    p.add_argument("name", help="a shipped plain bond graph (hbg graphs shows them)")
+    p.add_argument("--off", action="append", default=[], metavar="JUNCTION",
+                   help="switch this controlled junction off (repeatable; the others are on)")
+    p.add_argument("--n", type=int, default=None, help="the size of a graph that has one (a chain's length)")
+    p.add_argument("--signals", action="store_true", help="also print the bond variables' expressions")
+    p.add_argument("--latex", action="store_true", help="print the equations as LaTeX")
     p.set_defaults(run=_cmd_equations)
     return parser
 

@@ -5,10 +5,10 @@ at the line of the culprit."""
 
 from __future__ import annotations
 
-import difflib
 import re
 from pathlib import Path
 
+from bondgraph.errors import did_you_mean
 from bondgraph.symbols import NAME_PATTERN
 
 from .errors import ModelFileError
@@ -41,11 +41,6 @@ def kind_of(value) -> str:
     if isinstance(value, dict):
         return "a table"
     return f"a {type(value).__name__}"
-
-
-def did_you_mean(name: str, known) -> str:
-    close = difflib.get_close_matches(str(name), [str(k) for k in known], n=3)
-    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
 
 
 def is_number(value) -> bool:

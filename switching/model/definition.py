@@ -10,7 +10,6 @@ naming the culprit and saying what to do.
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -23,6 +22,7 @@ from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
 from bondgraph import t as TIME
 from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
+from bondgraph.errors import did_you_mean
 from bondgraph.reals import real_number
 from bondgraph.symbols import check_name, rate_symbol
 
@@ -268,10 +268,8 @@ def _text_only_names(model, names) -> dict:
                    for (auto, tr), (condition, text) in model._guards.items() if symbol in condition.free_symbols]
         if not places:
             continue
-        close = difflib.get_close_matches(name, known, n=3)
         hints[name] = (f"written in {', '.join(places)} and used by no element law: a parameter of its own, "
-                       "or a mistyped name of a state or signal"
-                       + (f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""))
+                       "or a mistyped name of a state or signal" + did_you_mean(name, known))
     return hints
 
 

@@ -98,7 +98,7 @@ def test_plain_graph_equations():
     "args, message",
     [
         (("run", "nope"), "unknown model 'nope'"),
-        (("run", "falling-rod", "--set", "muu=1"), "unknown parameter 'muu'"),
+        (("run", "falling-rod", "--set", "muu=1"), "unknown parameter or state 'muu' (did you mean 'mu'?)"),
         (("run", "falling-rod", "--set", "mu=abc"), "needs a number"),
         (("run", "falling-rod", "--set", "mu"), "expects name=value"),
         (("run", "bouncing-ball", "--method", "euler"), "fixed-step: give --dt"),

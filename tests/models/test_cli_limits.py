@@ -74,6 +74,9 @@ def test_an_initial_value_that_is_not_a_finite_real_number_names_the_file_and_li
 
 
 def test_an_option_is_spelt_out_not_guessed_from_a_prefix(capsys):
-    """``--max-step 100`` was read as ``--max-steps 100`` (argparse's prefix matching): a run cut at 100 steps."""
-    status, out, err = hbg(capsys, "run", "bouncing-ball", "--max-step", "100")
-    assert status == 2 and "unrecognized arguments: --max-step 100" in err
+    """``--max-step 100`` was read as ``--max-steps 100`` (argparse's prefix matching): a run cut at 100 steps.
+    (``--max-step`` is an option of its own now: the longest step; a prefix of another option is still refused.)"""
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--sample", "100")
+    assert status == 2 and "unrecognized arguments: --sample 100" in err
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--max-step", "100", "--t-end", "0.5")
+    assert status == 0 and "instants" in out
