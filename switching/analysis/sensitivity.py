@@ -54,6 +54,7 @@ import sympy as sp
 
 from bondgraph.errors import UnknownNameError
 from codegen.cache import fingerprint
+from codegen.safety import compile_checked, execute
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
 from ..library.compiled import condition_tree
@@ -146,8 +147,7 @@ class _Generated:
 
     def __init__(self, source: str, label: str):
         self.source = source
-        self.namespace = module_namespace()
-        exec(compile(source, f"<hbg sensitivity {label}>", "exec"), self.namespace)  # our own generated code
+        self.namespace = execute(source, module_namespace(), f"<hbg sensitivity {label}>")
         self._numpy = None
         self.label = label
 
@@ -156,8 +156,8 @@ class _Generated:
             return self.namespace[name](x, t, p, u, np.empty(size))
         except _NUMERIC_ERRORS:
             if self._numpy is None:
-                self._numpy = module_namespace(vectorized=True)
-                exec(compile(self.source, f"<hbg sensitivity {self.label} (numpy)>", "exec"), self._numpy)
+                self._numpy = execute(self.source, module_namespace(vectorized=True),
+                                      f"<hbg sensitivity {self.label} (numpy)>")
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 return self._numpy[name](np.asarray(x, dtype=float), np.float64(t), p, u, np.empty(size))
 
@@ -283,9 +283,9 @@ class Derivatives:
                 outputs = gradient(s, (*model.states, *self.symbols))
                 source = self._source("grad", outputs, f"Gradient of signal {name!r} (finite part)", mode)
                 model.cache.store(cache_key, source)
-            code = compile(source, f"<hbg sensitivity signal {name} {mode.label}>", "exec")
+            code = compile_checked(source, f"<hbg sensitivity signal {name} {mode.label}>")
             vectorized, scalar = module_namespace(vectorized=True), module_namespace()
-            exec(code, vectorized)  # our own generated code
+            exec(code, vectorized)  # checked: only what the generator writes
             exec(code, scalar)
             pair = self._modules[key] = (vectorized["grad"], scalar["grad"])
         return pair

@@ -70,13 +70,13 @@ class ExpressionInput:
         return expression_text(self.expression)
 
     def _compile(self):
+        from codegen.safety import execute
         from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
         numeric = self.expression.xreplace({sp.Symbol(k): sp.Float(v) for k, v in self.parameters.items()})
         spec = FunctionSpec("u", (Argument("t", (TIME,), scalar=True, doc="time [s]"),), (numeric,),
                             f"Input u(t) = {self.text}.")
-        namespace = module_namespace()
-        exec(compile(function_source(spec), "<hbg input>", "exec"), namespace)  # code generated from the tree
+        namespace = execute(function_source(spec), module_namespace(), "<hbg input>")
         function, out = namespace["u"], np.empty(1)
         self._function = lambda t: float(function(t, out)[0])
 
