@@ -842,7 +842,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")
     p.add_argument("model", help=_MODEL_HELP)
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
-    p.add_argument("--mode", help="one mode, by label (states joined by |)")
+    p.add_argument("--mode", help="one mode, as outputs show it ('contact=free, friction=stuck'; automata not named "
+                   "keep their initial state) or its states joined by | ('free|stuck')")
     p.add_argument("--latex", action="store_true", help="print the equations as LaTeX")
     p.add_argument("--state-space", action="store_true",
                    help="print the A, B, C, D matrices of each (linear) mode instead (inputs: the sources' values)")
@@ -871,7 +872,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
     p.add_argument("model", help=_MODEL_HELP)
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
-    p.add_argument("--mode", metavar="LABEL", help="the mode drawn (default: the initial mode)")
+    p.add_argument("--mode", metavar="MODE", help="the mode drawn, as outputs show it ('contact=free, friction=stuck') "
+                   "or its states joined by | (default: the initial mode)")
     p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")
     p.add_argument("-o", "--output", required=True, metavar="FILE.png|FILE.svg",
                    help="the picture; its extension picks the format (png, svg, pdf, ...)")

@@ -324,7 +324,7 @@ def signal_sensitivity(trajectory, name: str, p: str) -> np.ndarray:
     except ValueError:
         column = None  # an initial state: no explicit dependence
     for mode in dict.fromkeys(trajectory.modes):
-        mask = labels == mode.label
+        mask = labels == mode.describe()
         vectorized, scalar = d.signal(mode, name)
         times = trajectory.t[mask]
         inputs = [np.array([model.input_values(tk)[i] for tk in times]) for i in range(len(model.input_symbols))]

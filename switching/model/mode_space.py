@@ -5,11 +5,12 @@ has ``∏ |S_a|`` of them, named here, never enumerated."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
-from bondgraph.errors import UnknownNameError
+from bondgraph.errors import UnknownNameError, did_you_mean
 
 from ..errors import ModelDefinitionError
 from .modes import Mode
@@ -25,10 +26,15 @@ class ModeSpace:
         self.guards = guards
 
     def mode(self, spec) -> Mode:
-        """A mode from a :class:`Mode`, a tuple of states, a label ``"s1|s2"``
-        or a mapping {automaton: state} (automata not named keep their initial state)."""
+        """A mode from a :class:`Mode`, a tuple of states, a mapping
+        {automaton: state}, or text: as outputs show it,
+        ``"contact=free, friction=stuck"`` (``|`` between the pairs too), or
+        the states alone joined by ``|``, ``"free|stuck"``.  Automata not
+        named in a mapping or in ``automaton=state`` text keep their initial state."""
         if isinstance(spec, Mode):
             states = spec.states
+        elif isinstance(spec, str) and "=" in spec:
+            return self.mode(self.pairs(spec))
         elif isinstance(spec, str):
             states = tuple(spec.split("|")) if spec else ()
         elif isinstance(spec, Mapping):
@@ -47,6 +53,27 @@ class ModeSpace:
                     f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
                 )
         return Mode(states, self.names)
+
+    def pairs(self, text: str) -> dict:
+        """``"a=s, b=t"`` (or ``"a=s|b=t"``) → ``{"a": "s", "b": "t"}``; an automaton named twice is an error."""
+        pairs = {}
+        for item in re.split(r"\s*[,|]\s*", text.strip()):
+            automaton, equals, state = (part.strip() for part in item.partition("="))
+            if not equals or not automaton or not state:
+                raise UnknownNameError(f"mode {text!r}: {item!r} is not automaton=state; write a mode as "
+                                       f"{self.example()!r} or its states joined by |", text)
+            if automaton not in self.names:
+                raise UnknownNameError(f"mode {text!r}: no automaton named {automaton!r}"
+                                       f"{did_you_mean(automaton, self.names)}; automata: {', '.join(self.names)}",
+                                       automaton)
+            if automaton in pairs:
+                raise UnknownNameError(f"mode {text!r} names automaton {automaton!r} twice", automaton)
+            pairs[automaton] = state
+        return pairs
+
+    def example(self) -> str:
+        """The initial mode as outputs show it (for messages)."""
+        return ", ".join(f"{a.name}={a.initial}" for a in self.automata)
 
     def configuration_of(self, mode: Mode) -> dict:
         """Controlled junction name → on (``True``) or off, as the states of ``mode`` set them."""

@@ -41,10 +41,15 @@ class Mode:
 
     @property
     def label(self) -> str:
-        """A short readable label: the automaton states joined by ``|``."""
+        """The compact key of the mode in code (cache keys, tables of
+        exported modules): its automata's states joined by ``|``, ``"free|stuck"``."""
         return "|".join(self.states)
 
     def describe(self) -> str:
+        """The mode as every output shows it (run summaries, CSV and NPZ files,
+        plots, errors) and every input accepts (``--mode``, :meth:`HybridModel.mode`):
+        ``automaton=state`` for each automaton, ``", "`` between them —
+        ``"contact=free, friction=stuck"``."""
         return ", ".join(f"{a}={s}" for a, s in zip(self.automata, self.states))
 
     def state_of(self, automaton: str) -> str:

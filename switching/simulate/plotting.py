@@ -117,11 +117,11 @@ def mode_graph(trajectory, ax=None):
     kinds: dict = {}
     for instant in trajectory.events:
         for a, b in zip(instant.steps, instant.steps[1:]):
-            counts[(a.mode.label, b.mode.label)] += 1
+            counts[(a.mode.describe(), b.mode.describe())] += 1
         for step in instant.steps:
-            kinds.setdefault(step.mode.label, set()).add(step.kind)
+            kinds.setdefault(step.mode.describe(), set()).add(step.kind)
     for mode in trajectory.modes:
-        kinds.setdefault(mode.label, set()).add("continuous")
+        kinds.setdefault(mode.describe(), set()).add("continuous")
     for label, ks in kinds.items():
         graph.add_node(label, kinds=sorted(ks))
     for (a, b), n in counts.items():
@@ -131,7 +131,7 @@ def mode_graph(trajectory, ax=None):
     pos = nx.circular_layout(graph) if len(graph) > 2 else nx.spring_layout(graph, seed=1)
     node_colors = ["#f4b6b6" if kinds[n] == {"mythical"} else "#b6d7f4" for n in graph]
     nx.draw_networkx(graph, pos, ax=ax, node_color=node_colors, node_size=1400, font_size=7, arrows=True,
-                     connectionstyle="arc3,rad=0.12")
+                     connectionstyle="arc3,rad=0.12", labels={n: n.replace(", ", ",\n") for n in graph})
     nx.draw_networkx_edge_labels(graph, pos, edge_labels={e: graph.edges[e]["count"] for e in graph.edges},
                                  ax=ax, font_size=7)
     ax.set_axis_off()

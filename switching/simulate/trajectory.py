@@ -107,7 +107,8 @@ class Trajectory:
 
     @property
     def mode_labels(self) -> list[str]:
-        return [m.label for m in self.modes]
+        """The mode of every sample as outputs show it (:meth:`Mode.describe`: ``"contact=free, friction=stuck"``)."""
+        return [m.describe() for m in self.modes]
 
     @property
     def event_times(self) -> np.ndarray:
@@ -144,7 +145,7 @@ class Trajectory:
         out = np.empty(len(self.t))
         labels = np.array(self.mode_labels)
         for mode in dict.fromkeys(self.modes):
-            mask = labels == mode.label
+            mask = labels == mode.describe()
             fn = model.signal_function(mode, [name])
             times = self.t[mask]
             inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
@@ -328,7 +329,7 @@ class Trajectory:
         writer = csv.writer(buffer)
         writer.writerow(list(columns) + ["mode"])
         for k in range(len(self.t)):
-            writer.writerow([repr(float(col[k])) for col in columns.values()] + [self.modes[k].label])
+            writer.writerow([repr(float(col[k])) for col in columns.values()] + [self.modes[k].describe()])
         text = buffer.getvalue()
         if path is None:
             return text

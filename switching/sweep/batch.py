@@ -111,7 +111,7 @@ def _result(parameters, trajectory, wall, keep=True, metrics=None, error=None, e
         state_names=list(trajectory.state_names),
         modes=trajectory.mode_labels[last],
         event_times=trajectory.event_times,
-        instants=[[(s.mode.label, s.kind) for s in e.steps] for e in trajectory.events] if keep else [],
+        instants=[[(s.mode.describe(), s.kind) for s in e.steps] for e in trajectory.events] if keep else [],
         instant_count=trajectory.instant_count,
         stopped=trajectory.stopped,
         error=error,

@@ -89,7 +89,7 @@ def test_continuous_conduction_edges_and_slopes_are_exact():
     D = 0.5
     model, p, T, options = setup(D=D, v_C0=24.0, i_L0=2.4)
     trajectory = model.simulate(20.25 * T, "RK45", **options)
-    assert set(trajectory.mode_labels) == {"on|off", "off|on"}  # never both off: continuous conduction
+    assert set(trajectory.mode_labels) == {"pwm=on, diode=off", "pwm=off, diode=on"}  # never both off: continuous conduction
     closing, opening = pwm_edges(trajectory, True), pwm_edges(trajectory, False)
     # exact to round-off (see test_pwm_edges_stay_exact_over_two_thousand_periods)
     assert_edges_exact([e.t for e in closing], T * np.arange(1, 21), model, D, p["f_sw"])
@@ -147,8 +147,8 @@ def test_discontinuous_conduction_visits_the_mode_with_both_off():
     model, p, T, options = setup(D=D, R_load=500.0, C=20e-6, v_C0=36.0)
     trajectory = model.simulate(30.25 * T, "RK45", **options)
     labels = np.array(trajectory.mode_labels)
-    assert {"on|off", "off|on", "off|off"} <= set(labels)
-    both_off = labels == "off|off"
+    assert {"pwm=on, diode=off", "pwm=off, diode=on", "pwm=off, diode=off"} <= set(labels)
+    both_off = labels == "pwm=off, diode=off"
     # there the inductor is dependent: no current, and the switch node sits at Vin
     np.testing.assert_allclose(trajectory.signal("i_L")[both_off], 0.0, atol=1e-12)
     np.testing.assert_allclose(trajectory.signal("v_sw")[both_off], p["Vin"], rtol=1e-12)

@@ -66,10 +66,10 @@ def test_valves_move_exactly_at_their_thresholds():
     # between moves the levels stay inside the hysteresis bands (the valves never chatter)
     labels = np.array(trajectory.mode_labels)
     h1, h2 = trajectory.signal("h1"), trajectory.signal("h2")
-    closed = np.char.startswith(labels, "closed|")
+    closed = np.char.startswith(labels, "valve=closed, ")
     assert h1[closed].max() <= P["h1_high"] + 1e-12
     assert h1[~closed & (trajectory.t > 0)].min() >= P["h1_low"] - 1e-12
-    drain_closed = np.char.endswith(labels, "|closed")
+    drain_closed = np.char.endswith(labels, "drain=closed")
     assert h2[drain_closed].max() <= P["h2_high"] + 1e-12
     assert h2[~drain_closed].min() >= P["h2_low"] - 1e-12
 
@@ -140,7 +140,8 @@ def test_default_run_and_signals():
     for name in two_tanks.SIGNALS:
         assert np.all(np.isfinite(trajectory.signal(name)))
     np.testing.assert_allclose(trajectory.signal("p1"), P["rho"] * P["g"] * trajectory.signal("h1"), rtol=1e-12)
-    assert {"closed|closed", "open|closed", "open|open", "closed|open"} <= set(trajectory.mode_labels)
+    assert {"valve=closed, drain=closed", "valve=open, drain=closed", "valve=open, drain=open",
+            "valve=closed, drain=open"} <= set(trajectory.mode_labels)
 
 
 def test_unknown_parameter_is_an_error():

@@ -151,8 +151,8 @@ def test_simulate_many_runs_a_sweep_on_all_cores_and_keeps_failures_apart():
                             output="events")
     assert [r.parameters for r in results] == sets  # in order
     last = [r.instants[0][-1] for r in results]
-    assert last == [("contact|slide_neg", "continuous"), ("contact|stuck", "continuous"),
-                    ("contact|slide_neg", "continuous"), ("contact|slide_neg", "continuous")]
+    slide, stuck = "contact=contact, friction=slide_neg", "contact=contact, friction=stuck"
+    assert last == [(slide, "continuous"), (stuck, "continuous"), (slide, "continuous"), (slide, "continuous")]
     broken = simulate_many(bouncing_ball.build, [{"e": 0.5}, {"e": 0.8}], 5.0, "RK45", workers=2)
     assert [r.ok for r in broken] == [False, False] and "Zeno" in broken[0].error
     assert len(broken[0].event_times) >= 8  # the partial run came back

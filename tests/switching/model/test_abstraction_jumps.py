@@ -70,7 +70,7 @@ def test_a_pulse_free_stick_holds_at_the_exact_instant(method, options):
     assert instant.t == pytest.approx(t_stick, rel=1e-9)
     assert [s.mode.label for s in instant.steps] == ["slide", "stuck"]
     assert instant.x_after[model.state_index[model.state("p")]] == 0.0
-    assert trajectory.mode_labels[-1] == "stuck"
+    assert trajectory.mode_labels[-1] == "friction=stuck"
     assert trajectory.state("x")[-1] == pytest.approx(x_stick, rel=1e-9)
     # the stuck mode's force is the finite −P, inside the cone
     assert trajectory.signal("F_floor")[-1] == pytest.approx(-P, rel=1e-12)

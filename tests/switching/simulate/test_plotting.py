@@ -44,8 +44,9 @@ def test_mythical_only_instants_are_dashed_and_phase_portrait_draws_jumps():
 
 def test_mode_graph_and_bond_graph_drawing(ball_run):
     graph, _ = mode_graph(ball_run)
-    assert set(graph.nodes) == {"flight", "impact"}
-    assert graph.edges["flight", "impact"]["count"] == 4 and graph.edges["impact", "flight"]["count"] == 4
+    assert set(graph.nodes) == {"contact=flight", "contact=impact"}
+    assert graph.edges["contact=flight", "contact=impact"]["count"] == 4
+    assert graph.edges["contact=impact", "contact=flight"]["count"] == 4
     model = falling_rod.build()
     ax = draw_bond_graph(model.graph, model.configuration_of(model.mode("contact|stuck")))
     labels = {t.get_gid(): t.get_text() for t in ax.texts}

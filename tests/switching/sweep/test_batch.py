@@ -33,7 +33,7 @@ def assert_same_as_fresh(build, sets, t_end, method="RK45", sweep=None, **option
         np.testing.assert_array_equal(result.t, fresh.t)
         np.testing.assert_array_equal(result.x, fresh.x)
         np.testing.assert_array_equal(result.event_times, fresh.event_times)
-        assert result.instants == [[(s.mode.label, s.kind) for s in e.steps] for e in fresh.events]
+        assert result.instants == [[(s.mode.describe(), s.kind) for s in e.steps] for e in fresh.events]
     return results
 
 
@@ -54,7 +54,8 @@ def test_a_sweep_shares_one_model_and_its_derived_modes():
 def test_falling_rod_friction_sweep_equals_fresh_builds_bit_for_bit():
     # μ = 0.002 and 0.004 slide after the impact, 0.008 sticks: the shared model changes behaviour twice
     results = assert_same_as_fresh(falling_rod.build, [{"mu": 0.002}, {"mu": 0.008}, {"mu": 0.004}], 0.5, **ROD)
-    assert [r.instants[0][-1][0] for r in results] == ["contact|slide_neg", "contact|stuck", "contact|slide_neg"]
+    assert [r.instants[0][-1][0] for r in results] == ["contact=contact, friction=slide_neg", "contact=contact, friction=stuck",
+                                                       "contact=contact, friction=slide_neg"]
 
 
 def test_arguments_that_set_the_initial_state_are_applied_to_the_shared_model():
