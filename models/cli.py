@@ -157,7 +157,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
     method = args.method or run.pop("method", "RK45")
     run.pop("method", None)
     from switching import METHODS
-    from switching.simulate.integrators import FIXED_STEP
+    from switching.simulate.methods import METHOD_CLASSES
 
     if method not in METHODS and method != "auto":
         raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}, auto")
@@ -166,7 +166,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
         if value is not None:
             _positive(option, value)
     options = {}
-    if method.removesuffix("-jit") in FIXED_STEP:
+    if METHOD_CLASSES[method].fixed_step:
         if args.rtol is not None:
             raise _UsageError(f"--rtol is for adaptive methods; {method} is fixed-step: give --dt")
         if args.dt is None:

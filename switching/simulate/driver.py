@@ -34,7 +34,7 @@ from codegen.jit import available as _jit_available
 from ..errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StepLimitError, StepSizeError,
                      StiffnessError, UnknownOptionError, ZenoError)
 from .events import GuardScan, locate_event
-from .integrators import FIXED_STEP, StepFailed, StiffnessDetected, make_stepper
+from .integrators import StepFailed, StiffnessDetected
 from ..library.jit_model import KINDS, CompiledInstant
 from ..library.jit_model import STATUS as _KERNEL_STATUS
 from ..library.jit_model import choose_method as _choose_method
@@ -42,7 +42,8 @@ from ..library.jit_model import input_problem as _input_problem
 from ..library.jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
 from .real_values import ComplexValueError, complex_failure
-from .run_options import COMPILED, DEFAULT_MAX_STEPS, METHODS, check_run
+from .methods import METHOD_CLASSES, METHODS, method_names
+from .run_options import DEFAULT_MAX_STEPS, check_run
 from .trajectory import Trajectory
 
 __all__ = ["simulate", "HybridRun", "Status", "METHODS", "check_option_names", "option_defaults"]
@@ -261,10 +262,11 @@ class HybridRun:
         self.model, self.t_end, self.options = model, t_end, options
         o = options
         self.auto = None
-        if method == "auto":  # RK45 compiled or not (switching.library.jit_model.choose_method); the stats say which and why
-            self.auto = _choose_method(model, o["t0"], t_end, o["rtol"], o["dt"])
+        if METHOD_CLASSES[method].chooses:  # auto: RK45 compiled or not (switching.library.jit_model.choose_method)
+            self.auto = _choose_method(model, o["t0"], t_end, o["rtol"], o["dt"])  # the stats say which and why
             method = self.auto.method
         self.method = method
+        self.method_class = METHOD_CLASSES[method]
         self.output = "events" if o["t_eval"] is not None else o["output"]
         self.started = _time.perf_counter()
         self.x = model.initial_state() if o["x0"] is None else o["x0"]
@@ -281,17 +283,17 @@ class HybridRun:
         self.compiled, self.flow_method = self._compiled_path()
 
     def _compiled_path(self):
-        """``(the compiled model or None, the method of a flow in Python)``."""
+        """``(the compiled model or None, the method class of a flow in Python)``."""
         method, model = self.method, self.model
-        if method not in COMPILED:
-            return None, method
+        if not self.method_class.compiled:
+            return None, self.method_class.python
         if not _jit_available():
             raise SimulationError(f"method {method!r} needs numba: pip install '.[fast]'")
         problem = _input_problem(model, method)  # inputs that are Python functions cannot run compiled
         if problem:
             raise SimulationError(problem)
         model.compiled_mode(self.mode)
-        return model.compiled_model(), method[:-4]  # the modes visited or remembered; one first reached: then
+        return model.compiled_model(), self.method_class.python  # the modes visited or remembered; one first reached: then
 
     # ------------------------------------------------------------ failures
 
@@ -615,13 +617,14 @@ def _sides_function(model, cm):
 
 
 def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
-    """Flow in one mode with a Python/scipy integrator until ``t_end`` or an
-    event; returns ``(event or None, t, x, steps)``, ``event = (t_ev, x_ev)``."""
+    """Flow in one mode with the integrator of ``method`` (a Python method's
+    class) until ``t_end`` or an event; returns ``(event or None, t, x,
+    steps)``, ``event = (t_ev, x_ev)``."""
     fun, state_at, y0 = _flow_functions(model, cm, x)
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= _LIST_STATES else None
-    stepper = make_stepper(method, fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
-                           max_step=o["max_step"], first_step=o["first_step"], autonomous=not model.input_symbols,
-                           fun_list=on_lists, stiffness_check=o["stiffness_check"])
+    stepper = method.stepper(fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"], max_step=o["max_step"],
+                             first_step=o["first_step"], autonomous=not model.input_symbols, fun_list=on_lists,
+                             stiffness_check=o["stiffness_check"])
     scan = (GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o["rtol_g"], o["atol_g"], o["samples"])
             if cm.guards else None)
     save = recorder.output == "steps"
@@ -642,8 +645,8 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
         except StepFailed as exc:
             raise _FlowFailure(
                 StepSizeError,
-                f"{method} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
-                f"The step size collapsed: the problem may be stiff here ({_stiff_advice(method)}), "
+                f"{method.name} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "
+                f"The step size collapsed: the problem may be stiff here ({_stiff_advice(method.name)}), "
                 "or a state may be running into a singularity.", t, x, steps,
             ) from None
         steps += 1
@@ -672,14 +675,15 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
             recorder.sample(t, x, mode)
 
 
-_IMPLICIT = ("Radau", "BDF", "LSODA")  # the methods advised where the step size collapses
 _KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
 
 
 def _stiff_advice(method: str) -> str:
     """Advice after ``method`` failed with a collapsed step: the stiff
-    methods to try instead, never ``method`` itself."""
-    others = [repr(m) for m in _IMPLICIT if m != method.removesuffix("-jit")]
+    (implicit) methods of the table to try instead, never ``method`` itself."""
+    python = METHOD_CLASSES[method].python.name
+    others = [repr(name) for name in method_names() if METHOD_CLASSES[name].stiff and
+              not METHOD_CLASSES[name].compiled and name != python]
     return "try method=" + ", ".join(others[:-1]) + " or " + others[-1]
 
 
@@ -697,7 +701,7 @@ def _stiffness_message(model, cm, mode, exc) -> str:
     state = ""
     if exc.component is not None and exc.component < len(cm.independent):
         state = f", fastest in {model.states[cm.independent[exc.component]].name}"
-    if exc.method.removesuffix("-jit") in FIXED_STEP:
+    if METHOD_CLASSES[exc.method].fixed_step:
         held = ""
         advice = (f", or a step dt < {exc.limit:g}/|λ| ≈ {exc.limit * exc.h / exc.h_lambda:.3g} s (or smaller). "
                   "If instead the rates jump here (a discontinuity the model does not show: inside an input "
@@ -787,7 +791,7 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
             h_lambda, h, _, limit, component = result.info[:5]
             cm = model.compiled_mode(mode)
             exc = StiffnessDetected(method, t, h, h_lambda, limit, int(component) if len(cm.independent) else None,
-                                    (t_end - t) / h if method == "RK45-jit" else None)
+                                    None if METHOD_CLASSES[method].fixed_step else (t_end - t) / h)
             raise _FlowFailure(functools.partial(StiffnessError, h=h, h_lambda=h_lambda, limit=limit),
                                _stiffness_message(model, cm, mode, exc), t, x, steps, mode)
         raise _FlowFailure(NonFiniteStateError, _nonfinite_message(model, mode, t, x), t, x, steps, mode)
