@@ -19,6 +19,7 @@ carries the trajectory computed so far.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import functools
 import math
@@ -43,7 +44,8 @@ from ..library.jit_model import remember_modes as _remember_modes
 from .preflight import nonfinite_at_start
 from .real_values import ComplexValueError, complex_failure
 from .methods import METHOD_CLASSES, METHODS, method_names
-from .run_options import DEFAULT_MAX_STEPS, check_run
+from .option_groups import RunOptions
+from .run_options import DEFAULT_MAX_STEPS, checked_options
 from .trajectory import Trajectory
 
 __all__ = ["simulate", "HybridRun", "Status", "METHODS", "check_option_names", "option_defaults"]
@@ -233,12 +235,11 @@ def simulate(
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.simulate.run_options`)."""
-    options = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, output=output, t_eval=t_eval, max_step=max_step,
-                   first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window, zeno_min_gap=zeno_min_gap,
-                   keep_instants=keep_instants, max_events=max_events, max_steps=max_steps, progress=progress,
-                   event_samples=event_samples, stiffness_check=stiffness_check)
-    options["t_eval"], options["x0"] = check_run(model, t_end, method, options)
-    return HybridRun(model, t_end, method, mode, options).execute()
+    keywords = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, mode=mode, output=output, t_eval=t_eval,
+                    max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
+                    zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
+                    progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
+    return HybridRun(model, checked_options(model, t_end, method, keywords)).execute()
 
 
 class Status(enum.Enum):
@@ -252,31 +253,32 @@ class HybridRun:
     """One run of :func:`simulate`: flows in a mode (compiled or in Python),
     the instants between them, the record, the checks that stop a run.
 
-    ``options`` are :func:`simulate`'s keywords, checked
-    (:func:`switching.simulate.run_options.check_run`).  :meth:`execute` runs to
+    ``options`` are :func:`simulate`'s, checked and grouped
+    (:func:`switching.simulate.run_options.checked_options`).  :meth:`execute` runs to
     ``t_end`` and returns the :class:`~switching.simulate.trajectory.Trajectory`; a
     failure raises an error of the hierarchy that carries the trajectory
     computed so far (:meth:`fail`)."""
 
-    def __init__(self, model, t_end: float, method: str, mode, options: dict):
-        self.model, self.t_end, self.options = model, t_end, options
-        o = options
+    def __init__(self, model, options: RunOptions):
+        self.model, self.t_end, self.options = model, options.t_end, options
+        start, stepping, events = options.start, options.stepping, options.events
+        method, t_end, t0 = options.method, options.t_end, start.t0
         self.auto = None
         if METHOD_CLASSES[method].chooses:  # auto: RK45 compiled or not (switching.library.jit_model.choose_method)
-            self.auto = _choose_method(model, o["t0"], t_end, o["rtol"], o["dt"])  # the stats say which and why
+            self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt)  # the stats say which and why
             method = self.auto.method
         self.method = method
         self.method_class = METHOD_CLASSES[method]
-        self.output = "events" if o["t_eval"] is not None else o["output"]
+        self.output = options.output.recorded
         self.started = _time.perf_counter()
-        self.x = model.initial_state() if o["x0"] is None else o["x0"]
-        self.mode = model.starting_mode(self.x, o["t0"], mode)
-        self.recorder = _Recorder(model, self.output, o["t_eval"], o["keep_instants"])
-        self.recorder.start(o["t0"])
-        self.zeno = _ZenoWatch(o["zeno_window"], t_end,
-                               1e-9 * (t_end - o["t0"]) if o["zeno_min_gap"] is None else o["zeno_min_gap"])
+        self.x = model.initial_state() if start.x0 is None else start.x0
+        self.mode = model.starting_mode(self.x, t0, start.mode)
+        self.recorder = _Recorder(model, self.output, options.output.t_eval, options.output.keep_instants)
+        self.recorder.start(t0)
+        self.zeno = _ZenoWatch(events.zeno_window, t_end,
+                               1e-9 * (t_end - t0) if events.zeno_min_gap is None else events.zeno_min_gap)
         self.rtol_g, self.atol_g = model.tolerance.rtol, model.tolerance.atol
-        self.t = float(o["t0"])
+        self.t = float(t0)
         self.n_steps = 0
         self.python_instants = 0
         self.accumulation = None
@@ -327,7 +329,7 @@ class HybridRun:
         """Record an instant; stop (True) or raise on Zeno behaviour or too many events."""
         self.recorder.event(instant)
         self.t, self.x, self.mode = instant.t, instant.x_after, instant.mode_after
-        max_events = self.options["max_events"]
+        max_events = self.options.limits.max_events
         if self.recorder.n_events > max_events:
             raise self.fail(SimulationError, f"more than {max_events} events; raise max_events if this is expected")
         self.accumulation = self.zeno.add(self.t)
@@ -338,7 +340,7 @@ class HybridRun:
             f"they accumulate at t ≈ {self.accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
             "threshold), or pass on_zeno='stop' to end the run there."
         )
-        if self.options["on_zeno"] == "raise":
+        if self.options.events.on_zeno == "raise":
             raise self.fail(ZenoError, message, accumulation_time=self.accumulation)
         return True
 
@@ -360,12 +362,10 @@ class HybridRun:
 
     # ------------------------------------------------------------ the run
 
-    def _flow_options(self) -> dict:
+    def _flow_settings(self) -> _FlowSettings:
         o = self.options
-        return dict(dt=o["dt"], rtol=o["rtol"], atol=o["atol"], max_step=o["max_step"], first_step=o["first_step"],
-                    samples=o["event_samples"], save=self.output == "steps", progress=o["progress"],
-                    rtol_g=self.rtol_g, atol_g=self.atol_g, stiffness_check=o["stiffness_check"],
-                    max_steps=o["max_steps"], steps_left=o["max_steps"])
+        return _FlowSettings(o.stepping, o.events.event_samples, self.output == "steps", o.output.progress,
+                             self.rtol_g, self.atol_g, o.limits.max_steps)
 
     def _start(self) -> bool:
         """Record the start and resolve the initial instant (in Python, unless the kernel does); returns
@@ -379,7 +379,7 @@ class HybridRun:
             problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t)  # the kernel flows
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
-        if self.options["t_eval"] is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
+        if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
             x = self.x
             self.recorder.dense(self.t - 1.0, self.t, lambda tau: x.copy(), self.mode)
         return initial_in_kernel
@@ -388,14 +388,14 @@ class HybridRun:
         """Flows and instants up to ``t_end``."""
         model, compiled = self.model, self.compiled
         initial_in_kernel = self._start()
-        options = self._flow_options()
+        settings = self._flow_settings()
         while self.t < self.t_end:
-            options["steps_left"] = self.options["max_steps"] - self.n_steps  # a run stops after max_steps steps
+            steps_left = settings.max_steps - self.n_steps  # a run stops after max_steps steps
             try:
                 if compiled is not None and compiled.covers(self.mode):
                     event, self.t, self.x, self.mode, steps, stop = _run_kernel(
-                        model, compiled, self.method, self.mode, self.x, self.t, self.t_end, options, self.recorder,
-                        self.after_event, initial_in_kernel)
+                        model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
+                        self.recorder, self.after_event, initial_in_kernel)
                     if stop == "initial":  # the kernel leaves this initial instant to Python
                         initial_in_kernel = False
                         self.initial_instant()
@@ -409,7 +409,8 @@ class HybridRun:
                     if problem:
                         raise self.fail(NonFiniteStateError, problem)
                     event, self.t, self.x, steps = _flow_python(model, cm, self.mode, self.flow_method, self.x,
-                                                                self.t, self.t_end, options, self.recorder)
+                                                                self.t, self.t_end, settings, steps_left,
+                                                                self.recorder)
             except _FlowFailure as failure:
                 self.t, self.x = failure.t, failure.x
                 self.mode = failure.mode or self.mode
@@ -433,7 +434,7 @@ class HybridRun:
                 self.t, self.x, self.mode = self.recorder.t[-1], self.recorder.x[-1], self.recorder.modes[-1]
             raise self.fail(SimulationInterrupted,
                             f"interrupted at t = {self.t:.12g} s in mode {self.mode.describe()} (of "
-                            f"{self.options['t0']:g} … {self.t_end:g} s); what was computed up to there is kept"
+                            f"{self.options.start.t0:g} … {self.t_end:g} s); what was computed up to there is kept"
                             ) from None
         except HybridBondGraphError as exc:  # e.g. a mode first reached mid-run that cannot be derived
             if getattr(exc, "trajectory", None) is None:
@@ -458,13 +459,28 @@ class HybridRun:
             if self.python_instants:  # modes met outside the kernel: a new process's kernel covers them too
                 _remember_modes(self.model, self.model.visited_modes)
         if self.auto is not None:
-            stats.update(self.auto.report(stats["wall time [s]"], self.t_end - self.options["t0"]))
+            stats.update(self.auto.report(stats["wall time [s]"], self.t_end - self.options.start.t0))
         if status is Status.ZENO:
             stats["zeno accumulation time [s]"] = self.accumulation
         recorder = self.recorder
         if self.output == "events" and (not recorder.t or recorder.t[-1] != self.t):
             recorder.sample(self.t, self.x, self.mode, force=True)
         return recorder.trajectory(stopped=status.value, stats=stats)
+
+
+@dataclasses.dataclass(frozen=True)
+class _FlowSettings:
+    """What every flow of a run needs: the step options, the guard samples
+    per step, whether every step is saved, the progress callback, the guard
+    tolerances, the run's ``max_steps``."""
+
+    stepping: object
+    samples: int
+    save: bool
+    progress: object
+    rtol_g: float
+    atol_g: float
+    max_steps: int
 
 
 class _FlowFailure(Exception):
@@ -616,24 +632,23 @@ def _sides_function(model, cm):
     return sides
 
 
-def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
+def _flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder):
     """Flow in one mode with the integrator of ``method`` (a Python method's
     class) until ``t_end`` or an event; returns ``(event or None, t, x,
     steps)``, ``event = (t_ev, x_ev)``."""
     fun, state_at, y0 = _flow_functions(model, cm, x)
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= _LIST_STATES else None
-    stepper = method.stepper(fun, t, y0, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"], max_step=o["max_step"],
-                             first_step=o["first_step"], autonomous=not model.input_symbols, fun_list=on_lists,
-                             stiffness_check=o["stiffness_check"])
-    scan = (GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o["rtol_g"], o["atol_g"], o["samples"])
+    stepper = method.stepper(fun, t, y0, t_end, autonomous=not model.input_symbols, fun_list=on_lists,
+                             **o.stepping.integrator_options())
+    scan = (GuardScan(cm, _sides_function(model, cm), stepper, state_at, t, x, o.rtol_g, o.atol_g, o.samples)
             if cm.guards else None)
     save = recorder.output == "steps"
     dense = recorder.t_eval is not None
-    progress = o["progress"]
+    progress = o.progress
     zero = np.zeros(cm.n)
     steps = 0
     while True:
-        if steps >= o["steps_left"]:
+        if steps >= steps_left:
             raise _step_limit(o, t, t_end, mode, x, steps)
         t_prev = stepper.t
         try:
@@ -658,7 +673,7 @@ def _flow_python(model, cm, mode, method, x, t, t_end, o, recorder):
         if scan is not None:
             bracket = scan.first_hold(t_prev, t_new, x_new)
             if bracket is not None:
-                t_ev = locate_event(cm, stepper, state_at, *bracket, o["rtol_g"], o["atol_g"])
+                t_ev = locate_event(cm, stepper, state_at, *bracket, o.rtol_g, o.atol_g)
                 # the state the guard was seen to hold on: the step's end itself, or the interpolant
                 x_ev = x_new if t_ev == t_new else state_at(t_ev, stepper.interpolate(t_ev))
                 if dense:
@@ -689,7 +704,7 @@ def _stiff_advice(method: str) -> str:
 
 def _step_limit(o, t, t_end, mode, x, steps) -> "_FlowFailure":
     """The failure of a flow that reached the run's ``max_steps`` before ``t_end``."""
-    max_steps = o["max_steps"]
+    max_steps = o.max_steps
     return _FlowFailure(
         functools.partial(StepLimitError, max_steps=max_steps),
         f"the run took max_steps = {max_steps} steps and reached only t = {t:.12g} s of t_end = {t_end:g} s "
@@ -733,7 +748,7 @@ def _nonfinite_message(model, mode, t, x) -> str:
             "check parameters for divisions by zero, or use a smaller step / tighter tolerance.")
 
 
-def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_event, initial=False):
+def _run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False):
     """Calls of the compiled kernel from ``(t, mode, x)``: flows, events and
     restarts in compiled code, each instant recorded (and checked) by
     ``after_event``; with ``initial``, the instant at ``t`` is resolved first.
@@ -744,14 +759,12 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
     kind = KINDS[method]
     steps = 0
     while True:
-        if steps >= o["steps_left"]:
+        if steps >= steps_left:
             raise _step_limit(o, t, t_end, mode, x, steps)
         dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
-        result = compiled.run(kind, mode, x, t, t_end, dt=o["dt"], rtol=o["rtol"], atol=o["atol"],
-                              max_step=o["max_step"], first_step=o["first_step"], samples=o["samples"],
-                              save=o["save"], resolve_first=initial, t_eval=dense,
-                              max_steps=min(o["steps_left"] - steps, _KERNEL_MAX_STEPS),
-                              stiffness_check=o["stiffness_check"])
+        result = compiled.run(kind, mode, x, t, t_end, **o.stepping.integrator_options(), samples=o.samples,
+                              save=o.save, resolve_first=initial, t_eval=dense,
+                              max_steps=min(steps_left - steps, _KERNEL_MAX_STEPS))
         recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
         if initial and _KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
             return None, t, x, mode, 0, "initial"
@@ -772,12 +785,12 @@ def _run_kernel(model, compiled, method, mode, x, t, t_end, o, recorder, after_e
         if result.n_saved > saved:
             for sample in result.samples(saved, result.n_saved):
                 recorder.sample(*sample, force=True)
-        if o["progress"] is not None:
-            o["progress"](result.t)
+        if o.progress is not None:
+            o.progress(result.t)
         t, x, mode = result.t, result.x, result.mode
         status = _KERNEL_STATUS[result.status]
         if status == "done":
-            if not o["save"]:
+            if not o.save:
                 recorder.sample(t, x, mode, force=True)
             return None, t, x, mode, steps, False
         if status == "full":

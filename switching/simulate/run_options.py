@@ -66,8 +66,9 @@ import numpy as np
 
 from ..errors import OptionTypeError, OptionValueError, WorkLimitError
 from .methods import COMPILED, METHODS, method_class
+from .option_groups import RunOptions
 
-__all__ = ["check_run", "check_work", "check_output_size", "check_sensitivity_options", "METHODS", "COMPILED",
+__all__ = ["checked_options", "check_run", "check_work", "check_output_size", "check_sensitivity_options", "METHODS", "COMPILED",
            "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
@@ -380,3 +381,13 @@ def check_run(model, t_end, method, options: dict):
     check_work(method, t0, t_end, None if o["dt"] is None else float(o["dt"]), float(o["max_step"]),
                int(o["event_samples"]), int(o["max_steps"]))
     return t_eval, x0
+
+
+def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
+    """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
+    grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
+    keywords of ``simulate`` (all of them, ``mode`` included) once
+    :func:`check_run` has checked them: ``t_eval`` sorted and ``x0`` as an
+    array, every other value as given."""
+    t_eval, x0 = check_run(model, t_end, method, keywords)
+    return RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
