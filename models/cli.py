@@ -177,7 +177,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
     method = args.method or run.pop("method", "RK45")
     run.pop("method", None)
     from switching import METHODS
-    from switching.simulate.integrators import FIXED_STEP
+    from switching.simulate.methods import METHOD_CLASSES
 
     if method not in METHODS and method != "auto":
         raise _UsageError(f"unknown method {method!r}; choose one of: {', '.join(METHODS)}, auto")
@@ -187,7 +187,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
         if value is not None:
             _positive(option, value)
     options = {}
-    if method.removesuffix("-jit") in FIXED_STEP:
+    if METHOD_CLASSES[method].fixed_step:
         for option, value in (("--rtol", args.rtol), ("--atol", atol), ("--max-step", max_step)):
             if value is not None:
                 raise _UsageError(f"{option} is for adaptive methods; {method} is fixed-step: give --dt")

@@ -50,10 +50,8 @@ import numpy as np
 
 from ..rules.steppers import euler_step, hermite_cubic, rk4_combine
 
-__all__ = ["FIXED_STEP", "ADAPTIVE", "make_stepper", "ORDERS", "STABILITY_LIMITS", "StiffnessDetected"]
+__all__ = ["Euler", "RK4", "Adaptive", "ORDERS", "STABILITY_LIMITS", "StepFailed", "StiffnessDetected"]
 
-FIXED_STEP = ("euler", "rk4")
-ADAPTIVE = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 ORDERS = {"euler": 1, "rk4": 4}
 #: |h·λ| above which an explicit method is taken to be beyond its stability limit
 STABILITY_LIMITS = {"euler": 2.0, "rk4": 2.78, "RK45": 3.25, "RK23": 2.4, "DOP853": 6.1}
@@ -313,18 +311,3 @@ class Adaptive(_Stepper):
     @property
     def step_size(self):
         return self.solver.step_size
-
-
-def make_stepper(method, fun, t0, y0, t_bound, dt=None, rtol=1e-6, atol=1e-9, max_step=np.inf, first_step=None,
-                 autonomous=True, fun_list=None, stiffness_check=True):
-    """An integrator for ``y' = fun(t, y)`` from ``(t0, y0)`` up to ``t_bound``
-    (``autonomous``: ``fun`` has no explicit dependence on ``t`` through
-    inputs, which lets the fixed-step stiffness test act on one estimate;
-    ``fun_list``: the same rates on lists of floats, for euler and rk4;
-    ``stiffness_check=False``: no stiffness test, the run goes on whatever
-    the step size's stability)."""
-    if method == "euler":
-        return Euler(fun, t0, y0, t_bound, dt, autonomous, fun_list, stiffness_check)
-    if method == "rk4":
-        return RK4(fun, t0, y0, t_bound, dt, autonomous, fun_list, stiffness_check)
-    return Adaptive(fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step, stiffness_check)

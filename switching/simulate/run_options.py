@@ -65,13 +65,11 @@ import numbers
 import numpy as np
 
 from ..errors import OptionTypeError, OptionValueError, WorkLimitError
-from .integrators import ADAPTIVE, FIXED_STEP
+from .methods import COMPILED, METHODS, method_class
+from .option_groups import RunOptions
 
-__all__ = ["check_run", "check_work", "check_output_size", "check_sensitivity_options", "METHODS", "COMPILED",
+__all__ = ["checked_options", "check_run", "check_work", "check_output_size", "check_sensitivity_options", "METHODS", "COMPILED",
            "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
-
-COMPILED = ("euler-jit", "rk4-jit", "RK45-jit")
-METHODS = FIXED_STEP + ADAPTIVE + COMPILED
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
 DEFAULT_MAX_STEPS = 10_000_000
@@ -185,17 +183,13 @@ def function_or_none(option: str, value):
 
 def check_method(method, dt) -> None:
     """The method is known, and ``dt`` is given exactly for the fixed-step ones."""
-    known = METHODS + ("auto",)
-    if not isinstance(method, str) or method not in known:
-        cls = OptionValueError if isinstance(method, str) else OptionTypeError
-        raise cls(f"unknown method {_show(method)}; choose one of: {', '.join(known)}", "method", method)
-    if method.removesuffix("-jit") in FIXED_STEP:
+    cls = method_class(method)  # (an unknown one: the error lists the table's names)
+    if cls.fixed_step:
         if dt is None:
             raise OptionValueError(f"method {method!r} is fixed-step: give a positive step dt=… [s]", "dt", dt)
     elif dt is not None:
-        what = "chooses between 'RK45' and 'RK45-jit' (adaptive)" if method == "auto" else "is adaptive"
-        raise OptionValueError(f"method {method!r} {what}: give rtol/atol, not dt (dt is for euler and rk4)",
-                               "dt", dt)
+        raise OptionValueError(f"method {method!r} {cls.adaptive_text}: give rtol/atol, not dt (dt is for euler "
+                               "and rk4)", "dt", dt)
 
 
 def check_steps(o: dict) -> None:
@@ -323,7 +317,7 @@ def check_work(method: str, t0: float, t_end: float, dt, max_step: float, event_
     implying more than ``max_steps`` steps or more than
     ``(DEFAULT_EVENT_SAMPLES + 1) × max_steps`` guard tests (times [s])."""
     span, reach = t_end - t0, max(abs(t0), abs(t_end))
-    if method.removesuffix("-jit") in FIXED_STEP:
+    if method_class(method).fixed_step:
         option, step, smallest = "dt", dt, math.ulp(reach)
         why = f"one ulp of t there, {smallest:.3g} s): t + dt == t, the run could not advance"
     else:
@@ -387,3 +381,13 @@ def check_run(model, t_end, method, options: dict):
     check_work(method, t0, t_end, None if o["dt"] is None else float(o["dt"]), float(o["max_step"]),
                int(o["event_samples"]), int(o["max_steps"]))
     return t_eval, x0
+
+
+def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
+    """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
+    grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
+    keywords of ``simulate`` (all of them, ``mode`` included) once
+    :func:`check_run` has checked them: ``t_eval`` sorted and ``x0`` as an
+    array, every other value as given."""
+    t_eval, x0 = check_run(model, t_end, method, keywords)
+    return RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})

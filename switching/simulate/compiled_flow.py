@@ -1,0 +1,79 @@
+"""Flows in the compiled kernel: its calls from a state, the samples and
+instants it returns recorded, its status read into the run's failures."""
+
+from __future__ import annotations
+
+import functools
+
+from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
+from ..library.jit_model import KINDS, CompiledInstant
+from ..library.jit_model import STATUS as KERNEL_STATUS
+from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
+from .integrators import StiffnessDetected
+from .methods import METHOD_CLASSES
+
+__all__ = ["run_kernel"]
+
+_KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
+
+
+def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False):
+    """Calls of the compiled kernel from ``(t, mode, x)``: flows, events and
+    restarts in compiled code, each instant recorded (and checked) by
+    ``after_event``; with ``initial``, the instant at ``t`` is resolved first.
+    Returns ``(event or None, t, x, mode, steps, stop)``: ``event = (t_ev,
+    x_ev)`` is an instant the kernel left to Python; ``stop`` is ``True`` on
+    Zeno behaviour with ``on_zeno='stop'``, ``"initial"`` when the initial
+    instant is left to Python."""
+    kind = KINDS[method]
+    steps = 0
+    while True:
+        if steps >= steps_left:
+            raise step_limit(o, t, t_end, mode, x, steps)
+        dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
+        result = compiled.run(kind, mode, x, t, t_end, **o.stepping.integrator_options(), samples=o.samples,
+                              save=o.save, resolve_first=initial, t_eval=dense,
+                              max_steps=min(steps_left - steps, _KERNEL_MAX_STEPS))
+        recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
+        if initial and KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
+            return None, t, x, mode, 0, "initial"
+        steps += result.steps
+        saved = 0
+        if result.n_events:
+            for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
+                for sample in result.samples(saved, at):
+                    recorder.sample(*sample, force=True)
+                saved = at
+                t, x, mode = t_ev, x_after, after
+                instant = CompiledInstant(model, t_ev, before, x_before, after, x_after)
+                if j == 0 and initial and result.info[2]:
+                    recorder.event(instant)  # the initial instant, as in the Python path: not a Zeno candidate
+                elif after_event(instant):
+                    return None, t, x, mode, steps, True
+        initial = False
+        if result.n_saved > saved:
+            for sample in result.samples(saved, result.n_saved):
+                recorder.sample(*sample, force=True)
+        if o.progress is not None:
+            o.progress(result.t)
+        t, x, mode = result.t, result.x, result.mode
+        status = KERNEL_STATUS[result.status]
+        if status == "done":
+            if not o.save:
+                recorder.sample(t, x, mode, force=True)
+            return None, t, x, mode, steps, False
+        if status == "full":
+            continue
+        if status == "resolve":
+            return (t, x), t, x, mode, steps, False
+        if status == "collapsed":
+            raise FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
+                               f"step size collapsed (stiff here? {stiff_advice(method)})", t, x, steps, mode)
+        if status == "stiff":
+            h_lambda, h, _, limit, component = result.info[:5]
+            cm = model.compiled_mode(mode)
+            exc = StiffnessDetected(method, t, h, h_lambda, limit, int(component) if len(cm.independent) else None,
+                                    None if METHOD_CLASSES[method].fixed_step else (t_end - t) / h)
+            raise FlowFailure(functools.partial(StiffnessError, h=h, h_lambda=h_lambda, limit=limit),
+                               stiffness_message(model, cm, mode, exc), t, x, steps, mode)
+        raise FlowFailure(NonFiniteStateError, nonfinite_message(model, mode, t, x), t, x, steps, mode)
