@@ -31,6 +31,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
+from . import numba_internals
 from .cache import CacheWarning, warn_not_writable
 from .safety import PYTHON, Dialect, compile_checked
 
@@ -99,31 +100,14 @@ def _unwritable(directory: Path) -> OSError | None:
     return None
 
 
-def _cache_files(cache) -> list:
-    """The index and data files of one function in numba's disk cache."""
-    try:
-        folder = cache._cache_path
-        base = cache._cache_file._index_name[: -len(".nbi")]
-    except AttributeError:  # another numba version: all files of the function's module
-        folder = getattr(cache, "_cache_path", None)
-        base = getattr(cache._py_func, "__module__", None) if hasattr(cache, "_py_func") else None
-        if not folder or not base:
-            return []
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return []
-    return [os.path.join(folder, n) for n in names if n.startswith(base + ".") and n.endswith((".nbi", ".nbc"))]
-
-
 def _guard_cache(module_name: str, dispatcher) -> None:
     """Make numba's disk cache of ``dispatcher`` unable to fail a run: a cache
     entry that cannot be read (corrupted or truncated ``.nbi``/``.nbc``
     files: ``UnpicklingError``, ``EOFError``, …) is deleted and the function
     compiled again; a cache entry that cannot be written is skipped.  Either
     gives one :class:`codegen.cache.CacheWarning` per module."""
-    cache = getattr(dispatcher, "_cache", None)
-    if cache is None or not hasattr(cache, "load_overload") or not hasattr(cache, "save_overload"):
+    cache = numba_internals.disk_cache(dispatcher)
+    if cache is None:
         return
     load, save = cache.load_overload, cache.save_overload
 
@@ -131,7 +115,7 @@ def _guard_cache(module_name: str, dispatcher) -> None:
         try:
             return load(sig, target_context)
         except Exception as exc:
-            files = _cache_files(cache)
+            files = numba_internals.cache_files(cache)
             for path in files:
                 try:
                     os.unlink(path)
@@ -139,7 +123,7 @@ def _guard_cache(module_name: str, dispatcher) -> None:
                     pass
             if module_name not in _rebuilt:
                 _rebuilt.add(module_name)
-                where = os.path.dirname(files[0]) if files else getattr(cache, "_cache_path", "numba's cache")
+                where = os.path.dirname(files[0]) if files else numba_internals.cache_directory(cache)
                 warnings.warn(f"numba's cache files of compiled kernel {module_name} in {where} could not be read "
                               f"({type(exc).__name__}: {exc}); deleted them and compiling again",
                               CacheWarning, stacklevel=2)
@@ -164,8 +148,6 @@ def _import(name: str, source: str, directory: Path, dialect: Dialect):
     """Write ``source`` to ``directory/name.py`` (unless it is there already)
     and execute it as module ``name``, its numba caches guarded.  The code
     is compiled from ``source`` itself, so no ``.pyc`` is written or read."""
-    from numba.core.dispatcher import Dispatcher
-
     path = directory / f"{name}.py"
     code = compile_checked(source, str(path), dialect)  # (nothing of it has run: refused here if it is not ours)
     for attempt in range(3):
@@ -197,7 +179,7 @@ def _import(name: str, source: str, directory: Path, dialect: Dialect):
             del sys.modules[name]
             raise
         for value in list(vars(module).values()):
-            if isinstance(value, Dispatcher):
+            if numba_internals.is_dispatcher(value):
                 _guard_cache(name, value)
         return module
 

@@ -60,9 +60,7 @@ module to a private temporary directory (both with a
 from __future__ import annotations
 
 import math
-import os
 import re
-import sys
 import warnings
 
 import numpy as np
@@ -71,9 +69,11 @@ import sympy as sp
 from bondgraph.errors import HybridBondGraphError
 from bondgraph.symbols import rate_symbol
 from bondgraph.symbols import t as TIME
-from codegen.cache import CacheWarning, fingerprint, warn_not_writable
-from codegen.jit import guard_cache, load_module, tree_expression
-from codegen.safety import Dialect, GeneratedCodeError
+from codegen.backends import Signature, native_enabled
+from codegen.cache import fingerprint
+from codegen.jit import guard_cache, tree_expression
+from codegen.machine import is_compiled, machine_function
+from codegen.safety import Dialect
 from codegen.source import Argument, FunctionSpec, docstring, escaped, function_source
 
 from ..model.automaton import A_POSTERIORI
@@ -84,7 +84,8 @@ from ..simulate.events import guard_parts  # the guards' one-sided parts, as the
 
 __all__ = ["KINDS", "STATUS", "AutoChoice", "CompiledInstant", "CompiledModel", "KernelResult", "choose_method",
            "forget_modes", "input_problem", "input_substitution", "kernel", "kernel_compiled", "mode_compiled",
-           "mode_function", "mode_function_source", "model_tables", "native_enabled", "native_signature",
+           "mode_calls", "mode_function", "mode_function_source", "mode_signature", "model_tables", "native_enabled",
+           "native_signature",
            "remember_modes", "remembered_modes"]
 
 KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
@@ -101,12 +102,12 @@ def kernel():
     cache unable to fail a run: unreadable files are deleted and the kernel
     compiled again, with a :class:`codegen.cache.CacheWarning`."""
     if not _KERNEL:
-        from numba.core.dispatcher import Dispatcher
+        from codegen.numba_internals import is_dispatcher
 
         from ..simulate.kernel import loop as module
 
         for value in list(vars(module).values()):
-            if isinstance(value, Dispatcher):
+            if is_dispatcher(value):
                 guard_cache("switching.simulate.kernel.loop", value)
         _KERNEL.append(module)
     return _KERNEL[0]
@@ -226,34 +227,17 @@ def _speed_key(model) -> str:
 def kernel_compiled() -> bool:
     """Is :func:`switching.simulate.kernel.loop.run` compiled in this process, or its
     machine code in numba's disk cache (its index file)?"""
+    from codegen.numba_internals import cache_index_exists
+
     run = kernel().run
-    if run.signatures:
-        return True
-    cache = getattr(run, "_cache", None)
-    try:
-        return os.path.exists(os.path.join(cache._cache_path, cache._cache_file._index_name))
-    except (AttributeError, TypeError):  # another numba version
-        return False
+    return bool(run.signatures) or cache_index_exists(run)
 
 
 def mode_compiled(model, mode) -> bool:
     """Is the function of ``mode`` loaded in this process, or its machine code
     in the disk cache?"""
-    name = f"hbg_mode_{_mode_key(model, mode)}"
-    if name in _NATIVE or getattr(sys.modules.get(name), "compiled", None) is not None:
-        return True
-    if model.cache.directory is None:
-        return False
-    if native_enabled():
-        from codegen.native import file_matches_machine
-
-        if file_matches_machine(_native_path(model, name)):
-            return True
-    try:
-        return any(n.startswith(name + ".mode-") and n.endswith(".nbi")
-                   for n in os.listdir(model.cache.directory / "jit" / "__pycache__"))
-    except OSError:
-        return False
+    directory = model.cache.directory / "jit" if model.cache.directory is not None else None
+    return is_compiled(f"hbg_mode_{_mode_key(model, mode)}", directory)
 
 
 def choose_method(model, t0, t_end, rtol, dt=None) -> AutoChoice:
@@ -552,105 +536,45 @@ def _mode_key(model, mode) -> str:
 def native_signature() -> tuple[list, str]:
     """:data:`switching.simulate.kernel.loop.MODE_SIGNATURE` in :func:`codegen.native.compile_function`'s
     terms: the argument kinds (``"i"`` int64, ``"f"`` float64, ``("ptr", kind)``) and the result's."""
+    signature = mode_signature()
+    return list(signature.arguments), signature.result
+
+
+def mode_signature() -> Signature:
+    """:data:`switching.simulate.kernel.loop.MODE_SIGNATURE` as a :class:`codegen.backends.Signature`."""
     from numba import types
 
     kinds = {types.int64: "i", types.float64: "f", types.uint8: "u"}
     signature = kernel().MODE_SIGNATURE
     arguments = [("ptr", kinds[a.dtype]) if isinstance(a, types.CPointer) else kinds[a] for a in signature.args]
-    return arguments, kinds[signature.return_type]
+    return Signature(tuple(arguments), kinds[signature.return_type])
 
 
-_NATIVE: dict = {}  # this process's natively compiled mode functions by name (a symbol is defined once)
-NATIVE_ENVIRONMENT = "HBG_NATIVE"  # "0": compile the mode functions with numba (its front end) instead
-
-
-def native_enabled() -> bool:
-    """Are mode functions compiled by :mod:`codegen.native` (default), not by numba's front end?"""
-    return os.environ.get(NATIVE_ENVIRONMENT, "1").strip().lower() not in ("0", "off", "no", "false")
-
-
-def _native_path(model, name: str):
-    return model.cache.directory / "jit" / f"{name}.native" if model.cache.directory is not None else None
-
-
-def _native_function(model, mode, name: str, source: str):
-    """``mode``'s function compiled by :mod:`codegen.native` (its machine code
-    from the disk cache, else translated, compiled in milliseconds and
-    kept), or ``None`` when its source is outside the translated subset
-    (numba compiles it then).  An unreadable machine-code file is deleted and
-    compiled again (a :class:`codegen.cache.CacheWarning`)."""
-    from codegen import native
-
-    if name in _NATIVE:
-        return _NATIVE[name]
-    path = _native_path(model, name)
-    function = None
-    if path is not None:
-        try:
-            function = native.read_file(path, name)
-        except Exception as exc:  # a damaged file (CorruptFile), or machine code LLVM refuses to load
-            warnings.warn(f"machine code of mode {mode.describe()} of model {model.name!r} could not be read ({exc}); "
-                          "deleted it and compiling again", CacheWarning, stacklevel=4)
-            try:
-                os.unlink(path)
-            except OSError:
-                pass
-    if function is None:
-        try:
-            function = native.compile_function(source, "mode", *native_signature(), name, dialect=MODE_DIALECT)
-        except native.Untranslatable:
-            return None
-        except GeneratedCodeError:
-            raise
-        except Exception as exc:  # a fault of the translator: numba's front end still compiles the mode
-            warnings.warn(f"translating mode {mode.describe()} of model {model.name!r} to machine code failed "
-                          f"({type(exc).__name__}: {exc}); numba compiles it instead (slower to compile, the same "
-                          f"results). Set {NATIVE_ENVIRONMENT}=0 to always use numba, and please report this.",
-                          RuntimeWarning, stacklevel=4)
-            return None
-        if path is not None:
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                native.write_file(function, path)
-            except OSError as exc:
-                warn_not_writable(path.parent, exc, stacklevel=5)
-    _NATIVE[name] = function
-    return function
+def mode_calls() -> tuple:
+    """The functions a mode's function calls besides math and numpy (its imports
+    from the kernel): a translating backend translates them with it."""
+    return kernel().decide, kernel().larger
 
 
 def mode_function(model, mode):
-    """The compiled function of ``mode`` (an object whose ``address`` goes
-    to the kernel): its source from the cache (else generated and cached),
-    then its machine code from the disk cache, else compiled — by
-    :mod:`codegen.native` (tens of milliseconds), or, for a source outside
-    that translator's subset or with ``HBG_NATIVE=0``, by numba (a ``CFunc``;
-    0.3–3 s, kept in numba's disk cache).  Unreadable cache files are
-    deleted and the function compiled again (a
-    :class:`codegen.cache.CacheWarning`)."""
-    from numba.core.ccallback import CFunc
-
-    MODE_SIGNATURE = kernel().MODE_SIGNATURE
+    """The compiled function of ``mode`` (a :class:`codegen.backends.CompiledFunction`
+    whose ``address`` goes to the kernel): its source from the cache (else
+    generated and cached), then its machine code from this process, the disk
+    cache, else compiled (:func:`codegen.machine.machine_function`: by the
+    native backend in tens of milliseconds, or, for a source outside its
+    subset or with ``HBG_NATIVE=0``, by numba's front end in 0.3–3 s, kept in
+    numba's disk cache).  Unreadable cache files are deleted and the function
+    compiled again (a :class:`codegen.cache.CacheWarning`)."""
+    kernel()  # (imported, its caches guarded, before any mode function calls it)
     key = _mode_key(model, mode)
     source = model.cache.load(key, MODE_DIALECT)  # (checked: an altered entry is discarded)
     if source is None:
         source = mode_function_source(model, mode)
         model.cache.store(key, source)
-    name = f"hbg_mode_{key}"
-    if native_enabled():
-        function = _native_function(model, mode, name, source)
-        if function is not None:
-            return function
-    directory = model.cache.directory / "jit" if model.cache.directory else None
-    module = load_module(name, source, directory, MODE_DIALECT)
-    function = getattr(module, "compiled", None)
-    if function is None:
-        function = CFunc(module.mode, (MODE_SIGNATURE.args, MODE_SIGNATURE.return_type), locals={},
-                         options={"error_model": "numpy"})
-        function.enable_caching()
-        guard_cache(name, function)
-        function.compile()
-        module.compiled = function
-    return function
+    directory = model.cache.directory / "jit" if model.cache.directory is not None else None
+    return machine_function(source, "mode", mode_signature(), f"hbg_mode_{key}", dialect=MODE_DIALECT,
+                            calls=mode_calls(), directory=directory,
+                            describe=f"mode {mode.describe()} of model {model.name!r}")
 
 
 def model_tables(model, modes: list) -> dict:
@@ -709,7 +633,7 @@ class CompiledModel:
         self.model = model
         self.modes: list = []  # numbered in the order added (a mode keeps its number)
         self.ids: dict = {}
-        self.functions: list = []  # each mode's CFunc (kept alive: the kernel calls their addresses)
+        self.functions: list = []  # each mode's CompiledFunction (kept alive: the kernel calls their addresses)
         self.refused: set = set()  # modes numba could not compile (they flow in Python)
         self._inputs_seen = model._inputs  # the inputs compiled into the functions (see covers)
         self._inputs_key = _inputs_key(model)
