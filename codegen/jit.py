@@ -2,12 +2,12 @@
 the cache directory and imported from there, so numba's own on-disk cache
 applies, and that cache made unable to fail a run.
 
-:mod:`switching.library.jit_model` generates, per mode, one function of a fixed C
-signature (a numba ``cfunc``) from the mode's symbolic f, g, h and guards; the
-model-independent kernel that calls them (flow, events, resolution, restart)
-is ordinary Python, :mod:`switching.simulate.kernel.loop`, compiled once per installation.
-This module supplies what generated code needs: the source of a guard
-decision (:func:`tree_expression`) and :func:`load_module`.
+A caller generates, per mode of a model, one function of a fixed C signature
+from the mode's symbolic equations; the compiled kernel that calls them is
+the caller's own, compiled once per installation.  This module supplies what
+generated numba code needs: the source of a guard decision
+(:func:`tree_expression`), :func:`load_module` and :func:`guard_cache`; the
+numba backend of :mod:`codegen.backends` compiles through them.
 
 A module is written to the cache directory (``jit/`` in it) and imported from
 there, so numba's own on-disk cache applies: a second process loads machine
@@ -47,7 +47,10 @@ def available() -> bool:
 
 
 def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0, scale: str | None = None) -> str:
-    """Source deciding a guard tree (see :func:`switching.library.compiled.decide_tree`).
+    """Source deciding a guard tree: ``("const", truth)``, ``("and"|"or", [trees])``,
+    ``("not", tree)`` or a comparison ``(kind, k, op, text)`` of comparison
+    number ``k`` and operator ``op`` (``<``, ``<=``, ``>``, ``>=``, ``==``, ``!=``),
+    decided by the functions ``_dec`` and ``_larger`` the generated module imports.
 
     Comparison ``k`` reads its left/right finite parts and round-off scale
     from ``finite[3k], finite[3k+1], finite[3k+2]`` and, when ``impulse``

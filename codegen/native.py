@@ -925,7 +925,7 @@ def compile_function(source: str, entry: str, signature: list, result: str, name
     translator = _Translator(name, calls)
     translator.entry(definitions[0], namespace, signature, result, name)
     with numba_internals.compiler_lock():
-        library = numba_internals.create_library(name, translator.module)  # (its object code can be kept)
+        library = numba_internals.compile_library(name, translator.module)  # (its object code can be kept)
         return NativeFunction(library, name, "compiled")
 
 

@@ -22,8 +22,8 @@ import functools
 import importlib.util
 import os
 
-__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "compiler_lock", "create_library", "disk_cache",
-           "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported", "serialize_library"]
+__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "compile_library", "compiler_lock",
+           "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported", "serialize_library"]
 
 #: the numba releases (major, minor) whose internals this module was written and tested for
 KNOWN_VERSIONS = tuple((0, minor) for minor in range(58, 69))
@@ -99,7 +99,7 @@ def host_cpu() -> tuple[str, str]:
         return binding.get_host_cpu_name(), binding.get_host_cpu_features().flatten()
 
 
-def create_library(name: str, module):
+def compile_library(name: str, module):
     """A finalised code library of LLVM IR ``module`` (object caching on, so
     :func:`serialize_library` can keep it).  Call under :func:`compiler_lock`."""
     library = _codegen().create_library(name)
@@ -110,7 +110,7 @@ def create_library(name: str, module):
 
 
 def serialize_library(library) -> tuple[bytes, bytes]:
-    """``(object code, bitcode)`` of a library made by :func:`create_library`."""
+    """``(object code, bitcode)`` of a library made by :func:`compile_library`."""
     _, _kind, (object_code, bitcode) = library.serialize_using_object_code()
     return bytes(object_code), bytes(bitcode)
 
