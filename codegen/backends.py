@@ -46,6 +46,8 @@ def native_enabled() -> bool:
     return os.environ.get(NATIVE_ENVIRONMENT, "1").strip().lower() not in ("0", "off", "no", "false")
 
 
+HEAD_BYTES = 65536  # what :meth:`Backend.cached` reads of a kept form: its header, whole
+
 _C_TYPES = {"f": ctypes.c_double, "i": ctypes.c_int64, "u": ctypes.c_uint8}
 
 
@@ -132,10 +134,10 @@ class Backend:
         never writes)."""
         raise NotImplementedError
 
-    def load(self, data: bytes, symbol: str) -> CompiledFunction | None:
-        """The function :meth:`CompiledFunction.serialise` gave as ``data``,
-        or ``None`` when ``data`` is for another machine; raises
-        :class:`codegen.native.CorruptFile` for damaged data."""
+    def load(self, data: bytes, symbol: str, signature: Signature | None = None) -> CompiledFunction | None:
+        """The function ``symbol`` (of ``signature``) that :meth:`CompiledFunction.serialise`
+        gave as ``data``, or ``None`` when ``data`` is for another machine;
+        raises :class:`codegen.native_file.CorruptFile` for damaged data."""
         return None
 
     def loads_here(self, head: bytes) -> bool:
@@ -148,7 +150,7 @@ class Backend:
             return False
         try:
             with open(directory / (symbol + self.file_suffix), "rb") as handle:
-                return self.loads_here(handle.read(1024))
+                return self.loads_here(handle.read(HEAD_BYTES))
         except OSError:
             return False
 
@@ -222,11 +224,11 @@ class NativeBackend(Backend):
                                            symbol, dialect=dialect, calls=calls)
         return self._wrap(compiled, signature)
 
-    def load(self, data, symbol):
+    def load(self, data, symbol, signature=None):
         from . import native_file
 
         compiled = native_file.loads(data, symbol)
-        return None if compiled is None else self._wrap(compiled)
+        return None if compiled is None else self._wrap(compiled, signature)
 
     def loads_here(self, head):
         from . import native_file

@@ -45,10 +45,10 @@ def _write(path: Path, data: bytes) -> None:
             os.unlink(temporary)
 
 
-def _kept(backend: Backend, path: Path, symbol: str, describe: str) -> CompiledFunction | None:
+def _kept(backend: Backend, path: Path, symbol: str, signature: Signature, describe: str) -> CompiledFunction | None:
     """The machine code kept in ``path``, or ``None`` (none, another machine's, or damaged: then deleted)."""
     try:
-        return backend.load(path.read_bytes(), symbol)
+        return backend.load(path.read_bytes(), symbol, signature)
     except FileNotFoundError:
         return None
     except Exception as exc:  # unreadable, damaged (CorruptFile), or machine code LLVM refuses to load
@@ -102,9 +102,10 @@ def machine_function(source: str, function_name: str, signature: Signature, symb
         if (backend.name, symbol) in LOADED:
             return LOADED[backend.name, symbol]
         path = directory / (symbol + backend.file_suffix) if directory is not None and backend.file_suffix else None
-        function = _kept(backend, path, symbol, describe) if path is not None else None
+        function = _kept(backend, path, symbol, signature, describe) if path is not None else None
         if function is None:
-            function = _compiled(backend, backend is backends[-1], source, function_name, signature, symbol, options, describe)
+            function = _compiled(backend, backend is backends[-1], source, function_name, signature, symbol, options,
+                                 describe)
             if function is None:
                 continue
             if path is not None:

@@ -23,7 +23,8 @@ import importlib.util
 import os
 
 __all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "compile_library", "compiler_lock",
-           "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported", "serialize_library"]
+           "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported",
+           "serialize_library"]
 
 #: the numba releases (major, minor) whose internals this module was written and tested for
 KNOWN_VERSIONS = tuple((0, minor) for minor in range(58, 69))

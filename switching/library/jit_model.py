@@ -565,7 +565,6 @@ def mode_function(model, mode):
     subset or with ``HBG_NATIVE=0``, by numba's front end in 0.3–3 s, kept in
     numba's disk cache).  Unreadable cache files are deleted and the function
     compiled again (a :class:`codegen.cache.CacheWarning`)."""
-    kernel()  # (imported, its caches guarded, before any mode function calls it)
     key = _mode_key(model, mode)
     source = model.cache.load(key, MODE_DIALECT)  # (checked: an altered entry is discarded)
     if source is None:

@@ -96,3 +96,19 @@ def test_unknown_numba_internals_make_the_native_backend_unavailable_and_numba_c
     run, functions = _ball_run(tmp_path / "fallback")  # (no crash: numba's front end compiles every mode)
     assert all(f.backend == "numba" for f in functions)
     assert same_bits(run.t, reference.t) and same_bits(run.x, reference.x)
+
+
+def test_kept_machine_code_is_found_by_its_header_for_the_backends_that_would_be_tried(tmp_path, monkeypatch):
+    """machine_function keeps the native code in the directory; is_compiled
+    finds it there (its whole header read: the machine key is long) while
+    the native backend would be tried, and not with HBG_NATIVE=0."""
+    symbol = f"hbg_test_kept_{next(_serial)}"
+    dialect = Dialect(imports=(("math", None, None),))
+    compiled = machine.machine_function("import math\n\n" + SOURCE, "h", SIGNATURE, symbol, dialect=dialect,
+                                        directory=tmp_path)
+    assert compiled.backend == "native" and (tmp_path / f"{symbol}.native").is_file()
+    assert compiled.function(1.5, 2.0) == 1.5 * 2.0 + math.sqrt(2.0)
+    monkeypatch.setattr(machine, "LOADED", {})
+    assert machine.is_compiled(symbol, tmp_path)
+    monkeypatch.setenv("HBG_NATIVE", "0")
+    assert not machine.is_compiled(symbol, tmp_path)  # numba's front end never compiled it

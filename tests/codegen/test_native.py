@@ -170,7 +170,8 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 
     from codegen.runtime import Hyper, decide
 
-    source = HEADER + "from switching.simulate.kernel.loop import decide as _dec, larger as _larger\n\n" + textwrap.dedent(
+    source = HEADER + "from switching.simulate.kernel.loop import decide as _dec, larger as _larger\n\n"
+    source += textwrap.dedent(
         """
         def d(op, li, lf, ri, rf, sc, sc2, rtol, atol):
             return 1 if _dec(op, li, lf, ri, rf, _larger(sc, sc2), rtol, atol) else 0
