@@ -83,7 +83,9 @@ class CompiledFunction:
     for the Python backend), valid while this object lives; :attr:`function`
     something Python can call (the function itself, or a ctypes wrapper of
     the machine code); :attr:`origin` is ``"compiled"`` (in this process) or
-    ``"loaded"`` (from a serialised form).  :meth:`serialise` gives the bytes
+    ``"loaded"`` (from a serialised form); :attr:`handle` the backend's own
+    object (a :class:`codegen.native.NativeFunction`, a numba ``CFunc``, the
+    module's namespace), kept alive with this one.  :meth:`serialise` gives the bytes
     :meth:`Backend.load` takes in another process, or ``None`` when the
     backend keeps its own cache (numba)."""
 

@@ -295,6 +295,7 @@ def test_mode_functions_of_every_shipped_model_agree_with_numba_bit_for_bit(name
 def test_mode_functions_of_model_files_and_law_switches_agree_with_numba():
     from switching.files.modelfile import load_model
 
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bondgraph"))  # (where the law switches live)
     from test_law_switches import bang_bang, sign_block
 
     files = [load_model(path) for path in sorted(models.EXAMPLES.glob("*.toml"))]
