@@ -39,16 +39,17 @@ def visited_model(name: str):
 def main(names) -> None:
     from numba.core.ccallback import CFunc
 
-    from codegen.native import compile_function
+    from codegen.backends import BACKENDS
     from switching.simulate.kernel import loop as kernel
-    from switching.library.jit_model import mode_function_source, native_signature
+    from switching.library.jit_model import MODE_DIALECT, mode_calls, mode_function_source, mode_signature
 
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)
     serial = iter(range(10**9))
 
     def native(source):
         start = time.perf_counter()
-        compile_function(source, "mode", *native_signature(), f"hbg_benchmark_{next(serial)}")
+        BACKENDS["native"].compile(source, "mode", mode_signature(), symbol=f"hbg_benchmark_{next(serial)}",
+                                   dialect=MODE_DIALECT, calls=mode_calls())
         return time.perf_counter() - start
 
     def numba(source):

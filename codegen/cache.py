@@ -18,10 +18,10 @@ Size cap.  The directory holds at most ``$HBG_CACHE_MAX_MB`` megabytes
 key: ``<key>.py``, and for a mode's compiled function its module
 ``jit/hbg_mode_<key>.py`` with its machine code ``jit/hbg_mode_<key>.native``
 (:mod:`codegen.native`) or numba's ``jit/__pycache__/hbg_mode_<key>.*``
-(``.nbi``/``.nbc``).  (The compiled
-kernel itself is model-independent: numba keeps it beside
-``switching/simulate/kernel/loop.py``, once per installation.  Modules ``hbg_model_<key>``
-of earlier versions, one kernel per model, are entries too, evicted alike.)
+(``.nbi``/``.nbc``).  (A compiled kernel that is model-independent is kept
+by numba beside its own module, once per installation.  Modules
+``hbg_model_<key>`` of earlier versions, one kernel per model, are entries
+too, evicted alike.)
 Whenever an entry is stored and the directory is then over the cap, whole
 entries are deleted,
 least recently used first (a load from disk refreshes the entry's

@@ -2,12 +2,12 @@
 the cache directory and imported from there, so numba's own on-disk cache
 applies, and that cache made unable to fail a run.
 
-:mod:`switching.library.jit_model` generates, per mode, one function of a fixed C
-signature (a numba ``cfunc``) from the mode's symbolic f, g, h and guards; the
-model-independent kernel that calls them (flow, events, resolution, restart)
-is ordinary Python, :mod:`switching.simulate.kernel.loop`, compiled once per installation.
-This module supplies what generated code needs: the source of a guard
-decision (:func:`tree_expression`) and :func:`load_module`.
+A caller generates, per mode of a model, one function of a fixed C signature
+from the mode's symbolic equations; the compiled kernel that calls them is
+the caller's own, compiled once per installation.  This module supplies what
+generated numba code needs: the source of a guard decision
+(:func:`tree_expression`), :func:`load_module` and :func:`guard_cache`; the
+numba backend of :mod:`codegen.backends` compiles through them.
 
 A module is written to the cache directory (``jit/`` in it) and imported from
 there, so numba's own on-disk cache applies: a second process loads machine
@@ -31,6 +31,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
+from . import numba_internals
 from .cache import CacheWarning, warn_not_writable
 from .safety import PYTHON, Dialect, compile_checked
 
@@ -46,7 +47,10 @@ def available() -> bool:
 
 
 def tree_expression(tree, finite: str, impulse: str | None = None, offset: int = 0, scale: str | None = None) -> str:
-    """Source deciding a guard tree (see :func:`switching.library.compiled.decide_tree`).
+    """Source deciding a guard tree: ``("const", truth)``, ``("and"|"or", [trees])``,
+    ``("not", tree)`` or a comparison ``(kind, k, op, text)`` of comparison
+    number ``k`` and operator ``op`` (``<``, ``<=``, ``>``, ``>=``, ``==``, ``!=``),
+    decided by the functions ``_dec`` and ``_larger`` the generated module imports.
 
     Comparison ``k`` reads its left/right finite parts and round-off scale
     from ``finite[3k], finite[3k+1], finite[3k+2]`` and, when ``impulse``
@@ -99,31 +103,14 @@ def _unwritable(directory: Path) -> OSError | None:
     return None
 
 
-def _cache_files(cache) -> list:
-    """The index and data files of one function in numba's disk cache."""
-    try:
-        folder = cache._cache_path
-        base = cache._cache_file._index_name[: -len(".nbi")]
-    except AttributeError:  # another numba version: all files of the function's module
-        folder = getattr(cache, "_cache_path", None)
-        base = getattr(cache._py_func, "__module__", None) if hasattr(cache, "_py_func") else None
-        if not folder or not base:
-            return []
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return []
-    return [os.path.join(folder, n) for n in names if n.startswith(base + ".") and n.endswith((".nbi", ".nbc"))]
-
-
 def _guard_cache(module_name: str, dispatcher) -> None:
     """Make numba's disk cache of ``dispatcher`` unable to fail a run: a cache
     entry that cannot be read (corrupted or truncated ``.nbi``/``.nbc``
     files: ``UnpicklingError``, ``EOFError``, …) is deleted and the function
     compiled again; a cache entry that cannot be written is skipped.  Either
     gives one :class:`codegen.cache.CacheWarning` per module."""
-    cache = getattr(dispatcher, "_cache", None)
-    if cache is None or not hasattr(cache, "load_overload") or not hasattr(cache, "save_overload"):
+    cache = numba_internals.disk_cache(dispatcher)
+    if cache is None:
         return
     load, save = cache.load_overload, cache.save_overload
 
@@ -131,7 +118,7 @@ def _guard_cache(module_name: str, dispatcher) -> None:
         try:
             return load(sig, target_context)
         except Exception as exc:
-            files = _cache_files(cache)
+            files = numba_internals.cache_files(cache)
             for path in files:
                 try:
                     os.unlink(path)
@@ -139,7 +126,7 @@ def _guard_cache(module_name: str, dispatcher) -> None:
                     pass
             if module_name not in _rebuilt:
                 _rebuilt.add(module_name)
-                where = os.path.dirname(files[0]) if files else getattr(cache, "_cache_path", "numba's cache")
+                where = os.path.dirname(files[0]) if files else numba_internals.cache_directory(cache)
                 warnings.warn(f"numba's cache files of compiled kernel {module_name} in {where} could not be read "
                               f"({type(exc).__name__}: {exc}); deleted them and compiling again",
                               CacheWarning, stacklevel=2)
@@ -164,8 +151,6 @@ def _import(name: str, source: str, directory: Path, dialect: Dialect):
     """Write ``source`` to ``directory/name.py`` (unless it is there already)
     and execute it as module ``name``, its numba caches guarded.  The code
     is compiled from ``source`` itself, so no ``.pyc`` is written or read."""
-    from numba.core.dispatcher import Dispatcher
-
     path = directory / f"{name}.py"
     code = compile_checked(source, str(path), dialect)  # (nothing of it has run: refused here if it is not ours)
     for attempt in range(3):
@@ -197,7 +182,7 @@ def _import(name: str, source: str, directory: Path, dialect: Dialect):
             del sys.modules[name]
             raise
         for value in list(vars(module).values()):
-            if isinstance(value, Dispatcher):
+            if numba_internals.is_dispatcher(value):
                 _guard_cache(name, value)
         return module
 

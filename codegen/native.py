@@ -1,7 +1,7 @@
 """Machine code for generated per-mode functions without numba's front end.
 
-A compiled mode function (:func:`switching.library.jit_model.mode_function_source`)
-is straight-line floating-point arithmetic in a few branches: numba spends
+A generated function of the kind this package's callers compile per mode of a
+model is straight-line floating-point arithmetic in a few branches: numba spends
 1–3 s typing and lowering one (its front end runs in Python, instruction by
 instruction), while LLVM needs tens of milliseconds for the same code.  This
 module translates such a source directly into LLVM IR and compiles it with
@@ -19,8 +19,10 @@ The translated language is the subset of Python the generator writes:
 * expressions: ``+ - * / % **``, comparisons (one operator), ``and``/``or``/
   ``not`` on booleans, ``a if c else b``, ``abs``, ``max``, ``min``,
   ``float``, the functions of :mod:`math` and ``np.isfinite``, and calls of
-  other functions of the toolkit written in this subset (translated too,
-  e.g. :func:`switching.simulate.kernel.loop.decide`); module-level numbers are constants.
+  the functions the caller names (``calls`` of :func:`compile_function`, e.g. a
+  comparison its kernel also compiles), written in this subset and translated
+  too, with the functions they call in the same top-level packages;
+  module-level numbers are constants.
 
 The meaning is numba's for the same source (``error_model="numpy"``, no
 fast-math), operation by operation, so both compile a source to the same
@@ -38,27 +40,29 @@ is made; the caller then compiles the source with numba instead.
 The machine code of a function can be kept (:meth:`NativeFunction.serialize`,
 two byte strings: the object code and the module's bitcode) and loaded in a
 later process (:func:`load_function`) of the same numba, llvmlite and CPU
-(:func:`machine_key`), with no translation or optimisation.
+(:func:`codegen.native_file.machine_key`; the bytes kept with that key:
+:mod:`codegen.native_file`), with no translation or optimisation.
+
+Every part of numba that is not its public interface is reached through
+:mod:`codegen.numba_internals`, which says when this numba does not offer
+them (:func:`~codegen.numba_internals.native_unsupported`).
 """
 
 from __future__ import annotations
 
 import ast
-import functools
-import hashlib
 import inspect
 import math
 import operator
-import os
-import tempfile
 import textwrap
 import types as pytypes
 from dataclasses import dataclass, field
 
+from . import numba_internals
+from .llvm_arithmetic import float_modulo, static_power
 from .safety import PYTHON, Dialect, check_source
 
-__all__ = ["CorruptFile", "NativeFunction", "Untranslatable", "compile_function", "file_matches_machine",
-           "load_function", "machine_key", "read_file", "write_file"]
+__all__ = ["NativeFunction", "Untranslatable", "compile_function", "load_function"]
 
 
 class Untranslatable(Exception):
@@ -83,7 +87,6 @@ _ARITY = {"atan2": 2, "hypot": 2, "pow": 2, "copysign": 2}
 _COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!="}
 _FOLD = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
          ast.Pow: operator.pow, ast.Mod: operator.mod}
-_OWN_PACKAGES = ("switching.", "codegen.", "bondgraph.")
 
 
 def _ir():
@@ -149,8 +152,11 @@ class _Function:
 class _Translator:
     """Translates one entry function and the toolkit functions it calls into one LLVM module."""
 
-    def __init__(self, module_name: str):
+    def __init__(self, module_name: str, calls=()):
         ir = _ir()
+        # the packages whose functions may be translated: those of the functions the caller named
+        self.packages = tuple(sorted({(getattr(f, "py_func", f).__module__ or "").split(".")[0] + "."
+                                      for f in calls}))
         self.ir = ir
         self.module = ir.Module(name=module_name)
         self.f64, self.i64, self.i1, self.i8 = ir.DoubleType(), ir.IntType(64), ir.IntType(1), ir.IntType(8)
@@ -196,7 +202,8 @@ class _Translator:
         if getattr(value, "__name__", "") == "carray" and "numba" in getattr(value, "__module__", ""):
             return ("carray",)
         python = getattr(value, "py_func", value)  # a numba dispatcher: its Python function
-        if isinstance(python, pytypes.FunctionType) and (python.__module__ or "").startswith(_OWN_PACKAGES):
+        if isinstance(python, pytypes.FunctionType) and self.packages \
+                and (python.__module__ or "").startswith(self.packages):
             return ("helper", python)
         raise Untranslatable(f"call of {target.id!r} ({_where(node)})")
 
@@ -446,6 +453,26 @@ class _Array:
 _UNBOUND = "unbound"  # a name not bound on every path to here (assigned in one branch only, or a loop's)
 
 
+def _merged(branches: list, before: dict) -> dict:
+    """The kinds of the variables where ``branches`` (each its variables' kinds) meet, after ``before``."""
+    if not branches:
+        return dict(before)
+    names = set().union(*branches)
+    merged = {}
+    for name in names:
+        kinds = [variables.get(name, _UNBOUND) for variables in branches]
+        if any(k == _UNBOUND for k in kinds) or any(isinstance(k, tuple) for k in kinds):
+            merged[name] = _UNBOUND if not all(k == kinds[0] for k in kinds) else kinds[0]
+        elif any(isinstance(k, _ArrayKind) for k in kinds):
+            merged[name] = kinds[0] if all(k == kinds[0] for k in kinds) else _UNBOUND
+        else:
+            kind = kinds[0]
+            for k in kinds[1:]:
+                kind = _join(kind, k)
+            merged[name] = kind
+    return merged
+
+
 class _Body:
     """The LLVM body of one function.  Variables are typed along the flow, as
     numba's SSA types them: ``fn.variables`` holds each name's kind at the
@@ -567,7 +594,7 @@ class _Body:
             self.block(statements)
             if not b.block.is_terminated:
                 ends.append((b.block, self.fn.variables))
-        merged = self.merge([variables for _, variables in ends], before)
+        merged = _merged([variables for _, variables in ends], before)
         for block, variables in ends:
             b.position_at_end(block)
             self.convert_variables(variables, merged)
@@ -576,25 +603,6 @@ class _Body:
         self.fn.variables = merged
         if not ends:
             b.unreachable()
-
-    def merge(self, branches: list, before: dict) -> dict:
-        """The variables where ``branches`` (their variables) meet."""
-        if not branches:
-            return dict(before)
-        names = set().union(*branches)
-        merged = {}
-        for name in names:
-            kinds = [variables.get(name, _UNBOUND) for variables in branches]
-            if any(k == _UNBOUND for k in kinds) or any(isinstance(k, tuple) for k in kinds):
-                merged[name] = _UNBOUND if not all(k == kinds[0] for k in kinds) else kinds[0]
-            elif any(isinstance(k, _ArrayKind) for k in kinds):
-                merged[name] = kinds[0] if all(k == kinds[0] for k in kinds) else _UNBOUND
-            else:
-                kind = kinds[0]
-                for k in kinds[1:]:
-                    kind = _join(kind, k)
-                merged[name] = kind
-        return merged
 
     def convert_variables(self, variables: dict, merged: dict) -> None:
         """At the end of a branch: move each number whose kind widens at the merge into its new slot."""
@@ -799,7 +807,7 @@ class _Body:
             exponent = _constant(node.right)
             base = self.value(node.left)
             if isinstance(exponent, int) and not isinstance(exponent, bool) and abs(exponent) <= 0x10000:
-                return self.static_power(self.convert(base, kind), exponent, kind), kind
+                return static_power(b, self.convert(base, kind), exponent, kind == _FLOAT), kind
             power = self.intrinsic("llvm.pow.f64", 2)
             return b.call(power, [self.convert(base, _FLOAT), self.convert(self.value(node.right), _FLOAT)]), _FLOAT
         left, right = self.value(node.left), self.value(node.right)
@@ -807,39 +815,12 @@ class _Body:
             return b.fdiv(self.convert(left, _FLOAT), self.convert(right, _FLOAT)), _FLOAT
         l, r = self.convert(left, kind), self.convert(right, kind)
         if isinstance(node.op, ast.Mod):
-            return self.float_modulo(l, r), _FLOAT
+            return float_modulo(b, l, r, self.intrinsic("llvm.copysign.f64", 2)), _FLOAT
         if kind == _FLOAT:
             operation = {ast.Add: b.fadd, ast.Sub: b.fsub, ast.Mult: b.fmul}[type(node.op)]
         else:
             operation = {ast.Add: b.add, ast.Sub: b.sub, ast.Mult: b.mul}[type(node.op)]
         return operation(l, r), kind
-
-    def static_power(self, value, exponent: int, kind):
-        """numba's ``x**k`` for a literal integer ``k``: the unrolled square-and-multiply, inverted for ``k < 0``."""
-        b, t, ir = self.builder, self.t, self.ir
-        multiply = b.fmul if kind == _FLOAT else b.mul
-        result = ir.Constant(t.f64, 1.0) if kind == _FLOAT else ir.Constant(t.i64, 1)
-        invert, remaining = exponent < 0, abs(exponent)
-        while remaining:
-            if remaining & 1:
-                result = multiply(result, value)
-            remaining >>= 1
-            if remaining:
-                value = multiply(value, value)
-        if invert:
-            return b.fdiv(ir.Constant(t.f64, 1.0), result)
-        return result
-
-    def float_modulo(self, x, y):
-        """Python's ``x % y`` on floats: the remainder with the sign of ``y`` (``nan`` for ``y == 0``)."""
-        b, t, ir = self.builder, self.t, self.ir
-        zero = ir.Constant(t.f64, 0.0)
-        remainder = b.frem(x, y)
-        differ = b.xor(b.fcmp_ordered("<", remainder, zero), b.fcmp_ordered("<", y, zero))
-        adjust = b.and_(b.fcmp_unordered("!=", remainder, zero), differ)
-        moved = b.select(adjust, b.fadd(remainder, y), remainder)
-        signed_zero = b.call(self.intrinsic("llvm.copysign.f64", 2), [zero, y])
-        return b.select(b.fcmp_ordered("==", moved, zero), signed_zero, moved)
 
     def intrinsic(self, name: str, arity: int, result=None):
         module, t, ir = self.t.module, self.t, self.ir
@@ -916,44 +897,22 @@ class NativeFunction:
 
     def serialize(self) -> tuple[bytes, bytes]:
         """``(object code, bitcode)``: what :func:`load_function` needs in another process."""
-        _, kind, (object_code, bitcode) = self.library.serialize_using_object_code()
-        return bytes(object_code), bytes(bitcode)
-
-
-def _codegen():
-    from numba.core.registry import cpu_target
-
-    return cpu_target.target_context.codegen()
-
-
-@functools.cache
-def machine_key() -> str:
-    """What machine code depends on: numba's and llvmlite's versions and the host CPU and its features."""
-    import llvmlite
-    import numba
-
-    from llvmlite import binding
-
-    codegen = _codegen()
-    try:  # numba's choice (NUMBA_CPU_NAME / NUMBA_CPU_FEATURES may override the host's)
-        cpu, features = codegen._get_host_cpu_name(), codegen._get_host_cpu_features()
-    except AttributeError:  # another numba version
-        cpu, features = binding.get_host_cpu_name(), binding.get_host_cpu_features().flatten()
-    return "|".join((numba.__version__, llvmlite.__version__, cpu, features))
+        return numba_internals.serialize_library(self.library)
 
 
 def compile_function(source: str, entry: str, signature: list, result: str, name: str,
-                     namespace: dict | None = None, dialect: Dialect = PYTHON) -> NativeFunction:
+                     namespace: dict | None = None, dialect: Dialect = PYTHON, calls=()) -> NativeFunction:
     """Translate function ``entry`` of module ``source`` (executed in
     ``namespace``, or its own imports run in a fresh one) to LLVM IR and
     compile it as the C function ``name`` of parameter kinds ``signature``
     (``"f"`` float64, ``"i"`` int64, ``("ptr", "f"|"i"|"u")`` pointers to
-    float64/int64/uint8) returning ``result``.  Raises
+    float64/int64/uint8) returning ``result``.  The functions in ``calls``
+    (plain functions or numba dispatchers), and those they call in the same
+    top-level packages, may be called by the source: they are translated
+    too.  Raises
     :class:`Untranslatable` for anything outside the subset (see the module),
     and :class:`~codegen.safety.GeneratedCodeError` for a source that holds
     anything the code generator never writes in its ``dialect`` (:mod:`codegen.safety`)."""
-    from numba.core.compiler_lock import global_compiler_lock
-
     check_source(source, f"<{name}>", dialect)  # (its imports run below: only those allowed)
     tree = ast.parse(source)
     definitions = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry]
@@ -963,82 +922,16 @@ def compile_function(source: str, entry: str, signature: list, result: str, name
         namespace = {}
         imports = ast.Module([n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))], [])
         exec(compile(imports, "<imports of a generated module>", "exec"), namespace)  # the source's own imports
-    translator = _Translator(name)
+    translator = _Translator(name, calls)
     translator.entry(definitions[0], namespace, signature, result, name)
-    with global_compiler_lock:
-        library = _codegen().create_library(name)
-        library.enable_object_caching()  # its object code can be kept (NativeFunction.serialize)
-        library.add_ir_module(translator.module)
-        library.finalize()
+    with numba_internals.compiler_lock():
+        library = numba_internals.compile_library(name, translator.module)  # (its object code can be kept)
         return NativeFunction(library, name, "compiled")
 
 
 def load_function(name: str, object_code: bytes, bitcode: bytes) -> NativeFunction:
-    """The function ``name`` from the machine code :meth:`NativeFunction.serialize` gave (same :func:`machine_key`)."""
-    from numba.core.compiler_lock import global_compiler_lock
-
-    with global_compiler_lock:
-        library = _codegen().unserialize_library((name, "object", (object_code, bitcode)))
+    """The function ``name`` from the machine code :meth:`NativeFunction.serialize` gave (on a machine of the
+    same :func:`codegen.native_file.machine_key`)."""
+    with numba_internals.compiler_lock():
+        library = numba_internals.load_library(name, object_code, bitcode)
         return NativeFunction(library, name, "loaded")
-
-
-_MAGIC = b"hbg-native 1\n"
-
-
-def write_file(function: NativeFunction, path: str | os.PathLike) -> None:
-    """Keep ``function``'s machine code in ``path``: a header (format, :func:`machine_key`, the lengths and
-    SHA-256 of the two parts), the object code, the bitcode.  Written to a temporary file and moved into
-    place, so a reader sees the old file, the new one or none.  Raises ``OSError``."""
-    object_code, bitcode = function.serialize()
-    digest = hashlib.sha256(object_code + bitcode).hexdigest()
-    header = _MAGIC + f"{machine_key()}\n{len(object_code)} {len(bitcode)} {digest}\n".encode()
-    directory = os.path.dirname(os.fspath(path)) or "."
-    fd, temporary = tempfile.mkstemp(dir=directory, prefix="." + os.path.basename(path) + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(header + object_code + bitcode)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-
-
-class CorruptFile(Exception):
-    """A machine-code file that cannot be read (truncated, corrupted)."""
-
-
-def read_file(path: str | os.PathLike, name: str) -> NativeFunction | None:
-    """Function ``name`` from a file :func:`write_file` wrote, or ``None``
-    when there is no such file or it holds code for another machine (other
-    numba, llvmlite or CPU).  Raises :class:`CorruptFile` when the file does
-    not match its own header (nothing of it is loaded then)."""
-    try:
-        with open(path, "rb") as handle:
-            data = handle.read()
-    except FileNotFoundError:
-        return None
-    except OSError as exc:
-        raise CorruptFile(f"{path}: {exc}") from None
-    if not data.startswith(_MAGIC):
-        raise CorruptFile(f"{path}: not a machine-code file of this toolkit")
-    try:
-        machine, sizes, rest = data[len(_MAGIC):].split(b"\n", 2)
-        length_object, length_bitcode, digest = sizes.decode().split()
-        length_object, length_bitcode = int(length_object), int(length_bitcode)
-    except ValueError:
-        raise CorruptFile(f"{path}: a damaged header") from None
-    if machine.decode(errors="replace") != machine_key():
-        return None
-    if len(rest) != length_object + length_bitcode or hashlib.sha256(rest).hexdigest() != digest:
-        raise CorruptFile(f"{path}: truncated or corrupted (its length or SHA-256 does not match its header)")
-    return load_function(name, rest[:length_object], rest[length_object:])
-
-
-def file_matches_machine(path: str | os.PathLike) -> bool:
-    """Does ``path`` hold machine code for this machine (its header only; not verified)?"""
-    try:
-        with open(path, "rb") as handle:
-            head = handle.read(len(_MAGIC) + 512)
-    except OSError:
-        return False
-    return head.startswith(_MAGIC) and head[len(_MAGIC):].split(b"\n", 1)[0].decode(errors="replace") == machine_key()

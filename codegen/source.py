@@ -65,7 +65,7 @@ COPY_MIN = 16
 #: names of the generated module's own namespace (``out``, ``H``, ``np``, ...)
 _RESERVED = set(keyword.kwlist) | set(dir(builtins)) | {"out", "H", "np", "math", "inf", "nan", "pi", "e", "tau",
                                                          "carray"}
-#: the arrays, selectors and loop variables of the compiled mode functions (switching.library.jit_model)
+#: the arrays, selectors and loop variables of the compiled per-mode functions the callers generate
 _RESERVED |= {"x", "t", "p", "u", "y", "xp", "xq", "xdot", "d", "s", "post", "target", "g", "q", "k"}
 _RESERVED |= {name for name in dir(math) if not name.startswith("_")}
 

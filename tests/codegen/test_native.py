@@ -29,7 +29,7 @@ from codegen import native  # noqa: E402
 from codegen.cache import SourceCache, cache_entries  # noqa: E402
 from codegen.native import Untranslatable, compile_function  # noqa: E402
 from codegen.safety import GeneratedCodeError  # noqa: E402
-from switching.library.jit_model import MODE_DIALECT  # noqa: E402
+from switching.library.jit_model import MODE_DIALECT, mode_calls  # noqa: E402
 from checkout import ROOT
 
 _NUMBA = {"f": types.float64, "i": types.int64, "u": types.uint8}
@@ -170,13 +170,14 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 
     from codegen.runtime import Hyper, decide
 
-    source = HEADER + "from switching.simulate.kernel.loop import decide as _dec, larger as _larger\n\n" + textwrap.dedent(
+    source = HEADER + "from switching.simulate.kernel.loop import decide as _dec, larger as _larger\n\n"
+    source += textwrap.dedent(
         """
         def d(op, li, lf, ri, rf, sc, sc2, rtol, atol):
             return 1 if _dec(op, li, lf, ri, rf, _larger(sc, sc2), rtol, atol) else 0
         """)
     compiled = compile_function(source, "d", ["i"] + ["f"] * 8, "i", f"hbg_test_native_{next(_serial)}",
-                                dialect=IMPORTS)
+                                dialect=IMPORTS, calls=mode_calls())
     function = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64, *[ctypes.c_double] * 8)(compiled.address)
     rtol, atol = 1e-9, 1e-12
     finite = [0.0, 1.0, 1.0 + 5e-10, 1.0 + 2e-9, -1.0, 1e-13, -3e-12, math.inf, -math.inf, math.nan]
@@ -245,7 +246,7 @@ def assert_modes_agree_with_numba(model, trials: int = 60):
     for mode in model.visited_modes:
         source = mode_function_source(model, mode)
         compiled = compile_function(source, "mode", *native_signature(), f"hbg_test_native_{next(_serial)}",
-                                    dialect=IMPORTS)
+                                    dialect=IMPORTS, calls=mode_calls())
         namespace: dict = {}
         exec(compile(source, "<mode source>", "exec"), namespace)
         reference = CFunc(namespace["mode"], signature, locals={}, options={"error_model": "numpy"})
@@ -294,6 +295,7 @@ def test_mode_functions_of_every_shipped_model_agree_with_numba_bit_for_bit(name
 def test_mode_functions_of_model_files_and_law_switches_agree_with_numba():
     from switching.files.modelfile import load_model
 
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bondgraph"))  # (where the law switches live)
     from test_law_switches import bang_bang, sign_block
 
     files = [load_model(path) for path in sorted(models.EXAMPLES.glob("*.toml"))]
@@ -311,11 +313,11 @@ RUN = textwrap.dedent(
     import json, warnings
     warnings.simplefilter("always")
     import models.bouncing_ball as bouncing_ball
-    from switching.library import jit_model
+    from codegen import machine
     model = bouncing_ball.build()
     model.simulate(2.0, "RK45")
     run = model.simulate(2.0, "RK45-jit")
-    print(json.dumps({"origins": sorted(f.origin for f in jit_model._NATIVE.values()),
+    print(json.dumps({"origins": sorted(f.origin for f in machine.LOADED.values() if f.backend == "native"),
                       "t": run.t.tolist(), "x": run.x.tolist()}))
     """
 )
@@ -373,34 +375,34 @@ def _ball_run(cache: Path):
 def test_numba_compiles_what_is_not_translated_with_the_same_run(tmp_path, monkeypatch):
     """``HBG_NATIVE=0``, a refused source and a fault of the translator (with
     a warning) all go to numba's front end; the run is the same to the bit."""
-    import switching.library.jit_model as jm
+    from codegen import machine
 
     reference, functions = _ball_run(tmp_path / "native")
-    assert all(isinstance(f, native.NativeFunction) for f in functions)
+    assert all(f.backend == "native" and isinstance(f.handle, native.NativeFunction) for f in functions)
 
     monkeypatch.setenv("HBG_NATIVE", "0")
     run, functions = _ball_run(tmp_path / "numba")
-    assert all(isinstance(f, CFunc) for f in functions)
+    assert all(f.backend == "numba" and isinstance(f.handle, CFunc) for f in functions)
     assert same_bits(run.t, reference.t) and same_bits(run.x, reference.x)
     monkeypatch.delenv("HBG_NATIVE")
 
     def refuse(*args, **kwargs):
         raise Untranslatable("a construct numba knows")
 
-    monkeypatch.setattr(jm, "_NATIVE", {})
+    monkeypatch.setattr(machine, "LOADED", {})
     monkeypatch.setattr(native, "compile_function", refuse)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # refused: silently numba's
         run, functions = _ball_run(tmp_path / "refused")
-    assert all(isinstance(f, CFunc) for f in functions)
+    assert all(f.backend == "numba" and isinstance(f.handle, CFunc) for f in functions)
     assert same_bits(run.t, reference.t) and same_bits(run.x, reference.x)
 
     def fail(*args, **kwargs):
         raise RuntimeError("a fault of the translator")
 
-    monkeypatch.setattr(jm, "_NATIVE", {})
+    monkeypatch.setattr(machine, "LOADED", {})
     monkeypatch.setattr(native, "compile_function", fail)
     with pytest.warns(RuntimeWarning, match="a fault of the translator.*numba compiles it instead.*HBG_NATIVE=0"):
         run, functions = _ball_run(tmp_path / "fault")
-    assert all(isinstance(f, CFunc) for f in functions)
+    assert all(f.backend == "numba" and isinstance(f.handle, CFunc) for f in functions)
     assert same_bits(run.t, reference.t) and same_bits(run.x, reference.x)
