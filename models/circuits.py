@@ -220,7 +220,18 @@ class Circuit:
         self._add("G", name, (p1, p2, s1, s2), value=r)
 
     def dc_machine(self, name: str, p1, p2, s1, s2, k) -> None:
-        """A DC machine with constant ``k`` [V·s/rad]: a :meth:`gyrator`."""
+        """A DC machine with constant ``k`` [V·s/rad = N·m/A]: a :meth:`gyrator`
+        whose primary is the armature and whose secondary is the shaft in the
+        force–voltage analogy: ``v_<name>_s`` is the torque [N·m] and
+        ``i_<name>_s`` the angular speed [rad/s] (torque ``k·i_a``, back-emf
+        ``k·ω``).  Elements turning with the shaft are in series in the
+        secondary loop: the inertia ``J`` an ``L`` [kg·m²], viscous friction
+        ``b`` an ``R`` [N·m·s], a load torque a ``V`` source.
+
+        Example — ``V("Va", "a", "0", 12)``, ``R("Ra", "a", "b", 2)``,
+        ``dc_machine("M", "b", "0", "w", "0", 0.1)``, ``L("J", "w", "m", 1e-3)``,
+        ``R("b", "m", "0", 1e-3)``: the speed ``i_J`` rises as
+        ``ω = k V/(Ra b + k²) (1 − e^{−t/τ})``, ``τ = J/(b + k²/Ra)``."""
         self.gyrator(name, p1, p2, s1, s2, k)
 
     # ------------------------------------------------------------ queries

@@ -150,6 +150,43 @@ def test_transformer_scales_voltage_and_current():
     assert run.signal("i_T1_s")[-1] == pytest.approx(1.0)
 
 
+def test_dc_machine_speed_rises_with_its_mechanical_time_constant():
+    V, Ra, k, J, b = 12.0, 2.0, 0.1, 1e-3, 1e-3
+    c = Circuit("motor")
+    c.V("Va", "a", "0", V)
+    c.R("Ra", "a", "b", Ra)
+    c.dc_machine("M", "b", "0", "w", "0", k)
+    c.L("J", "w", "m", J)            # inertia: the shaft's speed is the secondary loop's current
+    c.R("friction", "m", "0", b)
+    run = c.build().simulate(0.2, "RK45", **RUN)
+    speed, tau = k * V / (Ra * b + k * k), J / (b + k * k / Ra)
+    np.testing.assert_allclose(run.signal("i_J"), speed * (1 - np.exp(-run.t / tau)), rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(run.signal("v_M_p"), k * run.signal("i_M_s"), rtol=1e-12)   # back-emf k·ω
+
+
+def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
+    for n1, n2, sign in (("a", "0", 1), ("0", "a", -1)):
+        c = Circuit("cubic")
+        c.C("C1", "a", "0", 1.0, v0=2.0)
+        c.R("Rn", n1, n2, flow_law=lambda v: 0.5 * v**3)   # i = v³/2 across n1 → n2
+        run = c.build().simulate(1.0, "RK45", **RUN)
+        v = 1 / np.sqrt(0.25 + run.t)                         # dv/dt = −v³/2 from v = 2
+        np.testing.assert_allclose(run.signal("v_C1"), v, rtol=1e-7)
+        np.testing.assert_allclose(run.signal("i_Rn"), sign * 0.5 * v**3, rtol=1e-7)
+
+
+def test_the_graph_is_drawn_and_names_follow_the_components():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bondgraph import draw_bond_graph
+
+    model = freewheel_circuit().build(parameters={"t_open": 0.5})
+    assert {"node_s", "node_n", "node_m", "S", "D", "branch_R"} <= set(model.graph.elements)
+    assert {a.name for a in model.automata} == {"S", "D"}
+    assert draw_bond_graph(model.graph, {"S": True, "D": False}) is not None   # all on shorts the source
+
+
 def test_unknown_node_is_named_with_a_suggestion():
     c = rc_circuit()
     c.R("R2", "otu", "0", 1.0)
