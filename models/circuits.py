@@ -193,17 +193,25 @@ class Circuit:
         module documentation."""
         self._add("D", name, (anode, cathode), r_on=r_on, v_f=v_f, on=bool(on))
 
-    def switch(self, name: str, n1, n2, closed_when, *, closed: bool | None = None) -> None:
+    def switch(self, name: str, n1, n2, closed_when, *, open_when: str | None = None,
+               closed: bool | None = None) -> None:
         """An ideal switch between ``n1`` and ``n2``, automaton ``name`` with
         states ``open`` and ``closed``.  ``closed_when`` is a condition as text
         (``"t >= t_on"``, ``"t < 1e-3 or t >= 2e-3"``; time, parameters and
-        signals) or a :class:`PWM` schedule.  ``closed``: its state at t = 0;
-        by default the condition at t = 0 when it depends on time and
-        parameters only, else open."""
+        signals) or a :class:`PWM` schedule; the switch opens when it stops
+        holding, or, with ``open_when``, when that condition holds (a relay
+        with hysteresis: ``closed_when="v_out < 6", open_when="v_out > 8"``;
+        a relay without it chatters, a Zeno error).  ``closed``: its state at
+        t = 0; by default ``closed_when`` at t = 0 when it depends on time and
+        parameters only, else open (a condition on signals then closes it at
+        the first instant)."""
         if not isinstance(closed_when, (str, PWM)):
             raise InvalidGraphError(f"switch {name!r}: closed_when must be a condition as text or a PWM, "
                                     f"got {closed_when!r}", [str(name)])
-        self._add("S", name, (n1, n2), closed_when=closed_when, closed=closed)
+        if open_when is not None and not (isinstance(open_when, str) and isinstance(closed_when, str)):
+            raise InvalidGraphError(f"switch {name!r}: open_when must be a condition as text, given with a "
+                                    f"closed_when condition (not a PWM), got {open_when!r}", [str(name)])
+        self._add("S", name, (n1, n2), closed_when=closed_when, open_when=open_when, closed=closed)
 
     def transformer(self, name: str, p1, p2, s1, s2, ratio) -> None:
         """An ideal transformer with turns ratio ``ratio`` = N_p/N_s:
@@ -596,7 +604,8 @@ class _Builder:
             if initial is None:
                 initial = delay <= 0.0
         else:
-            closing, opening = rule, f"not ({rule})"
+            closing = rule
+            opening = part.values["open_when"] or f"not ({rule})"
             initial = part.values["closed"]
             if initial is None:
                 initial = _holds_at_start(closing, {**self.defaults, **self.given})

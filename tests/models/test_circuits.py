@@ -138,6 +138,22 @@ def test_pwm_switch_edges_fall_on_the_schedule():
     assert [s.mode.label for s in run.events[0].steps][-1] == "open|on"   # the diode takes the current
 
 
+def test_relay_with_hysteresis_switches_at_its_two_thresholds():
+    c = Circuit("relay")
+    c.V("V", "s", "0", 10.0)
+    c.switch("K", "s", "x", closed_when="v_out < v_lo", open_when="v_out > v_hi")
+    c.R("R", "x", "out", 1.0)
+    c.C("C", "out", "0", 1e-3)
+    c.R("Rl", "out", "0", 20.0)
+    run = c.build(parameters={"v_lo": 6.0, "v_hi": 8.0}).simulate(0.03, "RK45", **RUN)
+    v_th, tau_on, tau_off = 10.0 * 20 / 21, 1e-3 * 20 / 21, 20 * 1e-3    # Thevenin seen by C; load alone
+    t = run.event_times
+    assert t[0] == 0.0 and [s.mode.label for s in run.events[0].steps][-1] == "closed"  # v_out = 0 < 6 at start
+    assert t[1] == pytest.approx(tau_on * math.log(v_th / (v_th - 8.0)), rel=1e-7)
+    assert t[2] - t[1] == pytest.approx(tau_off * math.log(8.0 / 6.0), rel=1e-7)
+    assert t[3] - t[2] == pytest.approx(tau_on * math.log((v_th - 6.0) / (v_th - 8.0)), rel=1e-7)
+
+
 def test_transformer_scales_voltage_and_current():
     c = Circuit("tf")
     c.V("Vs", "p", "0", Input("u"))
