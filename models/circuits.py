@@ -96,6 +96,7 @@ from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
 from bondgraph.errors import DuplicateNameError, InvalidGraphError, UnknownNameError
 from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
+from switching.errors import GuardSyntaxError
 from switching.language.parsing import parse_condition, parse_expression
 
 __all__ = ["Circuit", "Input", "PWM", "GROUND"]
@@ -461,14 +462,14 @@ class _Builder:
             symbol = self.graph.inputs.get(value.name) or self.graph.input(value.name)
             return symbol
         if isinstance(value, str) and (value == "t" or not _COMPONENT_NAME.fullmatch(value)):
-            names = {"t": TIME}
-            names.update({k: sp.Symbol(k) for k in (*self.given, *self.defaults) if _COMPONENT_NAME.fullmatch(k)})
-            names.update(self.graph.inputs)
-            free = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", value)) - set(names)
-            from switching.language.parsing import FUNCTIONS
-
-            names.update({k: sp.Symbol(k) for k in free - set(FUNCTIONS) - {"pi", "E", "and", "or", "not"}})
-            return parse_expression(value, names)
+            # an expression of t: other names are parameters (or declared inputs), checked by the model
+            names = {"t": TIME, **self.graph.inputs}
+            try:
+                return parse_expression(value, names)
+            except GuardSyntaxError as error:
+                first_line = str(error).splitlines()[0]
+                raise GuardSyntaxError(f"the value of source {part.name!r} is not an expression of t: {first_line}",
+                                       value, error.position) from None
         return self.number_or_parameter(value, part.name, f"value of {part.name!r}")
 
     # -- graph pieces

@@ -10,6 +10,7 @@ from bondgraph.errors import DuplicateNameError, HybridBondGraphError, InvalidGr
 from models import diode_circuit
 from models.circuits import PWM, Circuit, Input
 from switching import load_model
+from switching.errors import GuardSyntaxError
 
 RUN = dict(rtol=1e-10, atol=1e-14)
 
@@ -245,6 +246,14 @@ def test_floating_node_is_refused():
     c.R("R2", "x", "y", 1.0)
     c.R("R3", "y", "x", 1.0)
     with pytest.raises(InvalidGraphError, match="no path to ground"):
+        c.build()
+
+
+def test_source_text_is_parsed_not_run():
+    c = Circuit("hostile")
+    c.V("V1", "a", "0", '__import__("os").getcwd()')
+    c.R("R1", "a", "0", 1.0)
+    with pytest.raises(GuardSyntaxError, match="source 'V1' is not an expression of t"):
         c.build()
 
 
