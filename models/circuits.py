@@ -90,10 +90,12 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+import numpy as np
 import sympy as sp
+from scipy.optimize import brentq
 
 from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
-from bondgraph.errors import DuplicateNameError, InvalidGraphError, UnknownNameError
+from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
 from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
 from switching.errors import GuardSyntaxError
@@ -170,11 +172,13 @@ class Circuit:
         self._add("R", name, (n1, n2), value=value, laws={"effort_law": effort_law, "flow_law": flow_law})
 
     def C(self, name: str, n1, n2, value=None, *, v0: float = 0.0, effort_law=None) -> None:
-        """A capacitor [F] between ``n1`` and ``n2``: ``i = C dv/dt``, ``v = v0`` at t = 0."""
+        """A capacitor [F] between ``n1`` and ``n2``: ``i = C dv/dt``, ``v = v0`` at t = 0
+        (with a law ``v = Φ(q)``, the charge with ``Φ(q) = v0``)."""
         self._add("C", name, (n1, n2), value=value, laws={"effort_law": effort_law}, initial=float(v0))
 
     def L(self, name: str, n1, n2, value=None, *, i0: float = 0.0, flow_law=None) -> None:
-        """An inductor [H] between ``n1`` and ``n2``: ``v = L di/dt``, ``i = i0`` at t = 0 (n1 → n2)."""
+        """An inductor [H] between ``n1`` and ``n2``: ``v = L di/dt``, ``i = i0`` at t = 0 (n1 → n2;
+        with a law ``i = Φ(p)``, the flux linkage with ``Φ(p) = i0``)."""
         self._add("L", name, (n1, n2), value=value, laws={"flow_law": flow_law}, initial=float(i0))
 
     def V(self, name: str, n_plus, n_minus, value) -> None:
@@ -435,7 +439,7 @@ class _Builder:
         self.graph = BondGraph(circuit.name)
         self.defaults: dict[str, float] = {}
         self.signals: dict[str, str] = {}
-        self.initial: dict[str, sp.Expr] = {}
+        self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
         self.automata: list[Automaton] = []
         self.node_bond: dict[str, str] = {}
         self.junctions = {n: self.graph.add(Zero(f"node_{n}")) for n in circuit.nodes if n != GROUND}
@@ -514,7 +518,7 @@ class _Builder:
         self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
         if kind in ("C", "L") and part.values.get("initial"):
             storage = self.graph.elements[name]
-            self.initial[storage.state.name] = storage.state_for(sp.Float(sign * part.values["initial"]))
+            self.initial[storage.state.name] = (storage, sign * part.values["initial"])
 
     def voltage_source(self, part):
         name, (plus, minus) = part.name, part.nodes
@@ -652,15 +656,38 @@ class _Builder:
         signals = {**node_signals, **self.signals}
         parameters = {**self.defaults, **self.given}
         initial_state = {}
-        for state, expr in self.initial.items():
-            value = expr.subs({sp.Symbol(k): v for k, v in parameters.items()})
-            initial_state[state] = float(value)
+        for state, (storage, output) in self.initial.items():
+            initial_state[state] = _initial_state(storage, output, parameters)
         missing_inputs = sorted(set(self.graph.inputs) - set(self.inputs))
         if missing_inputs:
             raise InvalidGraphError(f"circuit {self.circuit.name!r}: input(s) {', '.join(missing_inputs)} have "
                                     "no function: give build(inputs={name: function of t})", missing_inputs)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state,
                            signals=signals, inputs=self.inputs or None, name=name, **options)
+
+
+def _initial_state(storage, output: float, parameters: Mapping) -> float:
+    """The state of ``storage`` (a C's charge, an L's flux linkage) whose law
+    gives ``output`` (its voltage, its current) with the ``parameters``: the
+    law inverted symbolically, or else its real root found numerically (a
+    monotonic law has one)."""
+    values = {sp.Symbol(k): v for k, v in parameters.items()}
+    law = storage.law.subs(values)
+    q = storage.state
+    if law.free_symbols - {q}:
+        raise MissingParameterError(sorted(s.name for s in law.free_symbols - {q}))
+    if output == 0.0 and law.subs(q, 0) == 0:
+        return 0.0
+    residual = sp.lambdify(q, law - output, "math")
+    span = 1.0
+    for _ in range(400):
+        low, high = residual(-span), residual(span)
+        if low * high <= 0:
+            return float(brentq(residual, -span, span, xtol=1e-300, rtol=4 * np.finfo(float).eps))
+        span *= 2.0
+    what = "voltage" if storage.kind == "C" else "current"
+    raise InvalidGraphError(f"{storage.name!r}: its law never reaches the initial {what} {output:g}; give an "
+                            "initial value its law can take", [storage.name])
 
 
 def _node_signal(n):

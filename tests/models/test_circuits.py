@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from bondgraph.errors import DuplicateNameError, HybridBondGraphError, InvalidGraphError, UnknownNameError
+from bondgraph.errors import (DuplicateNameError, HybridBondGraphError, InvalidGraphError, MissingParameterError,
+                              UnknownNameError)
 from models import diode_circuit
 from models.circuits import PWM, Circuit, Input
 from switching import load_model
@@ -190,6 +191,24 @@ def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
         v = 1 / np.sqrt(0.25 + run.t)                         # dv/dt = −v³/2 from v = 2
         np.testing.assert_allclose(run.signal("v_C1"), v, rtol=1e-7)
         np.testing.assert_allclose(run.signal("i_Rn"), sign * 0.5 * v**3, rtol=1e-7)
+
+
+def test_initial_values_are_the_laws_outputs():
+    c = Circuit("initial")
+    c.C("C1", "a", "0", effort_law=lambda q: q**3 + q, v0=10.0)   # v = q³ + q: q = 2
+    c.R("R1", "a", "0", 1.0)
+    c.C("C2", "0", "b", 2.0, v0=3.0)                               # reversed: q_C2 = −2·3
+    c.R("R2", "b", "0", 1.0)
+    c.L("L1", "b", "c", "Lx", i0=2.0)
+    c.R("R3", "c", "0", 1.0)
+    model = c.build(parameters={"Lx": 0.5})
+    assert dict(zip(model.state_names, model.initial_state())) == pytest.approx(
+        {"q_C1": 2.0, "q_C2": -6.0, "p_L1": 1.0})
+    run = model.simulate(1e-9, "RK45", **RUN)
+    assert run.signal("v_C1")[0] == pytest.approx(10.0) and run.signal("v_C2")[0] == pytest.approx(3.0)
+    assert run.signal("i_L1")[0] == pytest.approx(2.0)
+    with pytest.raises(MissingParameterError, match="Lx"):
+        c.build()
 
 
 def test_the_graph_is_drawn_and_names_follow_the_components():
