@@ -77,7 +77,12 @@ Example — a capacitor charged through a resistor::
 
 Limitations: a mode where every diode and switch around a node blocks leaves
 that node floating (no voltage is defined: a full bridge rectifier with a
-purely resistive load); such a mode is refused when it is reached.  A PWM
+purely resistive load); such a mode is refused when it is reached
+(:class:`~bondgraph.errors.CausalityConflictError`).  So is a mode in which
+ideal elements short an ideal voltage source — a switch closing while an ideal
+diode across the source's path conducts (a buck converter's freewheeling
+diode): give that diode an ``r_on``, and the mode is judged by its reverse
+current and left.  A PWM
 switch needs integrator steps shorter than its shortest on or off interval
 (``max_step <= min(duty, 1 − duty)·period``).
 """
