@@ -10,7 +10,8 @@ Every model is a module ``models.<name>`` with
 * ``RUN`` — the default run: ``t_end`` and the method options;
 * ``SIGNALS`` — the named signals worth plotting.
 
-Also: :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
+Also: :mod:`models.circuits` (electrical netlists: ``Circuit`` builds the hybrid
+model of components between named nodes), :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
 (plain bond graphs), :mod:`models.cli` (the ``hbg`` command), ``models/examples``
 (model files written by hand; see :mod:`switching.files.modelfile` for the format).
 

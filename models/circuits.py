@@ -1,0 +1,710 @@
+"""Electrical circuits written as netlists: components between named nodes.
+
+:class:`Circuit` collects two-terminal components between nodes (ground is
+node ``"0"``) and builds the textbook bond graph of the netlist:
+
+* every node other than ground is a 0-junction ``node_<node>`` (one voltage,
+  the currents into it balance);
+* every two-terminal branch between two nodes is a 1-junction
+  ``branch_<name>`` (one current) with a bond from the first node's
+  0-junction and a bond to the second's, and the component on a third bond,
+  so that its effort is ``v(n1) − v(n2)``;
+* ground (0 V) is eliminated: a branch with one terminal at ground is bonded
+  straight to its other node;
+* an ideal diode or switch is a *controlled* 1-junction named after the
+  component, driven by an automaton of the same name.
+
+The result of :meth:`Circuit.build` is an ordinary
+:class:`~switching.HybridModel`: simulate it, save it to a model file
+(``model.save(path)``, ``switching.load_model(path)``), draw its graph with
+:func:`bondgraph.draw_bond_graph`.
+
+Sign conventions and units (V, A, Ω, F, H, s):
+
+* ``v_<node>`` is the voltage of a node above ground;
+* ``v_<name>`` is the voltage across a component, its first terminal minus
+  its second (``n1 − n2``; a source ``V``: ``n_plus − n_minus``; a current
+  source: ``n_from − n_to``; a diode: anode − cathode);
+* ``i_<name>`` is the current through it from its first terminal to its
+  second (passive convention: ``v_<name>·i_<name>`` is the power it takes;
+  for a voltage source that is minus the power it delivers, for a current
+  source ``I(name, n_from, n_to, value)`` the current is ``value``);
+* states: ``q_<C>`` the charge [C] of a capacitor (``v = q/C``), ``p_<L>``
+  the flux linkage [V·s] of an inductor (``i = p/L``).  A component whose
+  first terminal is ground is bonded in the reverse direction, so its state
+  carries the opposite sign (``q_C = −C·v_C``); the signals ``v_<name>`` and
+  ``i_<name>`` keep the convention above.
+
+Values: a number (it becomes a parameter named after the component, e.g.
+``R1``, overridable in :meth:`Circuit.build`) or the name of a parameter
+given to :meth:`Circuit.build`.  Sources also take an expression of ``t`` as
+text (``"Vm*sin(w*t)"``, parsed without executing code) or a declared input
+(:class:`Input`, its function given to :meth:`Circuit.build`).  ``R``, ``C``
+and ``L`` take a nonlinear law as the element constructors do (a function of
+one argument: ``R``'s ``flow_law(v)`` or ``effort_law(i)``, ``C``'s
+``effort_law(q)``, ``L``'s ``flow_law(p)``).
+
+Ideal diodes (:meth:`Circuit.diode`, automaton states ``off``/``on``)::
+
+    off → on   when  v_<D> > v_f   (a posteriori)
+    on  → off  when  i_<D> < 0     (a posteriori)
+
+Both guards are *a posteriori*: the ideal diode is a parameter abstraction
+(a resistance that is 0 or ∞), judged on the state the switch would produce,
+impulses included — a switch opening on an inductor's current gives, with
+the diode off, a pulse ``v_D = +∞`` that turns the diode on (the paper's
+mythical mode).  Both comparisons are *strict*: a diode at ``v_D = v_f``
+with ``i_D = 0`` (every diode of a circuit at rest at t = 0) stays where it
+is; with inclusive ``>=``/``<=`` such a diode turns on, finds ``i_D <= 0``
+and turns off again at the same instant, a divergence of time.
+
+Ideal switches (:meth:`Circuit.switch`, states ``open``/``closed``) follow
+a condition on time, parameters or signals (``closed_when="t < t_open"``),
+or a :class:`PWM` schedule; their transitions are *a priori* (an external
+command, not a consequence of switching).
+
+Example — a capacitor charged through a resistor::
+
+    >>> from models.circuits import Circuit
+    >>> rc = Circuit("rc")
+    >>> rc.V("V1", "in", "0", 10.0)
+    >>> rc.R("R1", "in", "out", 1e3)
+    >>> rc.C("C1", "out", "0", 1e-6)
+    >>> model = rc.build()
+    >>> run = model.simulate(5e-3, "RK45", rtol=1e-9, atol=1e-15)
+    >>> round(float(run.signal("v_C1")[-1]), 4)    # 10 (1 − e^−5)
+    9.9326
+
+Limitations: a mode where every diode and switch around a node blocks leaves
+that node floating (no voltage is defined: a full bridge rectifier with a
+purely resistive load); such a mode is refused when it is reached
+(:class:`~bondgraph.errors.CausalityConflictError`).  So is a mode in which
+ideal elements short an ideal voltage source — a switch closing while an ideal
+diode across the source's path conducts (a buck converter's freewheeling
+diode): give that diode an ``r_on``, and the mode is judged by its reverse
+current and left.  A PWM
+switch needs integrator steps shorter than its shortest on or off interval
+(``max_step <= min(duty, 1 − duty)·period``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+from scipy.optimize import brentq
+
+from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
+from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
+from bondgraph.symbols import t as TIME
+from switching import Automaton, HybridModel
+from switching.errors import GuardSyntaxError
+from switching.language.parsing import parse_condition, parse_expression
+
+__all__ = ["Circuit", "Input", "PWM", "GROUND"]
+
+#: the ground node (0 V)
+GROUND = "0"
+
+_COMPONENT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_NODE_NAME = re.compile(r"[A-Za-z0-9_]+")
+
+
+@dataclass(frozen=True)
+class Input:
+    """A source value supplied at simulation time: the declared input
+    ``name``, whose function of ``t`` is given to :meth:`Circuit.build`
+    (``inputs={"u": f}``)."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class PWM:
+    """A periodic switching schedule: closed during
+    ``[k·period + delay, k·period + delay + duty·period)`` for every integer ``k``.
+
+    ``period`` [s] and ``duty`` (0 < duty < 1) are numbers (they become the
+    parameters ``<switch>_period`` and ``<switch>_duty``) or parameter names.
+    The schedule compares the triangle carrier
+    ``acos(cos(2π(t − delay)/period − π·duty))/π`` (between 0 and 1, equal to
+    ``duty`` at each edge) with ``duty``: closed while ``carrier <= duty``."""
+
+    period: float | str
+    duty: float | str
+    delay: float = 0.0
+
+
+@dataclass
+class _Part:
+    kind: str
+    name: str
+    nodes: tuple
+    values: dict = field(default_factory=dict)
+
+
+def _parameter_name(text: str, what: str) -> str:
+    if not isinstance(text, str) or not _COMPONENT_NAME.fullmatch(text):
+        raise InvalidGraphError(f"{what}: {text!r} is not a parameter name (letters, digits and '_', "
+                                "not starting with a digit)")
+    return text
+
+
+class Circuit:
+    """A netlist: components between named nodes; ground is node ``"0"``.
+
+    Add components with :meth:`R`, :meth:`C`, :meth:`L`, :meth:`V`,
+    :meth:`I`, :meth:`diode`, :meth:`switch`, :meth:`transformer` and
+    :meth:`gyrator`; :meth:`build` returns the
+    :class:`~switching.HybridModel`.  Component names are identifiers and
+    unique; node names are letters, digits and ``_`` (``"1"``, ``"out"``).
+    See the module documentation for the conventions.
+    """
+
+    def __init__(self, name: str = "circuit"):
+        self.name = _checked_component(name, "circuit name")
+        self._parts: dict[str, _Part] = {}
+
+    # ------------------------------------------------------------ components
+
+    def R(self, name: str, n1, n2, value=None, *, effort_law=None, flow_law=None) -> None:
+        """A resistor [Ω] between ``n1`` and ``n2``: ``v = R i`` (or the law given)."""
+        self._add("R", name, (n1, n2), value=value, laws={"effort_law": effort_law, "flow_law": flow_law})
+
+    def C(self, name: str, n1, n2, value=None, *, v0: float = 0.0, effort_law=None) -> None:
+        """A capacitor [F] between ``n1`` and ``n2``: ``i = C dv/dt``, ``v = v0`` at t = 0
+        (with a law ``v = Φ(q)``, the charge with ``Φ(q) = v0``)."""
+        self._add("C", name, (n1, n2), value=value, laws={"effort_law": effort_law}, initial=float(v0))
+
+    def L(self, name: str, n1, n2, value=None, *, i0: float = 0.0, flow_law=None) -> None:
+        """An inductor [H] between ``n1`` and ``n2``: ``v = L di/dt``, ``i = i0`` at t = 0 (n1 → n2;
+        with a law ``i = Φ(p)``, the flux linkage with ``Φ(p) = i0``)."""
+        self._add("L", name, (n1, n2), value=value, laws={"flow_law": flow_law}, initial=float(i0))
+
+    def V(self, name: str, n_plus, n_minus, value) -> None:
+        """A voltage source: ``v(n_plus) − v(n_minus) = value`` [V] (a number,
+        a parameter name, an expression of ``t`` as text, or an :class:`Input`)."""
+        self._add("V", name, (n_plus, n_minus), value=_source_value(value, name))
+
+    def I(self, name: str, n_from, n_to, value) -> None:  # noqa: E743 - the netlist letter
+        """A current source: ``value`` [A] flows through it from ``n_from`` to
+        ``n_to`` (it leaves node ``n_from`` and enters ``n_to``)."""
+        self._add("I", name, (n_from, n_to), value=_source_value(value, name))
+
+    def diode(self, name: str, anode, cathode, r_on=None, v_f=None, *, on: bool = False) -> None:
+        """An ideal diode from ``anode`` to ``cathode``, automaton ``name``
+        with states ``off`` (no current) and ``on`` (``v = v_f + r_on·i``;
+        both 0 when not given); ``on``: its state at t = 0.  Guards: see the
+        module documentation."""
+        self._add("D", name, (anode, cathode), r_on=r_on, v_f=v_f, on=bool(on))
+
+    def switch(self, name: str, n1, n2, closed_when, *, open_when: str | None = None,
+               closed: bool | None = None) -> None:
+        """An ideal switch between ``n1`` and ``n2``, automaton ``name`` with
+        states ``open`` and ``closed``.  ``closed_when`` is a condition as text
+        (``"t >= t_on"``, ``"t < 1e-3 or t >= 2e-3"``; time, parameters and
+        signals) or a :class:`PWM` schedule; the switch opens when it stops
+        holding, or, with ``open_when``, when that condition holds (a relay
+        with hysteresis: ``closed_when="v_out < 6", open_when="v_out > 8"``;
+        a relay without it chatters, a Zeno error).  ``closed``: its state at
+        t = 0; by default ``closed_when`` at t = 0 when it depends on time and
+        parameters only, else open (a condition on signals then closes it at
+        the first instant)."""
+        if not isinstance(closed_when, (str, PWM)):
+            raise InvalidGraphError(f"switch {name!r}: closed_when must be a condition as text or a PWM, "
+                                    f"got {closed_when!r}", [str(name)])
+        if open_when is not None and not (isinstance(open_when, str) and isinstance(closed_when, str)):
+            raise InvalidGraphError(f"switch {name!r}: open_when must be a condition as text, given with a "
+                                    f"closed_when condition (not a PWM), got {open_when!r}", [str(name)])
+        self._add("S", name, (n1, n2), closed_when=closed_when, open_when=open_when, closed=closed)
+
+    def transformer(self, name: str, p1, p2, s1, s2, ratio) -> None:
+        """An ideal transformer with turns ratio ``ratio`` = N_p/N_s:
+        ``v_p = ratio·v_s`` and ``i_s = ratio·i_p``, where ``v_p = v(p1) − v(p2)``,
+        ``i_p`` flows into ``p1`` through the primary, ``v_s = v(s1) − v(s2)``
+        and ``i_s`` flows out of ``s1`` into the circuit.  Signals
+        ``v_<name>_p``, ``i_<name>_p``, ``v_<name>_s``, ``i_<name>_s``."""
+        self._add("T", name, (p1, p2, s1, s2), value=ratio)
+
+    def gyrator(self, name: str, p1, p2, s1, s2, r) -> None:
+        """An ideal gyrator with ratio ``r`` [Ω]: ``v_p = r·i_s`` and
+        ``v_s = r·i_p`` (a DC machine's electrical and mechanical ports in an
+        electrical analogue), the ports as for :meth:`transformer`."""
+        self._add("G", name, (p1, p2, s1, s2), value=r)
+
+    def dc_machine(self, name: str, p1, p2, s1, s2, k) -> None:
+        """A DC machine with constant ``k`` [V·s/rad = N·m/A]: a :meth:`gyrator`
+        whose primary is the armature and whose secondary is the shaft in the
+        force–voltage analogy: ``v_<name>_s`` is the torque [N·m] and
+        ``i_<name>_s`` the angular speed [rad/s] (torque ``k·i_a``, back-emf
+        ``k·ω``).  Elements turning with the shaft are in series in the
+        secondary loop: the inertia ``J`` an ``L`` [kg·m²], viscous friction
+        ``b`` an ``R`` [N·m·s], a load torque a ``V`` source.
+
+        Example — ``V("Va", "a", "0", 12)``, ``R("Ra", "a", "b", 2)``,
+        ``dc_machine("M", "b", "0", "w", "0", 0.1)``, ``L("J", "w", "m", 1e-3)``,
+        ``R("b", "m", "0", 1e-3)``: the speed ``i_J`` rises as
+        ``ω = k V/(Ra b + k²) (1 − e^{−t/τ})``, ``τ = J/(b + k²/Ra)``."""
+        self.gyrator(name, p1, p2, s1, s2, k)
+
+    # ------------------------------------------------------------ queries
+
+    @property
+    def nodes(self) -> tuple:
+        """The nodes named so far, ground included, in order of appearance."""
+        seen = {}
+        for part in self._parts.values():
+            for n in part.nodes:
+                seen.setdefault(n, None)
+        return tuple(seen)
+
+    @property
+    def components(self) -> tuple:
+        return tuple(self._parts)
+
+    # ------------------------------------------------------------ input checks
+
+    def _add(self, kind, name, nodes, **values):
+        name = _checked_component(name, "component name")
+        if name in self._parts:
+            raise DuplicateNameError(f"circuit {self.name!r}: component {name!r} is already defined "
+                                     f"({self._parts[name].kind} between {', '.join(self._parts[name].nodes)}); "
+                                     "give each component its own name", name)
+        nodes = tuple(_checked_node(n, name) for n in nodes)
+        for a, b in zip(nodes[::2], nodes[1::2]):
+            if a == b:
+                raise InvalidGraphError(f"component {name!r} has both terminals on node {a!r}: it would be "
+                                        "shorted; connect it between two different nodes", [name])
+        if kind in ("R", "C", "L"):
+            laws = {k: v for k, v in values.pop("laws").items() if v is not None}
+            if len(laws) > 1 or (laws and values.get("value") is not None):
+                raise InvalidGraphError(f"{kind} {name!r}: give either a value or one law", [name])
+            values["law"] = next(iter(laws.items()), None)
+            if laws and not callable(next(iter(laws.values()))):
+                raise InvalidGraphError(f"{kind} {name!r}: give the law as a function of one argument, "
+                                        "e.g. lambda v: Is*(exp(v/VT) - 1)", [name])
+            if values.get("value") is None and not laws:
+                values["value"] = name
+        if "value" in values and isinstance(values["value"], str) and kind not in ("V", "I"):
+            _parameter_name(values["value"], f"value of {name!r}")
+        self._parts[name] = _Part(kind, name, nodes, values)
+
+    def _check_topology(self):
+        parts = list(self._parts.values())
+        if not parts:
+            raise InvalidGraphError(f"circuit {self.name!r} has no components")
+        nodes = self.nodes
+        names = set(self._parts)
+        for n in nodes:
+            if n in names:
+                raise DuplicateNameError(f"node {n!r} has the name of a component: the signals v_{n} would "
+                                         "clash; rename the node or the component", n)
+        if GROUND not in nodes:
+            raise InvalidGraphError(f"circuit {self.name!r} has no ground: connect a component to node "
+                                    f"{GROUND!r}")
+        terminals = {n: 0 for n in nodes}
+        for p in parts:
+            for n in p.nodes:
+                terminals[n] += 1
+        for n, count in terminals.items():
+            if count == 1 and n != GROUND:
+                (owner,) = [p.name for p in parts if n in p.nodes]
+                close = difflib.get_close_matches(n, [m for m in nodes if m != n], n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else "; connect a second component to it"
+                raise UnknownNameError(f"node {n!r} of {owner!r} is connected to nothing else (a floating "
+                                       f"terminal){hint}", n)
+        # galvanic connection to ground: every node must reach it
+        edges = [(p.nodes[0], p.nodes[1], p) for p in parts]
+        edges += [(p.nodes[2], p.nodes[3], p) for p in parts if len(p.nodes) == 4]
+        reached = _components(nodes, [(a, b) for a, b, _ in edges])
+        floating = [n for n in nodes if reached[n] != reached[GROUND]]
+        if floating:
+            raise InvalidGraphError(f"node(s) {', '.join(map(repr, floating))} have no path to ground "
+                                    f"{GROUND!r}: their voltage is undefined; connect them to ground (a "
+                                    "transformer's secondary needs a reference too)", floating)
+        # loops of capacitors and voltage sources: their voltages are not independent
+        loop = _loop(nodes, [(a, b, p.name) for a, b, p in edges if p.kind in ("C", "V")])
+        if loop:
+            raise InvalidGraphError(f"{', '.join(loop)} form a loop of capacitors and voltage sources: "
+                                    "their voltages are tied (a state would be dependent, a source "
+                                    "contradicted); put a resistor in the loop or merge the capacitors",
+                                    loop)
+        # cutsets of inductors and current sources: their currents are not independent
+        others = [(a, b) for a, b, p in edges if p.kind not in ("L", "I")]
+        groups = _components(nodes, others)
+        if len(set(groups.values())) > 1:
+            cut = sorted({p.name for a, b, p in edges if p.kind in ("L", "I") and groups[a] != groups[b]})
+            raise InvalidGraphError(f"{', '.join(cut)} form a cutset of inductors and current sources: "
+                                    "their currents are tied (a state would be dependent, a source "
+                                    "contradicted); add a resistor across one of them or merge the inductors",
+                                    cut)
+
+    # ------------------------------------------------------------ building
+
+    def build(self, parameters: Mapping | None = None, name: str | None = None,
+              inputs: Mapping[str, Callable] | None = None, **options) -> HybridModel:
+        """The :class:`~switching.HybridModel` of the netlist.
+
+        ``parameters`` gives values to the parameter names used and overrides
+        the numbers given with the components (``{"R1": 2e3}``); ``inputs``
+        the functions of ``t`` of declared inputs; ``name`` names the model
+        (default: the circuit's name); other ``options`` go to
+        :class:`~switching.HybridModel` (``tolerance``, …)."""
+        self._check_topology()
+        return _Builder(self, dict(parameters or {}), inputs or {}).model(name or self.name, options)
+
+
+def _checked_component(name, what):
+    if not isinstance(name, str) or not _COMPONENT_NAME.fullmatch(name):
+        raise InvalidGraphError(f"invalid {what} {name!r}: use letters, digits and '_', not starting with "
+                                "a digit (e.g. 'R1', 'D_out')")
+    return name
+
+
+def _checked_node(node, owner):
+    if isinstance(node, int) and not isinstance(node, bool) and node >= 0:
+        node = str(node)
+    if not isinstance(node, str) or not _NODE_NAME.fullmatch(node):
+        raise InvalidGraphError(f"component {owner!r}: invalid node name {node!r}: use letters, digits and "
+                                "'_' (ground is '0')", [str(owner)])
+    return node
+
+
+def _source_value(value, name):
+    if isinstance(value, bool) or value is None:
+        raise InvalidGraphError(f"source {name!r}: its value must be a number, a parameter name, an "
+                                f"expression of t as text, or an Input, got {value!r}", [str(name)])
+    if isinstance(value, (int, float, Input, sp.Expr)):
+        return value
+    if isinstance(value, str):
+        return value
+    raise InvalidGraphError(f"source {name!r}: its value must be a number, a parameter name, an expression "
+                            f"of t as text, or an Input, got {value!r}", [str(name)])
+
+
+def _components(nodes, edges) -> dict:
+    parent = {n: n for n in nodes}
+
+    def find(n):
+        while parent[n] != n:
+            parent[n] = parent[parent[n]]
+            n = parent[n]
+        return n
+
+    for a, b in edges:
+        parent[find(a)] = find(b)
+    return {n: find(n) for n in nodes}
+
+
+def _loop(nodes, edges) -> list:
+    """The names of the edges of one loop in ``edges`` (a, b, name), or []."""
+    adjacency = {n: [] for n in nodes}
+    parent = {n: n for n in nodes}
+
+    def find(n):
+        while parent[n] != n:
+            n = parent[n]
+        return n
+
+    for a, b, label in edges:
+        if find(a) == find(b):  # a path a … b exists: find it
+            path = _path(adjacency, a, b)
+            return [label] + path
+        parent[find(a)] = find(b)
+        adjacency[a].append((b, label))
+        adjacency[b].append((a, label))
+    return []
+
+
+def _path(adjacency, start, goal) -> list:
+    stack, seen = [(start, [])], {start}
+    while stack:
+        node, labels = stack.pop()
+        if node == goal:
+            return labels
+        for nxt, label in adjacency[node]:
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append((nxt, labels + [label]))
+    return []
+
+
+class _Builder:
+    """One build of a :class:`Circuit` (graph, automata, parameters, signals)."""
+
+    def __init__(self, circuit: Circuit, parameters: dict, inputs: Mapping):
+        self.circuit = circuit
+        self.given = parameters
+        self.inputs = dict(inputs)
+        self.graph = BondGraph(circuit.name)
+        self.defaults: dict[str, float] = {}
+        self.signals: dict[str, str] = {}
+        self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
+        self.automata: list[Automaton] = []
+        self.node_bond: dict[str, str] = {}
+        self.junctions = {n: self.graph.add(Zero(f"node_{n}")) for n in circuit.nodes if n != GROUND}
+
+    # -- names and values
+
+    def number_or_parameter(self, value, default_name, what) -> sp.Expr:
+        if isinstance(value, str):
+            return sp.Symbol(_parameter_name(value, what))
+        if isinstance(value, sp.Expr):
+            return value
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise InvalidGraphError(f"{what}: give a number or a parameter name, got {value!r}") from None
+        if not math.isfinite(number):
+            raise InvalidGraphError(f"{what}: {number} is not a finite number")
+        self.defaults.setdefault(default_name, number)
+        return sp.Symbol(default_name)
+
+    def source_value(self, part) -> sp.Expr:
+        value = part.values["value"]
+        if isinstance(value, Input):
+            symbol = self.graph.inputs.get(value.name) or self.graph.input(value.name)
+            return symbol
+        if isinstance(value, str) and (value == "t" or not _COMPONENT_NAME.fullmatch(value)):
+            # an expression of t: other names are parameters (or declared inputs), checked by the model
+            names = {"t": TIME, **self.graph.inputs}
+            try:
+                return parse_expression(value, names)
+            except GuardSyntaxError as error:
+                first_line = str(error).splitlines()[0]
+                raise GuardSyntaxError(f"the value of source {part.name!r} is not an expression of t: {first_line}",
+                                       value, error.position) from None
+        return self.number_or_parameter(value, part.name, f"value of {part.name!r}")
+
+    # -- graph pieces
+
+    def node(self, n):
+        return None if n == GROUND else self.junctions[n]
+
+    def note_node(self, n, bond):
+        if n != GROUND:
+            self.node_bond.setdefault(n, bond.name)
+
+    def branch(self, part, element):
+        """Bond ``element`` between the part's two nodes; returns the sign
+        ``s`` with ``v = s·e``, ``i = s·f`` of the element's bond."""
+        a, b = part.nodes[:2]
+        if a != GROUND and b != GROUND:
+            junction = self.graph.add(One(f"branch_{part.name}"))
+            self.note_node(a, self.graph.connect(self.node(a), junction))
+            self.note_node(b, self.graph.connect(junction, self.node(b)))
+            self.graph.connect(junction, element(1))
+            return 1
+        if b == GROUND:
+            self.note_node(a, self.graph.connect(self.node(a), element(1)))
+            return 1
+        self.note_node(b, self.graph.connect(self.node(b), element(-1)))
+        return -1
+
+    def passive(self, part):
+        kind, name = part.kind, part.name
+        law = part.values.get("law")
+        value = None if law else self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
+
+        def element(sign):
+            if law:
+                key, function = law
+                wrapped = function if sign == 1 else (lambda x, f=function: -f(-x))
+                return {"R": R, "C": C, "L": I}[kind](name, **{key: wrapped})
+            return {"R": R, "C": C, "L": I}[kind](name, value)
+
+        sign = self.branch(part, element)
+        self.signals[f"v_{name}"] = f"{'-' if sign < 0 else ''}e_{name}"
+        self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
+        if kind in ("C", "L") and part.values.get("initial"):
+            storage = self.graph.elements[name]
+            self.initial[storage.state.name] = (storage, sign * part.values["initial"])
+
+    def voltage_source(self, part):
+        name, (plus, minus) = part.name, part.nodes
+        value = self.source_value(part)
+        if plus != GROUND and minus != GROUND:
+            junction = self.graph.add(One(f"branch_{name}"))
+            self.graph.connect(Se(name, value), junction)
+            self.note_node(plus, self.graph.connect(junction, self.node(plus)))
+            self.note_node(minus, self.graph.connect(self.node(minus), junction))
+            sign = 1
+        elif minus == GROUND:
+            self.note_node(plus, self.graph.connect(Se(name, value), self.node(plus)))
+            sign = 1
+        else:
+            self.note_node(minus, self.graph.connect(Se(name, -value), self.node(minus)))
+            sign = -1
+        self.signals[f"v_{name}"] = f"{'-' if sign < 0 else ''}e_{name}"
+        self.signals[f"i_{name}"] = f"{'' if sign < 0 else '-'}f_{name}"
+
+    def current_source(self, part):
+        name, (source, target) = part.name, part.nodes
+        value = self.source_value(part)
+        if source != GROUND and target != GROUND:
+            junction = self.graph.add(One(f"branch_{name}"))
+            self.graph.connect(Sf(name, value), junction)
+            self.note_node(target, self.graph.connect(junction, self.node(target)))
+            self.note_node(source, self.graph.connect(self.node(source), junction))
+            sign = 1
+        elif source == GROUND:
+            self.note_node(target, self.graph.connect(Sf(name, value), self.node(target)))
+            sign = 1
+        else:
+            self.note_node(source, self.graph.connect(Sf(name, -value), self.node(source)))
+            sign = -1
+        self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
+        self.later.append((name, part.nodes))
+
+    def controlled(self, part, extra=()):
+        """A controlled 1-junction ``name`` between the part's nodes; returns
+        the signal text of its current (first node → second)."""
+        name, (a, b) = part.name, part.nodes[:2]
+        junction = self.graph.add(One(name, controlled=True))
+        current = None
+        if a != GROUND:
+            bond = self.graph.connect(self.node(a), junction, name=f"{name}_in")
+            self.note_node(a, bond)
+            current = f"f_{bond.name}"
+        if b != GROUND:
+            bond = self.graph.connect(junction, self.node(b), name=f"{name}_out")
+            self.note_node(b, bond)
+            current = current or f"f_{bond.name}"
+        for element in extra:
+            self.graph.connect(junction, element)
+        if len(self.graph.bonds_of(name)) < 2:  # an ideal branch to ground: the other side is 0 V
+            self.graph.connect(junction, Se(f"{name}_ground", 0))
+        self.signals[f"i_{name}"] = current
+        self.later.append((name, part.nodes))
+
+    def diode(self, part):
+        name = part.name
+        extra, threshold = [], "0"
+        if part.values["v_f"] is not None:
+            v_f = self.number_or_parameter(part.values["v_f"], f"{name}_v_f", f"v_f of {name!r}")
+            extra.append(Se(f"{name}_drop", v_f))
+            threshold = str(v_f)
+        if part.values["r_on"] is not None:
+            r_on = self.number_or_parameter(part.values["r_on"], f"{name}_r_on", f"r_on of {name!r}")
+            extra.append(R(f"{name}_resistance", r_on))
+        self.controlled(part, extra)
+        automaton = Automaton(name, {"off": {name: False}, "on": {name: True}},
+                              initial="on" if part.values["on"] else "off")
+        automaton.add_transition("off", "on", f"v_{name} > {threshold}", "a posteriori")
+        automaton.add_transition("on", "off", f"i_{name} < 0", "a posteriori")
+        self.automata.append(automaton)
+
+    def switch(self, part):
+        name, rule = part.name, part.values["closed_when"]
+        self.controlled(part)
+        if isinstance(rule, PWM):
+            period = self.number_or_parameter(rule.period, f"{name}_period", f"period of {name!r}")
+            duty = self.number_or_parameter(rule.duty, f"{name}_duty", f"duty of {name!r}")
+            delay = float(rule.delay)
+            phase = f"t - {delay!r}" if delay else "t"
+            carrier = f"acos(cos(2*pi*({phase})/{period} - pi*{duty}))/pi"
+            self.signals[f"carrier_{name}"] = carrier
+            closing, opening = f"carrier_{name} <= {duty}", f"carrier_{name} > {duty}"
+            initial = part.values["closed"]
+            if initial is None:
+                initial = delay <= 0.0
+        else:
+            closing = rule
+            opening = part.values["open_when"] or f"not ({rule})"
+            initial = part.values["closed"]
+            if initial is None:
+                initial = _holds_at_start(closing, {**self.defaults, **self.given})
+        automaton = Automaton(name, {"open": {name: False}, "closed": {name: True}},
+                              initial="closed" if initial else "open")
+        automaton.add_transition("open", "closed", closing, "a priori")
+        automaton.add_transition("closed", "open", opening, "a priori")
+        self.automata.append(automaton)
+
+    def two_port(self, part):
+        name = part.name
+        modulus = self.number_or_parameter(part.values["value"], name, f"ratio of {name!r}")
+        element = (TF if part.kind == "T" else GY)(name, modulus)
+        p1, p2, s1, s2 = part.nodes
+        primary = self.graph.add(One(f"{name}_primary"))
+        secondary = self.graph.add(One(f"{name}_secondary"))
+        if p1 != GROUND:
+            self.note_node(p1, self.graph.connect(self.node(p1), primary))
+        if p2 != GROUND:
+            self.note_node(p2, self.graph.connect(primary, self.node(p2)))
+        self.graph.connect(primary, element, name=f"{name}_p")
+        self.graph.connect(element, secondary, name=f"{name}_s")
+        if s1 != GROUND:
+            self.note_node(s1, self.graph.connect(secondary, self.node(s1)))
+        if s2 != GROUND:
+            self.note_node(s2, self.graph.connect(self.node(s2), secondary))
+        self.signals[f"v_{name}_p"] = f"e_{name}_p"
+        self.signals[f"i_{name}_p"] = f"f_{name}_p"
+        self.signals[f"v_{name}_s"] = f"e_{name}_s"
+        self.signals[f"i_{name}_s"] = f"f_{name}_s"
+
+    # -- the model
+
+    def model(self, name: str, options: dict) -> HybridModel:
+        self.later = []
+        for part in self.circuit._parts.values():
+            {"R": self.passive, "C": self.passive, "L": self.passive, "V": self.voltage_source,
+             "I": self.current_source, "D": self.diode, "S": self.switch,
+             "T": self.two_port, "G": self.two_port}[part.kind](part)
+        node_signals = {f"v_{n}": f"e_{bond}" for n, bond in self.node_bond.items()}
+        for name_, (a, b) in self.later:
+            self.signals[f"v_{name_}"] = f"{_node_signal(a)} - {_node_signal(b)}"
+        signals = {**node_signals, **self.signals}
+        parameters = {**self.defaults, **self.given}
+        initial_state = {}
+        for state, (storage, output) in self.initial.items():
+            initial_state[state] = _initial_state(storage, output, parameters)
+        missing_inputs = sorted(set(self.graph.inputs) - set(self.inputs))
+        if missing_inputs:
+            raise InvalidGraphError(f"circuit {self.circuit.name!r}: input(s) {', '.join(missing_inputs)} have "
+                                    "no function: give build(inputs={name: function of t})", missing_inputs)
+        return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state,
+                           signals=signals, inputs=self.inputs or None, name=name, **options)
+
+
+def _initial_state(storage, output: float, parameters: Mapping) -> float:
+    """The state of ``storage`` (a C's charge, an L's flux linkage) whose law
+    gives ``output`` (its voltage, its current) with the ``parameters``: the
+    law inverted symbolically, or else its real root found numerically (a
+    monotonic law has one)."""
+    values = {sp.Symbol(k): v for k, v in parameters.items()}
+    law = storage.law.subs(values)
+    q = storage.state
+    if law.free_symbols - {q}:
+        raise MissingParameterError(sorted(s.name for s in law.free_symbols - {q}))
+    if output == 0.0 and law.subs(q, 0) == 0:
+        return 0.0
+    residual = sp.lambdify(q, law - output, "math")
+    span = 1.0
+    for _ in range(400):
+        low, high = residual(-span), residual(span)
+        if low * high <= 0:
+            return float(brentq(residual, -span, span, xtol=1e-300, rtol=4 * np.finfo(float).eps))
+        span *= 2.0
+    what = "voltage" if storage.kind == "C" else "current"
+    raise InvalidGraphError(f"{storage.name!r}: its law never reaches the initial {what} {output:g}; give an "
+                            "initial value its law can take", [storage.name])
+
+
+def _node_signal(n):
+    return "0" if n == GROUND else f"v_{n}"
+
+
+def _holds_at_start(condition: str, parameters: Mapping) -> bool:
+    """The condition at t = 0 when it depends on time and parameters only, else ``False``."""
+    names = {"t": TIME, **{k: sp.Symbol(k) for k in parameters if _COMPONENT_NAME.fullmatch(k)}}
+    try:
+        expr = parse_condition(condition, names)
+    except Exception:  # a signal name: decided by the first instant's resolution
+        return False
+    value = expr.subs({TIME: 0, **{sp.Symbol(k): v for k, v in parameters.items()}})
+    return bool(value) if value in (sp.true, sp.false) else False

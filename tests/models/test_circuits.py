@@ -1,0 +1,281 @@
+"""Netlists built with models.circuits.Circuit against exact answers."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from bondgraph.errors import (DuplicateNameError, HybridBondGraphError, InvalidGraphError, MissingParameterError,
+                              UnknownNameError)
+from models import diode_circuit
+from models.circuits import PWM, Circuit, Input
+from switching import load_model
+from switching.errors import GuardSyntaxError
+
+RUN = dict(rtol=1e-10, atol=1e-14)
+
+
+def rc_circuit():
+    rc = Circuit("rc")
+    rc.V("V1", "in", "0", 10.0)
+    rc.R("R1", "in", "out", 1e3)
+    rc.C("C1", "out", "0", 1e-6)
+    return rc
+
+
+def test_rc_charging_follows_the_exponential():
+    model = rc_circuit().build()
+    times = np.array([1e-4, 5e-4, 1e-3, 2e-3, 5e-3])
+    run = model.simulate(5e-3, "RK45", t_eval=times, **RUN)
+    tau = 1e3 * 1e-6
+    assert set(times) <= set(run.t)
+    exact = 10.0 * (1 - np.exp(-run.t / tau))
+    np.testing.assert_allclose(run.signal("v_C1"), exact, rtol=1e-7)
+    np.testing.assert_allclose(run.signal("v_out"), exact, rtol=1e-7)
+    np.testing.assert_allclose(run.signal("i_R1"), (10.0 - exact) / 1e3, rtol=1e-6)
+    np.testing.assert_allclose(run.signal("i_V1"), -run.signal("i_R1"), rtol=1e-12)  # n+ → n− through it
+    np.testing.assert_allclose(run.signal("v_R1"), 10.0 - exact, rtol=1e-6)
+
+
+def test_parameters_override_the_numbers_and_name_them_after_the_components():
+    model = rc_circuit().build(parameters={"R1": 2e3}, name="slow_rc")
+    assert model.name == "slow_rc"
+    run = model.simulate(2e-3, "RK45", t_eval=[2e-3], **RUN)
+    assert run.signal("v_C1")[-1] == pytest.approx(10.0 * (1 - math.exp(-1.0)), rel=1e-7)
+
+
+def test_component_with_its_first_terminal_at_ground_keeps_the_sign_convention():
+    c = Circuit("reversed")
+    c.V("V1", "0", "a", 5.0)          # v(0) − v(a) = 5: node a at −5 V
+    c.R("R1", "0", "a", 10.0)         # v_R1 = v(0) − v(a) = 5 V, i_R1 = 0.5 A from ground to a
+    c.R("R2", "a", "b", 1.0)
+    c.C("C1", "0", "b", 1e-3, v0=5.0)         # at rest: v(b) = v(a)
+    run = c.build().simulate(1e-3, "RK45", **RUN)
+    assert run.signal("v_a")[-1] == pytest.approx(-5.0)
+    assert run.signal("v_R1")[-1] == pytest.approx(5.0)
+    assert run.signal("i_R1")[-1] == pytest.approx(0.5)
+    assert run.signal("v_C1")[-1] == pytest.approx(5.0)
+    assert run.signal("v_b")[-1] == pytest.approx(-5.0)
+    assert run.signal("i_V1")[-1] == pytest.approx(-0.5)  # R1 carries 0.5 A from 0 to a: back a → 0 in V1
+
+
+def rectifier(V=10.0, w=2 * math.pi * 50, R=1e3, C=100e-6):
+    c = Circuit("rectifier")
+    c.V("Vs", "in", "0", "Vm*sin(w*t)")
+    c.diode("D1", "in", "out")
+    c.C("C1", "out", "0", C)
+    c.R("Rload", "out", "0", R)
+    return c.build(parameters={"Vm": V, "w": w})
+
+
+def test_half_wave_rectifier_turns_off_at_tan_wt_equal_minus_wRC_and_on_where_the_decay_meets_the_source():
+    V, w, R, C = 10.0, 2 * math.pi * 50, 1e3, 100e-6
+    run = rectifier(V, w, R, C).simulate(0.03, "RK45", **RUN)
+    labels = [[s.mode.label for s in e.steps] for e in run.events]
+    assert labels[0] == ["off", "on"] and run.events[0].t < 1e-12   # starts conducting at once
+    t_off = (math.pi - math.atan(w * R * C)) / w                      # tan(w t) = −wRC, second quadrant
+    assert labels[1] == ["on", "off"]
+    assert run.events[1].t == pytest.approx(t_off, rel=1e-6)
+    t_on = brentq(lambda t: V * math.sin(w * t) - V * math.sin(w * t_off) * math.exp(-(t - t_off) / (R * C)),
+                  2 * math.pi / w, 2.5 * math.pi / w, xtol=1e-15)
+    assert labels[2] == ["off", "on"]
+    assert run.events[2].t == pytest.approx(t_on, rel=1e-6)
+    off = (run.t > t_off * (1 + 1e-6)) & (run.t < t_on * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_C1")[off],
+                               V * math.sin(w * t_off) * np.exp(-(run.t[off] - t_off) / (R * C)), rtol=1e-7)
+    assert np.all(run.signal("i_D1")[off] == 0)
+    on = (run.t > t_on * (1 + 1e-6)) & (run.t < run.events[3].t * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_out")[on], V * np.sin(w * run.t[on]), rtol=1e-7)
+
+
+def freewheel_circuit():
+    c = Circuit("freewheel")
+    c.V("V", "s", "0", 10.0)
+    c.switch("S", "s", "n", closed_when="t < t_open")
+    c.R("R", "n", "m", 1.0)
+    c.L("L", "m", "0", 0.1)
+    c.diode("D", "0", "n", v_f=0.7)
+    return c
+
+
+def test_switched_inductor_freewheels_through_the_diode_as_the_papers_circuit():
+    times = np.linspace(0.0, 1.0, 101)
+    run = freewheel_circuit().build(parameters={"t_open": 0.5}).simulate(1.0, "RK45", t_eval=times, **RUN)
+    reference = diode_circuit.build().simulate(1.0, "RK45", t_eval=times, **RUN)
+    assert [(s.mode.label, s.kind) for s in run.events[0].steps] == [
+        ("closed|off", "start"), ("open|off", "mythical"), ("open|on", "continuous")]
+    np.testing.assert_allclose(run.event_times, reference.event_times, rtol=1e-9)
+    for name in ("i_L", "v_L", "i_D", "v_D"):
+        np.testing.assert_allclose(run.signal(name), reference.signal(name), rtol=1e-7, atol=1e-9)
+    V, R, L, V_f = 10.0, 1.0, 0.1, 0.7
+    i_open = V / R * (1 - math.exp(-0.5 * R / L))
+    assert run.event_times[1] == pytest.approx(0.5 + L / R * math.log(1 + R * i_open / V_f), rel=1e-8)
+
+
+def test_the_built_model_round_trips_through_a_model_file(tmp_path):
+    model = freewheel_circuit().build(parameters={"t_open": 0.5})
+    path = tmp_path / "freewheel.toml"
+    model.save(path)
+    loaded = load_model(path)
+    times = np.linspace(0.0, 1.0, 51)
+    first = model.simulate(1.0, "RK45", t_eval=times, **RUN)
+    second = loaded.simulate(1.0, "RK45", t_eval=times, **RUN)
+    np.testing.assert_array_equal(first.event_times, second.event_times)
+    np.testing.assert_allclose(second.signal("i_L"), first.signal("i_L"), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(second.signal("v_n"), first.signal("v_n"), rtol=1e-12, atol=1e-15)
+
+
+def test_pwm_switch_edges_fall_on_the_schedule():
+    c = Circuit("buck")
+    c.V("Vin", "in", "0", 12.0)
+    c.switch("S", "in", "sw", closed_when=PWM(period=1e-4, duty=0.3))
+    c.diode("D", "0", "sw", r_on=1e-3)   # with an ideal diode, closing S would short the source
+    c.L("L", "sw", "out", 1e-3)
+    c.C("C", "out", "0", 1e-4)
+    c.R("Rl", "out", "0", 10.0)
+    run = c.build().simulate(1e-3, "RK45", rtol=1e-8, atol=1e-12, max_step=2e-5)
+    edges = np.sort(np.concatenate([np.arange(1, 11) * 1e-4, np.arange(0, 10) * 1e-4 + 3e-5]))
+    np.testing.assert_allclose(run.event_times, edges, rtol=1e-9)
+    assert [s.mode.label for s in run.events[0].steps][-1] == "open|on"   # the diode takes the current
+
+
+def test_relay_with_hysteresis_switches_at_its_two_thresholds():
+    c = Circuit("relay")
+    c.V("V", "s", "0", 10.0)
+    c.switch("K", "s", "x", closed_when="v_out < v_lo", open_when="v_out > v_hi")
+    c.R("R", "x", "out", 1.0)
+    c.C("C", "out", "0", 1e-3)
+    c.R("Rl", "out", "0", 20.0)
+    run = c.build(parameters={"v_lo": 6.0, "v_hi": 8.0}).simulate(0.03, "RK45", **RUN)
+    v_th, tau_on, tau_off = 10.0 * 20 / 21, 1e-3 * 20 / 21, 20 * 1e-3    # Thevenin seen by C; load alone
+    t = run.event_times
+    assert t[0] == 0.0 and [s.mode.label for s in run.events[0].steps][-1] == "closed"  # v_out = 0 < 6 at start
+    assert t[1] == pytest.approx(tau_on * math.log(v_th / (v_th - 8.0)), rel=1e-7)
+    assert t[2] - t[1] == pytest.approx(tau_off * math.log(8.0 / 6.0), rel=1e-7)
+    assert t[3] - t[2] == pytest.approx(tau_on * math.log((v_th - 6.0) / (v_th - 8.0)), rel=1e-7)
+
+
+def test_transformer_scales_voltage_and_current():
+    c = Circuit("tf")
+    c.V("Vs", "p", "0", Input("u"))
+    c.transformer("T1", "p", "0", "s", "0", 2.0)
+    c.R("RL", "s", "0", 5.0)
+    run = c.build(inputs={"u": lambda t: 10.0}).simulate(1e-3, "RK45", **RUN)
+    assert run.signal("v_s")[-1] == pytest.approx(5.0)
+    assert run.signal("i_RL")[-1] == pytest.approx(1.0)
+    assert run.signal("i_T1_p")[-1] == pytest.approx(0.5)
+    assert run.signal("i_T1_s")[-1] == pytest.approx(1.0)
+
+
+def test_dc_machine_speed_rises_with_its_mechanical_time_constant():
+    V, Ra, k, J, b = 12.0, 2.0, 0.1, 1e-3, 1e-3
+    c = Circuit("motor")
+    c.V("Va", "a", "0", V)
+    c.R("Ra", "a", "b", Ra)
+    c.dc_machine("M", "b", "0", "w", "0", k)
+    c.L("J", "w", "m", J)            # inertia: the shaft's speed is the secondary loop's current
+    c.R("friction", "m", "0", b)
+    run = c.build().simulate(0.2, "RK45", **RUN)
+    speed, tau = k * V / (Ra * b + k * k), J / (b + k * k / Ra)
+    np.testing.assert_allclose(run.signal("i_J"), speed * (1 - np.exp(-run.t / tau)), rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(run.signal("v_M_p"), k * run.signal("i_M_s"), rtol=1e-12)   # back-emf k·ω
+
+
+def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
+    for n1, n2, sign in (("a", "0", 1), ("0", "a", -1)):
+        c = Circuit("cubic")
+        c.C("C1", "a", "0", 1.0, v0=2.0)
+        c.R("Rn", n1, n2, flow_law=lambda v: 0.5 * v**3)   # i = v³/2 across n1 → n2
+        run = c.build().simulate(1.0, "RK45", **RUN)
+        v = 1 / np.sqrt(0.25 + run.t)                         # dv/dt = −v³/2 from v = 2
+        np.testing.assert_allclose(run.signal("v_C1"), v, rtol=1e-7)
+        np.testing.assert_allclose(run.signal("i_Rn"), sign * 0.5 * v**3, rtol=1e-7)
+
+
+def test_initial_values_are_the_laws_outputs():
+    c = Circuit("initial")
+    c.C("C1", "a", "0", effort_law=lambda q: q**3 + q, v0=10.0)   # v = q³ + q: q = 2
+    c.R("R1", "a", "0", 1.0)
+    c.C("C2", "0", "b", 2.0, v0=3.0)                               # reversed: q_C2 = −2·3
+    c.R("R2", "b", "0", 1.0)
+    c.L("L1", "b", "c", "Lx", i0=2.0)
+    c.R("R3", "c", "0", 1.0)
+    model = c.build(parameters={"Lx": 0.5})
+    assert dict(zip(model.state_names, model.initial_state())) == pytest.approx(
+        {"q_C1": 2.0, "q_C2": -6.0, "p_L1": 1.0})
+    run = model.simulate(1e-9, "RK45", **RUN)
+    assert run.signal("v_C1")[0] == pytest.approx(10.0) and run.signal("v_C2")[0] == pytest.approx(3.0)
+    assert run.signal("i_L1")[0] == pytest.approx(2.0)
+    with pytest.raises(MissingParameterError, match="Lx"):
+        c.build()
+
+
+def test_the_graph_is_drawn_and_names_follow_the_components():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bondgraph import draw_bond_graph
+
+    model = freewheel_circuit().build(parameters={"t_open": 0.5})
+    assert {"node_s", "node_n", "node_m", "S", "D", "branch_R"} <= set(model.graph.elements)
+    assert {a.name for a in model.automata} == {"S", "D"}
+    assert draw_bond_graph(model.graph, {"S": True, "D": False}) is not None   # all on shorts the source
+
+
+def test_unknown_node_is_named_with_a_suggestion():
+    c = rc_circuit()
+    c.R("R2", "otu", "0", 1.0)
+    with pytest.raises(UnknownNameError, match=r"node 'otu' of 'R2'.*did you mean 'out'"):
+        c.build()
+
+
+def test_component_names_are_unique_checked_identifiers():
+    c = rc_circuit()
+    with pytest.raises(DuplicateNameError, match="'R1' is already defined"):
+        c.R("R1", "out", "0", 1.0)
+    with pytest.raises(InvalidGraphError, match="invalid component name"):
+        c.R("R 2", "out", "0", 1.0)
+    with pytest.raises(InvalidGraphError, match="invalid node name"):
+        c.R("R2", "out; x", "0", 1.0)
+    with pytest.raises(InvalidGraphError, match="shorted"):
+        c.R("R2", "out", "out", 1.0)
+
+
+def test_capacitor_loop_names_its_members():
+    c = Circuit("parallel")
+    c.V("V1", "a", "0", 1.0)
+    c.C("C1", "a", "0", 1.0)
+    with pytest.raises(InvalidGraphError, match="C1, V1 form a loop of capacitors"):
+        c.build()
+
+
+def test_inductor_cutset_names_its_members():
+    c = Circuit("series_l")
+    c.V("V1", "a", "0", 1.0)
+    c.L("L1", "a", "b", 1.0)
+    c.L("L2", "b", "c", 1.0)
+    c.R("R1", "c", "0", 1.0)
+    with pytest.raises(InvalidGraphError, match="L1, L2 form a cutset"):
+        c.build()
+
+
+def test_floating_node_is_refused():
+    c = rc_circuit()
+    c.R("R2", "x", "y", 1.0)
+    c.R("R3", "y", "x", 1.0)
+    with pytest.raises(InvalidGraphError, match="no path to ground"):
+        c.build()
+
+
+def test_source_text_is_parsed_not_run():
+    c = Circuit("hostile")
+    c.V("V1", "a", "0", '__import__("os").getcwd()')
+    c.R("R1", "a", "0", 1.0)
+    with pytest.raises(GuardSyntaxError, match="source 'V1' is not an expression of t"):
+        c.build()
+
+
+def test_errors_are_the_toolkits():
+    with pytest.raises(HybridBondGraphError):
+        Circuit("c").build()
