@@ -793,15 +793,8 @@ _RUN_SET_HELP = ("override a parameter, or set the initial value of a state by i
                  "repeatable")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from bondgraph import __version__
-
-    parser = _Parser(prog="hbg", description="Hybrid bond graph toolkit: simulate, inspect, draw and save "
-                     "switching physical systems modelled as hybrid bond graphs")
-    parser.add_argument("--version", action="version", version=f"hbg {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    sub.add_parser("list", help="shipped models with their parameters").set_defaults(run=_cmd_list)
-
+def _add_run(sub) -> None:
+    """``hbg run``: its arguments and options."""
     p = sub.add_parser("run", help="simulate a shipped model or a model file: print a summary, write the plot and "
                        "data asked for")
     p.add_argument("model", help=_MODEL_HELP)
@@ -838,6 +831,49 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the most integrator steps the run may take (default 10000000): options that need more "
                         "are refused up front, a run that takes more stops with its partial run saved")
     p.set_defaults(run=_cmd_run)
+
+
+def _add_sweep(sub) -> None:
+    """``hbg sweep``: its arguments and options."""
+    p = sub.add_parser("sweep", help="one run per point of a parameter grid, on Dask: a CSV row per run, a plot")
+    p.add_argument("model", help=_MODEL_HELP)
+    p.add_argument("--grid", action="append", required=True, metavar="NAME=START:STOP:COUNT|NAME=V1,V2,...",
+                   help="a parameter's values (repeatable; the grid is every combination, the first varying slowest)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter fixed for every run (repeatable)")
+    p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of every run in s (default: "
+                   "the model's)")
+    p.add_argument("--method", help="integration method of every run (default: the model's, else RK45)")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--dt", type=float, help="step of euler / rk4")
+    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
+    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
+    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
+                   help="the longest step an adaptive method may take, in s")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
+    group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
+    p.add_argument("--csv", required=True, metavar="FILE", help="one row per run: parameters, status, events, "
+                   "final state, metrics")
+    p.add_argument("--plot", metavar="FILE.png", help="the first --metric over the grid (line or heat map)")
+    p.add_argument("--on-zeno", choices=("raise", "stop"), default="raise",
+                   help="a Zeno run fails (raise, default) or ends at the accumulation point (stop)")
+    p.add_argument("--metric", action="append", metavar="NAME",
+                   help="a column (events, first_event, t_final, wall_time, final_STATE) or KIND:SIGNAL with KIND "
+                        "final, min or max, computed in the workers (repeatable; the first is plotted; "
+                        "default: events)")
+    p.set_defaults(run=_cmd_sweep)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from bondgraph import __version__
+
+    parser = _Parser(prog="hbg", description="Hybrid bond graph toolkit: simulate, inspect, draw and save "
+                     "switching physical systems modelled as hybrid bond graphs")
+    parser.add_argument("--version", action="version", version=f"hbg {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub.add_parser("list", help="shipped models with their parameters").set_defaults(run=_cmd_list)
+
+    _add_run(sub)
 
     p = sub.add_parser("modes", help="derived equations of the modes a run visits")
     p.add_argument("model", help=_MODEL_HELP)
@@ -879,33 +915,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the picture; its extension picks the format (png, svg, pdf, ...)")
     p.set_defaults(run=_cmd_draw)
 
-    p = sub.add_parser("sweep", help="one run per point of a parameter grid, on Dask: a CSV row per run, a plot")
-    p.add_argument("model", help=_MODEL_HELP)
-    p.add_argument("--grid", action="append", required=True, metavar="NAME=START:STOP:COUNT|NAME=V1,V2,...",
-                   help="a parameter's values (repeatable; the grid is every combination, the first varying slowest)")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter fixed for every run (repeatable)")
-    p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of every run in s (default: "
-                   "the model's)")
-    p.add_argument("--method", help="integration method of every run (default: the model's, else RK45)")
-    group = p.add_mutually_exclusive_group()
-    group.add_argument("--dt", type=float, help="step of euler / rk4")
-    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
-    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
-    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
-                   help="the longest step an adaptive method may take, in s")
-    group = p.add_mutually_exclusive_group()
-    group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
-    group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
-    p.add_argument("--csv", required=True, metavar="FILE", help="one row per run: parameters, status, events, "
-                   "final state, metrics")
-    p.add_argument("--plot", metavar="FILE.png", help="the first --metric over the grid (line or heat map)")
-    p.add_argument("--on-zeno", choices=("raise", "stop"), default="raise",
-                   help="a Zeno run fails (raise, default) or ends at the accumulation point (stop)")
-    p.add_argument("--metric", action="append", metavar="NAME",
-                   help="a column (events, first_event, t_final, wall_time, final_STATE) or KIND:SIGNAL with KIND "
-                        "final, min or max, computed in the workers (repeatable; the first is plotted; "
-                        "default: events)")
-    p.set_defaults(run=_cmd_sweep)
+    _add_sweep(sub)
 
     sub.add_parser("graphs", help="list the shipped plain bond graphs").set_defaults(run=_cmd_graphs)
     p = sub.add_parser("equations", help="equations of a shipped plain bond graph")
