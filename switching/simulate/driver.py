@@ -160,8 +160,10 @@ class HybridRun:
         self.output = options.output.recorded
         self.started = _time.perf_counter()
         self.x = model.initial_state() if start.x0 is None else start.x0
+        projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
-        self.recorder = Recorder(model, self.output, options.output.t_eval, options.output.keep_instants)
+        self.recorder = Recorder(model, self.output, options.output.t_eval, options.output.keep_instants,
+                                 None if projected is None else (float(t0), *projected))
         self.recorder.start(t0)
         self.zeno = ZenoWatch(events.zeno_window, t_end,
                                1e-9 * (t_end - t0) if events.zeno_min_gap is None else events.zeno_min_gap)

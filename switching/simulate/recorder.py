@@ -16,10 +16,13 @@ class Recorder:
     """The samples of a run as it goes: ``output="steps"`` keeps every step,
     ``"events"`` only what is forced (the start, the instants, the end);
     ``t_eval`` [s] adds the states at those times (:meth:`dense`);
-    ``keep_instants=False`` keeps only the instants' count."""
+    ``keep_instants=False`` keeps only the instants' count; ``projection``
+    ``(t0, given, projected)``: the start was the given state projected onto the
+    initial mode's constraints (the energy ledger records it)."""
 
-    def __init__(self, model, output, t_eval, keep_instants=True):
+    def __init__(self, model, output, t_eval, keep_instants=True, projection=None):
         self.model = model
+        self.projection = projection
         self.output = output
         self.keep_instants = keep_instants
         self.n_events = 0
@@ -85,4 +88,4 @@ class Recorder:
         if self.t and self.boundary is not None and self.t[-1] > self.boundary:
             mode_time[self.modes[-1]] = mode_time.get(self.modes[-1], 0.0) + (self.t[-1] - self.boundary)
         return Trajectory(self.model, self.t, x, self.modes, self.events, self.event_index, stopped, stats,
-                          mode_time=mode_time, instants_kept=self.keep_instants)
+                          mode_time=mode_time, instants_kept=self.keep_instants, initial_projection=self.projection)

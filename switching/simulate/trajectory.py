@@ -36,13 +36,40 @@ POWER_PREFIX = "power:"
 _POWER_TOTALS = ("supplied", "dissipated", "stored")
 
 
+def energy_figure(value: float, scale: float) -> str:
+    """An energy [J] as the summaries print it: ``0 J`` with the round-off
+    bound when ``|value|`` is within ``ENERGY_ROUNDOFF`` of ``scale`` (the
+    largest energy it was computed from), else six significant digits."""
+    bound = ENERGY_ROUNDOFF * scale
+    if abs(value) <= bound:
+        return f"0 J (within round-off, |ΔE| ≤ {bound:.1g} J)"
+    return f"{value:.6g} J"
+
+
+def _ledger_lines(ledger) -> list[str]:
+    """The summary's lines of an energy ledger: the initial projection, then the instants' total."""
+    lines = []
+    for record in ledger:
+        if record.what == "initial projection":
+            scale = max(abs(record.before), abs(record.after))
+            lines.append(f"  energy lost at the initial projection: {energy_figure(record.lost, scale)}")
+    instants = [r for r in ledger if r.what == "instant"]
+    if instants:
+        scale = max(max(abs(r.before), abs(r.after)) for r in instants)
+        lines.append(f"  energy lost at instants: {energy_figure(sum(r.lost for r in instants), scale)}")
+    return lines
+
+
 class EnergyRecord(NamedTuple):
-    """The energy ledger of one instant [s, J]: ``lost = before - after``."""
+    """The energy ledger of one instant [s, J]: ``lost = before - after``;
+    ``what``: ``"instant"``, or ``"initial projection"`` for the start of a run
+    whose given state the initial mode's constraints changed."""
 
     t: float
     before: float
     after: float
     lost: float
+    what: str = "instant"
 
 
 def _energy_evaluator(model):
@@ -81,7 +108,7 @@ class Trajectory:
     """
 
     def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None, mode_time=None,
-                 instants_kept=True):
+                 instants_kept=True, initial_projection=None):
         self.model = model
         self.model_name = model.name
         self.t = np.asarray(t, dtype=float)
@@ -94,6 +121,9 @@ class Trajectory:
         self.stats = dict(stats or {})
         self._mode_time = None if mode_time is None else dict(mode_time)
         self.instants_kept = instants_kept
+        #: ``(t0, given, projected)`` when the run started from the model's initial state projected onto
+        #: the initial mode's constraints (:meth:`HybridModel.initial_state`), else None
+        self.initial_projection = initial_projection
         #: :class:`switching.analysis.sensitivity.Sensitivities` of a run with ``sensitivities=[...]``, else None
         self.sensitivities = None
 
@@ -242,15 +272,21 @@ class Trajectory:
         instant: the stored energy just before it (a priori state) and after
         its last jump, and ``lost = before - after``.  An instant that gains
         energy by more than round-off (``ENERGY_ROUNDOFF`` of the run's
-        energy at its instants) warns with :class:`~bondgraph.EnergyGainWarning`."""
+        energy at its instants) warns with :class:`~bondgraph.EnergyGainWarning`.
+        A run that started from a projected initial state
+        (:attr:`initial_projection`) begins with that projection's record."""
+        records = []
+        if self.initial_projection is not None:  # the start: the given state projected, as a jump would
+            t0, given, projected = self.initial_projection
+            b, a = self._stored_energy([given, projected], [t0, t0])
+            records.append(EnergyRecord(float(t0), float(b), float(a), float(b - a), "initial projection"))
         if not self.events:
             self._needs_model()
-            return []
+            return records
         times = [e.t for e in self.events]
         before = self._stored_energy([e.x_before for e in self.events], times)
         after = self._stored_energy([e.x_after for e in self.events], times)
         scale = max(float(np.max(np.abs(before))), float(np.max(np.abs(after))))
-        records = []
         for instant, b, a in zip(self.events, before, after):
             if warn and a - b > ENERGY_ROUNDOFF * scale:
                 modes = " → ".join(f"{s.mode.describe()} [{s.kind}]" for s in instant.steps)
@@ -298,14 +334,13 @@ class Trajectory:
             mythical = sum(len(e.mythical) for e in self.events)
             pinnacles = sum(len(e.pinnacles) for e in self.events)
             lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
-            if self.events and self.model is not None:
+            if (self.events or self.initial_projection is not None) and self.model is not None:
                 try:
                     ledger = self.energy_ledger(warn=False)
                 except HybridBondGraphError:  # a law sympy cannot integrate: no ledger
                     ledger = None
                 if ledger is not None:
-                    lost = sum(r.lost for r in ledger)
-                    lines.append(f"  energy lost at instants: {lost:.6g} J")
+                    lines += _ledger_lines(ledger)
         for key, value in self.stats.items():
             lines.append(f"  {key}: {value}")
         return "\n".join(lines)

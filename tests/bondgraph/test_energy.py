@@ -118,3 +118,46 @@ def test_an_unpickled_trajectory_needs_its_model_for_energy():
     assert "energy lost" not in copy.summary()
     copy.model = run.model
     assert np.array_equal(copy.energy(), run.energy())
+
+
+def joined_capacitors(V1, V2, C1=1e-3, C2=2e-3):
+    """Two capacitors charged to V1 and V2 that start joined (a closed switch): the start projects
+    their charges onto one common voltage ``(C1 V1 + C2 V2)/(C1 + C2)``."""
+    from bondgraph import Zero
+    from switching import Automaton, HybridModel
+
+    g = BondGraph("joined")
+    for k in (1, 2):
+        g.connect(g.add(Zero(f"n{k}")), C(f"cap{k}", f"C{k}", state=f"q{k}"))
+    g.connect("n1", g.add(One("switch", controlled=True)))
+    g.connect("switch", "n2")
+    automaton = Automaton("sw", {"closed": {"switch": True}, "open": {"switch": False}}, "closed")
+    automaton.add_transition("closed", "open", "t >= 1")
+    return HybridModel(g, [automaton], {"C1": C1, "C2": C2}, initial_state={"q1": C1 * V1, "q2": C2 * V2})
+
+
+def test_the_projection_of_the_start_is_in_the_ledger():
+    """Charge sharing at the start loses ``C1 C2 ΔV²/(2 (C1 + C2))``, recorded at t0
+    as the ledger's first entry and printed by the summary."""
+    from switching import InitialStateProjected
+
+    C1, C2, V1, V2 = 1e-3, 2e-3, 5.0, 1.0
+    model = joined_capacitors(V1, V2, C1, C2)
+    with pytest.warns(InitialStateProjected):
+        run = model.simulate(0.5, "RK45")
+    (first,) = run.energy_ledger()
+    assert first.what == "initial projection" and first.t == 0.0
+    assert first.before == pytest.approx((C1 * V1**2 + C2 * V2**2) / 2, rel=1e-12)
+    assert first.lost == pytest.approx(C1 * C2 * (V1 - V2) ** 2 / (2 * (C1 + C2)), rel=1e-12)
+    assert f"energy lost at the initial projection: {first.lost:.6g} J" in run.summary()
+    x0 = model.given_initial_state  # a start given explicitly is the run's own: nothing projected
+    assert model.simulate(0.5, "RK45", x0=model.initial_state()).energy_ledger() == []
+    assert np.allclose(x0, [C1 * V1, C2 * V2])
+
+
+def test_a_loss_within_round_off_is_printed_as_zero_with_its_bound():
+    run = bouncing_ball.build(e=1.0).simulate(1.5, "RK45", rtol=1e-10, atol=1e-12)
+    ledger = run.energy_ledger()
+    scale = max(max(abs(r.before), abs(r.after)) for r in ledger)
+    assert abs(sum(r.lost for r in ledger)) <= 1e-9 * scale  # a perfectly elastic ball loses nothing
+    assert "energy lost at instants: 0 J (within round-off, |ΔE| ≤ " in run.summary()
