@@ -69,6 +69,7 @@ import os
 import re
 import sys
 import time
+import warnings
 
 from bondgraph import HybridBondGraphError
 from bondgraph.errors import did_you_mean
@@ -85,8 +86,19 @@ class _UsageError(Exception):
 
 
 def _summary(obj) -> str:
+    """The first paragraph of ``obj``'s docstring as plain text for a terminal:
+    reST roles and literals (``:func:`models.x`` ``, ````V0````) shown as their text."""
     doc = inspect.getdoc(obj) or ""
-    return doc.split("\n\n")[0].replace("\n", " ")
+    return plain_text(doc.split("\n\n")[0].replace("\n", " "))
+
+
+def plain_text(rst: str) -> str:
+    """reST inline markup as a terminal shows text: ``:role:`~a.b.c``` → ``c``,
+    ``:role:`a.b``` → ``a.b``, ````code```` → ``code``, ``*em*`` → ``em``."""
+    text = re.sub(r":[a-z]+:`~(?:[\w.]*\.)?([^`]+)`", r"\1", rst)
+    text = re.sub(r":[a-z]+:`([^`]+)`", r"\1", text)
+    text = re.sub(r"``([^`]+)``", r"\1", text)
+    return re.sub(r"(?<![\w*])\*([^*\s][^*]*)\*(?![\w*])", r"\1", text)
 
 
 def _module(name):
@@ -935,8 +947,23 @@ def _failed_run(exc) -> bool:
     return isinstance(exc, (SimulationError, DivergenceOfTimeError))
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as the command line says it: ``hbg: warning: <kind>: <message>``, with no line of
+    the toolkit's source (the user did not write it)."""
+    print(f"hbg: warning: {category.__name__}: {message}", file=file or sys.stderr)
+
+
 def main(argv=None) -> int:
     """Run ``hbg`` with ``argv`` (default: the command line); return the exit status."""
+    shown = warnings.showwarning
+    warnings.showwarning = _show_warning
+    try:
+        return _main(argv)
+    finally:
+        warnings.showwarning = shown
+
+
+def _main(argv) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)

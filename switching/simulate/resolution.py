@@ -83,7 +83,7 @@ class Step:
         return not np.array_equal(self.x_before, self.x_after)
 
     def __str__(self) -> str:
-        text = f"{self.mode.label} ({self.kind})"
+        text = f"{self.mode.describe()} ({self.kind})"
         if self.fired:
             text += " --" + "; ".join(str(f) for f in self.fired) + "-->"
         return text

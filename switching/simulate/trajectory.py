@@ -25,6 +25,14 @@ from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNam
 
 __all__ = ["Trajectory", "EnergyRecord"]
 
+#: what each kind of a mode passed at an instant means (DESIGN §6), as run summaries explain it
+STEP_KINDS = {
+    "start": "the mode the instant began in",
+    "mythical": "passed through without its jump (its constraints never held)",
+    "pinnacle": "jumped into and left at once",
+    "continuous": "the mode the flow went on in",
+}
+
 #: relative round-off band of the energy ledger: a gain below this fraction of
 #: the run's stored energy at its instants is not reported
 ENERGY_ROUNDOFF = 1e-9
@@ -326,10 +334,13 @@ class Trajectory:
                 kinds.setdefault(step.mode, Counter())[step.kind] += 1
         modes = list(dict.fromkeys(self.modes + list(spent) + [s.mode for e in self.events for s in e.steps]))
         width = max([len("mode")] + [len(m.describe()) for m in modes])
-        lines.append(f"  {'mode':<{width}}  {'time [s]':>9}  passed as")
+        lines.append(f"  {'mode':<{width}}  {'flowed [s]':>10}  at instants")
         for mode in modes:
             passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
-            lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>9.4g}  {passed}")
+            lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>10.4g}  {passed}")
+        seen = sorted({kind for counts in kinds.values() for kind in counts})
+        if seen:
+            lines.append("  (" + "; ".join(f"{kind}: {STEP_KINDS[kind]}" for kind in seen) + ")")
         if self.instants_kept:
             mythical = sum(len(e.mythical) for e in self.events)
             pinnacles = sum(len(e.pinnacles) for e in self.events)

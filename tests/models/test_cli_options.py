@@ -108,3 +108,22 @@ def test_tolerances_of_adaptive_methods_are_refused_with_a_fixed_step(capsys, op
 def test_tolerances_must_be_positive(capsys, option):
     status, _, err = hbg(capsys, "run", "two-tanks", option, -1)
     assert status == 2 and f"{option} must be a finite positive number" in err
+
+
+def test_graphs_print_plain_text_not_markup(capsys):
+    status, out, _ = hbg(capsys, "graphs")
+    assert status == 0 and "``" not in out and ":func:" not in out
+    assert "Voltage source V0 driving R, L and C in series" in out
+
+
+def test_a_warning_names_its_kind_not_a_line_of_the_toolkit(capsys):
+    status, out, err = hbg(capsys, "run", "bouncing-ball", "--set", "e=1.5", "--t-end", 0.5)
+    assert status == 0
+    assert "hbg: warning: PhysicalRangeWarning: bouncing_ball: e = 1.5 is outside the physical range" in err
+    assert "cli.py" not in err and "warnings.warn" not in err
+
+
+def test_the_summary_says_what_the_kinds_of_modes_at_instants_mean(capsys):
+    status, out, _ = hbg(capsys, "run", "falling-rod", "--set", "mu=0.002")
+    assert status == 0 and "flowed [s]  at instants" in out
+    assert "mythical: passed through without its jump" in out and "start: the mode the instant began in" in out
