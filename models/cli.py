@@ -346,9 +346,10 @@ def _output_rows(trajectory, t_eval, with_instants: bool):
     return out
 
 
-def _write_outputs(args, trajectory, signals) -> list[str]:
+def _write_outputs(args, trajectory, signals, plotted=None) -> list[str]:
     """Write the requested files, data first, each on its own; return the
-    failures (each names the file and the reason)."""
+    failures (each names the file and the reason).  The plot draws
+    ``plotted`` (default: ``trajectory``, the rows of the data files)."""
     extra = [s for s in signals if s not in trajectory.state_names]
     failures = []
 
@@ -388,9 +389,10 @@ def _write_outputs(args, trajectory, signals) -> list[str]:
             from bondgraph.drawing import pyplot
             from switching.simulate.plotting import plot_trajectory
 
-            if len(trajectory.t) == 0:
+            shown = trajectory if plotted is None else plotted
+            if len(shown.t) == 0:
                 raise ValueError("no samples to plot")
-            fig = plot_trajectory(trajectory, signals)
+            fig = plot_trajectory(shown, signals)
             try:
                 fig.savefig(args.plot, dpi=110)
             finally:
@@ -511,7 +513,8 @@ def _cmd_run(args) -> int:
             print(f"  output: {len(out.t)} rows at --samples {args.samples} times"
                   + ("" if args.with_instants or not trajectory.event_index
                      else f" (--with-instants adds 2 rows for each of the {len(trajectory.event_index)} instants)"))
-        if _write_outputs(args, out, signals) and status == EXIT_OK:
+        plotted = _output_rows(trajectory, t_eval, True) if args.plot else None  # jumps drawn upright
+        if _write_outputs(args, out, signals, plotted) and status == EXIT_OK:
             status = EXIT_FAILED
     return status
 

@@ -43,6 +43,18 @@ def _intervals(trajectory):
     return spans
 
 
+#: how an instant is marked: (line style, legend entry) by what it passed
+_INSTANT_STYLES = {
+    "pinnacles": ("-", "instant with pinnacles"),
+    "mythical": ("--", "instant through mythical modes"),
+    "switch": (":", "instant (a switch, no mode passed between)"),
+}
+
+
+def _instant_kind(instant) -> str:
+    return "pinnacles" if instant.pinnacles else "mythical" if instant.mythical else "switch"
+
+
 def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instants=60):
     """One axis per signal (default: every state), mode intervals shaded,
     instants marked (when there are at most ``max_instants`` of them).
@@ -64,8 +76,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
             ax.axvspan(t0, t1, color=colors[mode], alpha=0.18, lw=0)
         if len(trajectory.events) <= max_instants:
             for instant in trajectory.events:
-                style = "-" if instant.pinnacles else "--"
-                ax.axvline(instant.t, color="0.35", ls=style, lw=0.8)
+                ax.axvline(instant.t, color="0.35", ls=_INSTANT_STYLES[_instant_kind(instant)][0], lw=0.8)
         ax.set_ylabel(name)
         ax.grid(alpha=0.25)
     axes[-1].set_xlabel("t [s]")
@@ -73,8 +84,9 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     from matplotlib.lines import Line2D
 
     handles = [Patch(color=c, alpha=0.35, label=m.describe()) for m, c in colors.items()]
-    handles += [Line2D([], [], color="0.35", ls="-", lw=0.8, label="instant with pinnacles"),
-                Line2D([], [], color="0.35", ls="--", lw=0.8, label="instant (mythical modes only)")]
+    drawn = {_instant_kind(i) for i in trajectory.events} if len(trajectory.events) <= max_instants else set()
+    handles += [Line2D([], [], color="0.35", ls=style, lw=0.8, label=label)
+                for kind, (style, label) in _INSTANT_STYLES.items() if kind in drawn]  # only what occurred
     axes[0].legend(handles=handles, fontsize=7, loc="best")
     axes[0].set_title(title or f"{trajectory.model.name}: {len(trajectory.events)} instants")
     fig.tight_layout()

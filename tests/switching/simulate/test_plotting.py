@@ -52,3 +52,30 @@ def test_mode_graph_and_bond_graph_drawing(ball_run):
     labels = {t.get_gid(): t.get_text() for t in ax.texts}
     assert labels["element:rod/I_J"] == "I: rod/I_J"
     assert labels["element:cx"] == r"$\mathbf{0}_{\mathrm{cx}}^{\mathrm{on}}$"  # 0-junction cx, switched on
+
+
+def legend_entries(fig):
+    return [text.get_text() for text in fig.axes[0].get_legend().get_texts()]
+
+
+def test_the_legend_lists_only_the_instants_that_occurred(ball_run):
+    assert legend_entries(plot_trajectory(ball_run, ["y"]))[-1] == "instant with pinnacles"
+    rod = falling_rod.build(mu=0.002).simulate(0.5, "RK45")  # the stuck mode passed as mythical: no pinnacle
+    entries = legend_entries(plot_trajectory(rod, ["theta"]))
+    assert "instant through mythical modes" in entries and "instant with pinnacles" not in entries
+
+
+def test_the_command_line_draws_jumps_upright(tmp_path, monkeypatch):
+    """``hbg run --plot`` plots the sampled rows plus each instant's before/after pair, so that a jump is
+    a vertical segment at its instant (not a slant to the next sample)."""
+    from models import cli
+
+    drawn = []
+    monkeypatch.setattr("switching.simulate.plotting.plot_trajectory",
+                        lambda trajectory, signals: drawn.append(trajectory) or plot_trajectory(trajectory, signals))
+    assert cli.main(["run", "falling-rod", "--set", "mu=0.002", "--signals", "tip_vx", "--plot",
+                     str(tmp_path / "rod.png")]) == 0
+    (shown,) = drawn
+    (instant,) = shown.events
+    at = np.flatnonzero(shown.t == instant.t)
+    assert len(at) == 2 and shown.signal("tip_vx")[at[0]] != shown.signal("tip_vx")[at[1]]
