@@ -58,7 +58,7 @@ def test_a_mode_function_is_called_through_its_address():
 
     @numba.njit
     def call(record, op, x, s, out):
-        return kernel._call(record.fns[0], op, 0, 0.0, 1e-9, 1e-12, x, x, record.p, record.u, x, s, s,
+        return kernel.call(record.fns[0], op, 0, 0.0, 1e-9, 1e-12, x, x, record.p, record.u, x, s, s,
                             record.radix, record.radix, out)
 
     assert [s.name for s in model.states] == ["p", "y"] and model.parameter_array[2] == 1.0  # m = 1 kg
