@@ -25,6 +25,7 @@ module                          rules
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
 :mod:`.steppers`                Euler's step, the classical RK4 step, its Hermite interpolant
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
+:mod:`.bracket`                 event bracketing: which margins to refine (parabola peak, overshoot), bisection to adjacent floats
 :mod:`.stiffness`               the fixed-step methods' stiffness verdict on an estimate of ``|h·λ|``
 :mod:`codegen.decision`         the guards' comparison: its round-off band and decision, the larger scale
 ==============================  ===============================================
@@ -32,10 +33,11 @@ module                          rules
 
 from codegen import decision as decision
 
+from . import bracket as bracket
 from . import jumps as jumps
 from . import maximize as maximize
 from . import steppers as steppers
 from . import stiffness as stiffness
 
 #: the rule modules (each with its ``RULES``)
-MODULES = (maximize, steppers, jumps, stiffness, decision)
+MODULES = (maximize, bracket, steppers, jumps, stiffness, decision)

@@ -21,11 +21,11 @@ from numba import njit
 from codegen import decision
 
 from ... import rules
-from ...rules import jumps, maximize, steppers, stiffness
+from ...rules import bracket, jumps, maximize, steppers, stiffness
 
-__all__ = ["band", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "hermite_cubic", "inline",
-           "jit", "jump_pulse", "maximize_begin", "maximize_next", "pulse_decides", "pulse_holds", "rk4_combine",
-           "stamp_with_rules"]
+__all__ = ["band", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
+           "inline", "jit", "jump_pulse", "maximize_begin", "maximize_next", "parabola_peak", "peak_in_reach",
+           "pulse_decides", "pulse_holds", "rk4_combine", "stamp_with_rules", "worth_refining"]
 
 jit = njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 entry = njit(cache=True, error_model="numpy")  # the functions Python calls
@@ -36,6 +36,10 @@ dispatch = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=
 # beside its own file, one index per function: one compilation of each keeps it to one set of options)
 maximize_begin = inline(maximize.maximize_begin)
 maximize_next = inline(maximize.maximize_next)
+halve = inline(bracket.halve)
+parabola_peak = inline(bracket.parabola_peak)
+peak_in_reach = inline(bracket.peak_in_reach)
+worth_refining = inline(bracket.worth_refining)
 euler_step = inline(steppers.euler_step)
 rk4_combine = inline(steppers.rk4_combine)
 hermite_cubic = inline(steppers.hermite_cubic)

@@ -28,7 +28,9 @@ from __future__ import annotations
 import numpy as np
 
 from .calls import gparts, holds_at
-from .compiler import band, dispatch, inline, maximize_begin, maximize_next, stamp_with_rules
+from ...rules.bracket import BISECTIONS
+from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, parabola_peak, peak_in_reach,
+                       stamp_with_rules, worth_refining)
 from .flow import interp
 
 __all__ = ["S_BEFORE", "S_INSIDE", "S_SCRATCH", "S_START", "S_STEP", "bisect", "event_in_step", "first_hold",
@@ -39,7 +41,6 @@ S_BEFORE = 1
 S_INSIDE = 4
 S_SCRATCH = 5
 S_STEP = 6
-_OVERSHOOT = 3.0  # as switching.simulate.events._OVERSHOOT
 
 
 @inline
@@ -101,20 +102,6 @@ def _copy_point(src, dst, ptau, pmg, ptr, phd):
 
 
 @inline
-def _parabola_peak(t0, t1, t2, m0, m1, m2):
-    """``(ok, time, value)`` of the maximum of the parabola through three points (not ok if not concave)."""
-    if not (t0 < t1 and t1 < t2):
-        return False, 0.0, 0.0
-    d1 = (m1 - m0) / (t1 - t0)
-    d2 = (m2 - m1) / (t2 - t1)
-    curvature = (d2 - d1) / (t2 - t0)
-    if not curvature < 0.0:
-        return False, 0.0, 0.0
-    at = 0.5 * (t0 + t1) - d1 / (2 * curvature)
-    return True, at, m0 + d1 * (at - t0) + curvature * (at - t0) * (at - t1)
-
-
-@inline
 def _samples(kind, m, t_old, t_new, h, A, E, M, rtol, atol, samples, PT, order):
     """The step's sample points (GuardScan's): ``samples`` interior points evenly spaced, then the step's end,
     each into the next slot from S_STEP and listed in ``order`` after the flow's last point (slot S_START),
@@ -169,16 +156,16 @@ def _window(j, count, last, i, ext, ptau, pmg):
 @inline
 def _near_threshold(i, c0, low, high, w0, w1, windowed, t_old, t_new, ext, ptau, pmg):
     """Does the parabola through the points ``ext[c0:c0 + 3]`` of part i's margin peak within reach of the
-    threshold (``value + OVERSHOOT·(value − reference) ≥ 0``, ``reference`` the largest of the three), in the
-    window?  Returns ``(ok, low, high)``: the bracket clipped to the step."""
+    threshold (the rule :func:`switching.rules.bracket.peak_in_reach`, ``reference`` the largest of the three),
+    in the window?  Returns ``(ok, low, high)``: the bracket clipped to the step."""
     a0, a1, a2 = ext[c0], ext[c0 + 1], ext[c0 + 2]
-    ok, at, value = _parabola_peak(ptau[a0], ptau[a1], ptau[a2], pmg[a0, i], pmg[a1, i], pmg[a2, i])
+    ok, at, value = parabola_peak(ptau[a0], ptau[a1], ptau[a2], pmg[a0, i], pmg[a1, i], pmg[a2, i])
     if not ok:
         return False, low, high
     reference = max(pmg[a0, i], max(pmg[a1, i], pmg[a2, i]))
     if windowed and not (w0 < at and at < w1):
         return False, low, high
-    if value + _OVERSHOOT * (value - reference) < 0.0:
+    if not peak_in_reach(value, reference):
         return False, low, high
     low = max(low, t_old)
     high = min(high, t_new)
@@ -240,7 +227,7 @@ def _extrema(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, PT, SC, cnt, nxt,
             v = pmg[ext[j], i]
             top = max(top, v)
             bottom = min(bottom, v)
-        if bottom > 0.0 or top + (1.0 + _OVERSHOOT) * (top - bottom) < 0.0:
+        if not worth_refining(top, bottom):
             continue  # holds all along, or far from its threshold all along
         for j in range(first, count):
             if ptr[ext[j], i]:
@@ -325,9 +312,9 @@ def event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT,
 def first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
     """Bisection of the step's interpolant over (t_lo, hi] (no guard holding at ``t_lo``, one at ``hi``) down to
     adjacent floating-point numbers: ``(t_lo, hi)``, the last time seen not holding and the first holding."""
-    for _ in range(200):
-        mid = 0.5 * (t_lo + hi)
-        if mid <= t_lo or mid >= hi:
+    for _ in range(BISECTIONS):
+        more, mid = halve(t_lo, hi)
+        if not more:
             break
         interp(kind, t_old, h, A, mid, tmp)
         if holds_at(m, tmp, mid, M, s, rtol, atol):
@@ -400,9 +387,9 @@ def pieces(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC):
         lo = ptau[a]
         hi = ptau[b]
         truth_lo = ptr[a, i]
-        for _ in range(200):
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
+        for _ in range(BISECTIONS):
+            more, mid = halve(lo, hi)
+            if not more:
                 break
             point(np.int64(S_SCRATCH), mid, np.bool_(False), y_new, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
             if ptr[S_SCRATCH, i] == truth_lo:

@@ -112,9 +112,12 @@ def test_unreadable_cache_files_of_the_kernel_are_deleted_and_it_is_compiled_aga
                            env=environment, cwd=root, capture_output=True, text=True, check=True)
     private = Path(probe.stdout.strip())
     private.mkdir(parents=True, exist_ok=True)
-    for path in installed.glob("kernel.*"):
-        shutil.copy2(path, private / path.name)
-    for index in private.glob("kernel.run-*.nbi"):  # (earlier versions of the file leave theirs too)
+    from switching.simulate.kernel import MODULES
+
+    for name in MODULES:  # the kernel's modules' cache files
+        for path in installed.glob(f"{name}.*"):
+            shutil.copy2(path, private / path.name)
+    for index in private.glob("loop.run-*.nbi"):  # (earlier versions of the file leave theirs too)
         index.write_bytes(os.urandom(300))
     first, warned = process()
     assert first["cache"] == str(private) and first["compiled"] == 1
