@@ -17,8 +17,9 @@ rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maxim
 from __future__ import annotations
 
 import functools
-import math
 import weakref
+
+from codegen.decision import band
 
 from ..rules.bracket import BISECTIONS, halve, parabola_peak, peak_in_reach, worth_refining
 from ..rules.maximize import maximize_begin, maximize_next
@@ -93,11 +94,9 @@ class _GuardForm:
         for k, op in enumerate(ops):
             if op is None:
                 continue
-            lines.append(f"    left = s[{3 * k}]; right = s[{3 * k + 1}]; d{k} = left - right; left = abs(left); "
-                         f"right = abs(right); scale = right if right > left else left")  # = max(|left|, |right|)
-            # the round-off scale widens the band when finite (codegen.runtime.decide)
-            lines.append(f"    r = s[{3 * k + 2}]; scale = r if scale < r < INF else scale")
-            lines.append(f"    b{k} = rtol * scale + atol if scale < INF else 0.0")  # band 0 if scale is not finite
+            # the band of the rule codegen.decision.band, widened by the round-off scale s[3k + 2]
+            lines.append(f"    d{k} = s[{3 * k}] - s[{3 * k + 1}]; "
+                         f"b{k} = band(s[{3 * k}], s[{3 * k + 1}], s[{3 * k + 2}], rtol, atol)")
             lines.append(f"    r{k} = " + truth[op].format(k=k))
         margins, truths = [], []
         for i, (k, sign, inclusive) in enumerate(self.parts):
@@ -110,7 +109,7 @@ class _GuardForm:
                 truths.append(f"abs(d{k}) > b{k}")
         lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
                      f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
-        namespace = {"INF": math.inf}
+        namespace = {"band": band}
         exec("\n".join(lines), namespace)  # our own code, built from the guard trees
         self.evaluate = namespace["evaluate"]
         self.source = "\n".join(lines)
