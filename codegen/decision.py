@@ -7,21 +7,23 @@ compiled kernel (:mod:`switching.simulate.kernel`) and the generated per-mode
 functions compile these very functions.
 
 A comparison ``left op right`` of two signals, each with an impulse part
-``i`` and a finite part ``f`` (DESIGN §5), ``op`` numbered as in
-:data:`OPS` (each step below is a rule of its own, a function numba compiles
-by itself: the caller composes them, as :func:`codegen.runtime.decide` and
-the kernel's ``decide`` do) (``<`` 0, ``<=`` 1, ``>`` 2, ``>=`` 3, ``==`` 4, ``!=`` 5):
+``i`` and a finite part ``f`` (DESIGN §5), ``op`` numbered as in :data:`OPS`
+(``<`` 0, ``<=`` 1, ``>`` 2, ``>=`` 3, ``==`` 4, ``!=`` 5), is decided in
+steps, each a rule of its own (a function numba compiles by itself; the
+caller composes them, as :func:`codegen.runtime.decide` and the kernel's
+``decide`` do):
 
-* a pulse decides (:func:`pulse_decides`, :func:`pulse_holds`) when the impulses differ by more than ``10⁻⁶·max(|i_l|,
-  |i_r|)``: ``δ = i_l − i_r`` compares as ``±∞`` (``<``, ``<=``: ``δ < 0``;
-  ``>``, ``>=``: ``δ > 0``; ``==`` never, ``!=`` always);
-* otherwise the finite parts (:func:`finite_holds`), ``d = f_l − f_r``, with the band (:func:`band`)
-  ``b = rtol·max(|f_l|, |f_r|, s) + atol`` (``s`` the comparison's round-off
-  scale, :mod:`codegen.roundoff`, counted when finite; ``b = 0`` when a side
-  is not finite): ``<`` is ``d < −b``, ``<=`` ``d ≤ b``, ``>`` ``d > b``,
-  ``>=`` ``d ≥ −b``, ``==`` ``|d| ≤ b``, ``!=`` ``|d| > b`` — the inclusive
-  comparisons include the band, the strict ones exclude it (the paper's
-  section 4.3).
+* a pulse decides (:func:`pulse_decides`, :func:`pulse_holds`) when the
+  impulses differ by more than ``10⁻⁶·max(|i_l|, |i_r|)``: ``δ = i_l − i_r``
+  compares as ``±∞`` (``<``, ``<=``: ``δ < 0``; ``>``, ``>=``: ``δ > 0``;
+  ``==`` never, ``!=`` always);
+* otherwise the finite parts (:func:`finite_holds`), ``d = f_l − f_r``,
+  with the band (:func:`band`) ``b = rtol·max(|f_l|, |f_r|, s) + atol``
+  (``s`` the comparison's round-off scale, :mod:`codegen.roundoff`, counted
+  when finite; ``b = 0`` when a side is not finite): ``<`` is ``d < −b``,
+  ``<=`` ``d ≤ b``, ``>`` ``d > b``, ``>=`` ``d ≥ −b``, ``==`` ``|d| ≤ b``,
+  ``!=`` ``|d| > b`` — the inclusive comparisons include the band, the
+  strict ones exclude it (the paper's section 4.3).
 
 The band has the units of the compared signals (``rtol`` relative,
 ``atol`` in those units).  Maxima are written as comparisons: Python's

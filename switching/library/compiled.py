@@ -34,7 +34,6 @@ needs nothing else.
 from __future__ import annotations
 
 import ast
-import math
 import re
 
 import numpy as np

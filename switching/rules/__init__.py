@@ -25,7 +25,7 @@ module                          rules
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
 :mod:`.steppers`                Euler's step, the classical RK4 step, its Hermite interpolant
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
-:mod:`.bracket`                 event bracketing: which margins to refine (parabola peak, overshoot), bisection to adjacent floats
+:mod:`.bracket`                 event bracketing: which margins to refine, bisection to adjacent floats
 :mod:`.stiffness`               the fixed-step methods' stiffness verdict on an estimate of ``|h·λ|``
 :mod:`codegen.decision`         the guards' comparison: its round-off band and decision, the larger scale
 ==============================  ===============================================
