@@ -33,11 +33,11 @@ from pathlib import Path
 
 from . import numba_internals
 from .cache import CacheWarning, warn_not_writable
+from .decision import OPS
 from .safety import PYTHON, Dialect, compile_checked
 
 __all__ = ["available", "guard_cache", "load_module", "tree_expression"]
 
-_OP_CODES = {"<": 0, "<=": 1, ">": 2, ">=": 3, "==": 4, "!=": 5}
 
 
 @functools.cache
@@ -71,7 +71,7 @@ def tree_expression(tree, finite: str, impulse: str | None = None, offset: int =
     else:
         ia, ib = f"{impulse}[{offset + 2 * k}]", f"{impulse}[{offset + 2 * k + 1}]"
     sc = f"{finite}[{c}]" if scale is None else f"_larger({finite}[{c}], {scale}[{c}])"
-    return f"_dec({_OP_CODES[op]}, {ia}, {finite}[{a}], {ib}, {finite}[{b}], {sc}, rtol, atol)"
+    return f"_dec({OPS[op]}, {ia}, {finite}[{a}], {ib}, {finite}[{b}], {sc}, rtol, atol)"
 
 
 _private: Path | None = None  # this process's own directory for kernels (no usable cache directory)

@@ -8,11 +8,14 @@ part of the result.  A product of two pulses, a pulse in a denominator or
 inside a nonlinear function has no meaning and raises :class:`PulseError`.
 :func:`decide` compares two such values with a tolerance band (``<=``
 includes the band, ``<`` excludes it; a non-zero impulse dominates), widened
-by the comparison's round-off scale (:mod:`codegen.roundoff`);
+by the comparison's round-off scale (:mod:`codegen.roundoff`): the rules of
+:mod:`codegen.decision`, which the compiled kernel compiles too;
 :class:`Comparison` keeps the figures of one decision for the record.
 """
 
 import math
+
+from .decision import OPS, band, finite_holds, pulse_decides, pulse_holds
 
 __all__ = ["Comparison", "Hyper", "PulseError", "H", "decide", "hyper"]
 
@@ -164,27 +167,12 @@ for _name in (
     setattr(H, _name, staticmethod(_smooth(getattr(math, _name))))
 
 
-def _band(left, right, rtol, atol, scale):
-    """``rtol·max(|left|, |right|, scale) + atol`` on finite parts (``scale``: the
-    comparison's round-off scale, ignored unless finite); 0 if the sides are not finite."""
-    magnitude = max(abs(left.finite), abs(right.finite))
-    if not math.isfinite(magnitude):
-        return 0.0
-    if math.isfinite(scale) and scale > magnitude:
-        magnitude = scale
-    return rtol * magnitude + atol
-
-
-def _pulse_decides(op, left, right):
-    """The decision when a non-zero impulse dominates, else ``None``."""
-    impulse = left.impulse - right.impulse
-    if impulse and abs(impulse) > 1e-6 * max(abs(left.impulse), abs(right.impulse)):
-        if op in ("<", "<="):
-            return impulse < 0
-        if op in (">", ">="):
-            return impulse > 0
-        return op == "!="
-    return None
+def _code(op):
+    """The number of the comparison ``op`` (:data:`codegen.decision.OPS`)."""
+    code = OPS.get(op)
+    if code is None:
+        raise ValueError(f"unknown comparison {op!r}")
+    return code
 
 
 def _margin(op, diff, band):
@@ -212,11 +200,10 @@ def decide(op: str, left, right, rtol: float, atol: float, scale: float = 0.0) -
     ``<=``, ``>=`` and ``==`` include the band, ``<``, ``>`` and ``!=`` exclude
     it; a non-zero impulse dominates any finite part."""
     left, right = hyper(left), hyper(right)
-    by_pulse = _pulse_decides(op, left, right)
-    if by_pulse is not None:
-        return by_pulse
-    margin = _margin(op, left.finite - right.finite, _band(left, right, rtol, atol, scale))
-    return margin >= 0 if op in ("<=", ">=", "==") else margin > 0
+    code = _code(op)
+    if pulse_decides(left.impulse, right.impulse):
+        return pulse_holds(code, left.impulse, right.impulse)
+    return finite_holds(code, left.finite, right.finite, band(left.finite, right.finite, scale, rtol, atol))
 
 
 class Comparison:
@@ -236,13 +223,12 @@ class Comparison:
     def of(cls, text, op, left, right, rtol, atol, scale=0.0):
         """Decide ``left op right`` as :func:`decide` does and keep the figures."""
         lh, rh = hyper(left), hyper(right)
-        by_pulse = _pulse_decides(op, lh, rh)
-        if by_pulse is not None:
-            return cls(text, op, left, right, scale, None, None, by_pulse)
-        band = _band(lh, rh, rtol, atol, scale)
-        margin = _margin(op, lh.finite - rh.finite, band)
-        result = margin >= 0 if op in ("<=", ">=", "==") else margin > 0
-        return cls(text, op, left, right, scale, band, margin, result)
+        code = _code(op)
+        if pulse_decides(lh.impulse, rh.impulse):
+            return cls(text, op, left, right, scale, None, None, pulse_holds(code, lh.impulse, rh.impulse))
+        width = band(lh.finite, rh.finite, scale, rtol, atol)
+        margin = _margin(op, lh.finite - rh.finite, width)
+        return cls(text, op, left, right, scale, width, margin, finite_holds(code, lh.finite, rh.finite, width))
 
     @property
     def edge_ulps(self):

@@ -34,7 +34,6 @@ needs nothing else.
 from __future__ import annotations
 
 import ast
-import math
 import re
 
 import numpy as np
@@ -42,6 +41,7 @@ import sympy as sp
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
+from codegen import decision
 from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide
 from codegen.safety import execute
@@ -521,7 +521,7 @@ class CompiledMode:
         before, after = self.sides(x, t), self.sides(x_plus, t)
         triples = []
         for k in range(self.n_relations):
-            scale = _larger(before[3 * k + 2], after[3 * k + 2])
+            scale = decision.larger(before[3 * k + 2], after[3 * k + 2])
             triples += [raw[2 * k], raw[2 * k + 1], scale]
         return triples
 
@@ -531,13 +531,6 @@ class CompiledMode:
             return False
         sides = self.sides(x, t)
         return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
-
-
-def _larger(a: float, b: float) -> float:
-    """The larger of two scales, ignoring a non-finite one (0 if both are)."""
-    a = a if math.isfinite(a) else 0.0
-    b = b if math.isfinite(b) else 0.0
-    return a if a > b else b
 
 
 def _count_rel(tree) -> int:

@@ -1,7 +1,7 @@
 """Export of generated per-mode functions to one standalone module.
 
 The module holds the run-time support (:mod:`codegen.runtime`: ``Hyper``,
-``H``, ``decide``), the guard-tree evaluator, and for every exported mode its
+``H``, ``decide``, with the rules of :mod:`codegen.decision`), the guard-tree evaluator, and for every exported mode its
 functions (renamed ``m<k>_phi``, ``m<k>_rates``, …) and metadata; ``MODES``
 maps each mode label to them.  ``STATES``, ``PARAMETERS`` (names, in the
 order of the ``x`` and ``p`` arrays) and ``PARAMETER_VALUES`` complete it.
@@ -22,7 +22,7 @@ _FUNCTIONS = ("phi", "rates", "sides", "sides_raw", "jump")
 
 
 def export_module(model, path, modes="visited") -> list:
-    from codegen import runtime
+    from codegen import decision, runtime
 
     from . import compiled
 
@@ -50,8 +50,10 @@ def export_module(model, path, modes="visited") -> list:
         f"PARAMETER_VALUES = {[float(v) for v in model.parameter_array]!r}",
         f"INPUTS = {list(model.graph.inputs)!r}",
         "",
+        "# ---- the guards' comparison (from codegen.decision)",
+        _strip_module_header(inspect.getsource(decision)),
         "# ---- run-time support (from codegen.runtime)",
-        _strip_module_header(inspect.getsource(runtime)),
+        re.sub(r"^from \.decision import .*\n", "", _strip_module_header(inspect.getsource(runtime)), flags=re.M),
         "",
         "# ---- guard trees",
         inspect.getsource(compiled.decide_tree),
@@ -79,6 +81,6 @@ def export_module(model, path, modes="visited") -> list:
 
 
 def _strip_module_header(text: str) -> str:
-    """The runtime's source without its docstring and __all__ (the export has its own)."""
+    """A run-time module's source without its docstring and __all__ (the export has its own)."""
     text = re.sub(r'^""".*?"""\n', "", text, count=1, flags=re.S)
     return re.sub(r"^__all__ = .*\n", "", text, flags=re.M)

@@ -78,6 +78,7 @@ from codegen.source import Argument, FunctionSpec, docstring, escaped, function_
 
 from ..model.automaton import A_POSTERIORI
 from ..model.expression_input import ExpressionInput
+from ..rules.stiffness import AT_ONCE
 from .compiled import comparison_triples, condition_tree
 from ..simulate.resolution import Instant, resolve_instant
 from ..simulate.events import guard_parts  # the guards' one-sided parts, as the Python scan
@@ -97,17 +98,24 @@ _KERNEL = []  # switching.simulate.kernel.loop once imported, its numba caches g
 
 
 def kernel():
-    """The module :mod:`switching.simulate.kernel.loop` (numba imported), its numba disk
-    cache unable to fail a run: unreadable files are deleted and the kernel
+    """The module :mod:`switching.simulate.kernel.loop` (numba imported), the numba disk
+    caches of the kernel's modules unable to fail a run: unreadable files are deleted and the kernel
     compiled again, with a :class:`codegen.cache.CacheWarning`."""
     if not _KERNEL:
+        import importlib
+
         from codegen.numba_internals import is_dispatcher
 
+        from ..simulate import kernel as package
         from ..simulate.kernel import loop as module
 
-        for value in list(vars(module).values()):
-            if is_dispatcher(value):
-                guard_cache("switching.simulate.kernel.loop", value)
+        guarded = set()
+        for name in package.MODULES:
+            part = importlib.import_module(f"{package.__name__}.{name}")
+            for value in list(vars(part).values()):
+                if is_dispatcher(value) and id(value) not in guarded:  # (a compiled rule is imported
+                    guarded.add(id(value))  # by several modules: guarded once)
+                    guard_cache(part.__name__, value)
         _KERNEL.append(module)
     return _KERNEL[0]
 
@@ -702,7 +710,7 @@ class CompiledModel:
                 fns=np.array([f.address for f in self.functions], dtype=np.int64),
                 p=_kernel_array(self.model.parameter_array), u=self._u, tables=t["TABLES"],
                 lengths=t["LENGTHS"], mstates=t["MSTATES"], radix=t["RADIX"], codes=t["CODES"], n_sides=int(n_sides),
-                at_once=math.inf if self.model.input_symbols else 1.25)
+                at_once=math.inf if self.model.input_symbols else AT_ONCE)
         return self._record
 
     def buffers(self, save, capacity: int = 4096, event_capacity: int = 256) -> tuple:

@@ -10,15 +10,18 @@ briefly — an extremum of a margin that comes within reach of its threshold
 :mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
 :func:`locate_event` bisects the step's interpolant down to adjacent
 floating-point numbers for the first time a guard holds.  The compiled
-kernel (:mod:`switching.simulate.kernel.loop`) ports the same search.
+kernel (:mod:`switching.simulate.kernel.events`) ports the same search; the
+rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maximize`.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 import weakref
 
+from codegen.decision import band
+
+from ..rules.bracket import BISECTIONS, halve, parabola_peak, peak_in_reach, worth_refining
 from ..rules.maximize import maximize_begin, maximize_next
 
 __all__ = ["GuardScan", "guard_parts", "locate_event"]
@@ -28,7 +31,6 @@ _FLIPPED = {">=": "<", ">": "<=", "<=": ">", "<": ">=", "==": "!=", "!=": "=="}
 # sign·(left − right) + (band if inclusive else −band) is ≥ 0 (inclusive) or > 0 (strict)
 _PARTS = {">=": ((1, True),), ">": ((1, False),), "<=": ((-1, True),), "<": ((-1, False),),
           "==": ((1, True), (-1, True)), "!=": ((0, False),)}
-_OVERSHOOT = 3.0  # a sampled extremum is refined when 3× its predicted rise would reach the guard
 _GUARD_FORMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -92,11 +94,9 @@ class _GuardForm:
         for k, op in enumerate(ops):
             if op is None:
                 continue
-            lines.append(f"    left = s[{3 * k}]; right = s[{3 * k + 1}]; d{k} = left - right; left = abs(left); "
-                         f"right = abs(right); scale = right if right > left else left")  # = max(|left|, |right|)
-            # the round-off scale widens the band when finite (codegen.runtime.decide)
-            lines.append(f"    r = s[{3 * k + 2}]; scale = r if scale < r < INF else scale")
-            lines.append(f"    b{k} = rtol * scale + atol if scale < INF else 0.0")  # band 0 if scale is not finite
+            # the band of the rule codegen.decision.band, widened by the round-off scale s[3k + 2]
+            lines.append(f"    d{k} = s[{3 * k}] - s[{3 * k + 1}]; "
+                         f"b{k} = band(s[{3 * k}], s[{3 * k + 1}], s[{3 * k + 2}], rtol, atol)")
             lines.append(f"    r{k} = " + truth[op].format(k=k))
         margins, truths = [], []
         for i, (k, sign, inclusive) in enumerate(self.parts):
@@ -109,7 +109,7 @@ class _GuardForm:
                 truths.append(f"abs(d{k}) > b{k}")
         lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
                      f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
-        namespace = {"INF": math.inf}
+        namespace = {"band": band}
         exec("\n".join(lines), namespace)  # our own code, built from the guard trees
         self.evaluate = namespace["evaluate"]
         self.source = "\n".join(lines)
@@ -209,9 +209,9 @@ class GuardScan:
         holds, ``b`` one where one does) down to adjacent floating-point
         numbers, ``lo`` the last point seen not holding — as :func:`locate_event`."""
         lo, hi = a, b.tau
-        for _ in range(200):
-            mid = 0.5 * (lo.tau + hi)
-            if mid <= lo.tau or mid >= hi:
+        for _ in range(BISECTIONS):
+            more, mid = halve(lo.tau, hi)
+            if not more:
                 break
             point = self.point(mid)
             if point.holds:
@@ -240,7 +240,7 @@ class GuardScan:
         for i in self.form.tracked:
             m = columns[i]
             top, bottom = max(m), min(m)
-            if bottom > 0.0 or top + (1.0 + _OVERSHOOT) * (top - bottom) < 0.0:
+            if not worth_refining(top, bottom):
                 continue  # holds all along, or far from its threshold all along
             for j in range(first, count):
                 if extended[j].truths[i]:
@@ -257,14 +257,13 @@ class GuardScan:
                     window = (2 * taus[0] - taus[1], taus[1])
                 else:
                     continue
-                peak = _parabola_peak([taus[k] for k in triple], [m[k] for k in triple])
-                if peak is None:
+                ok, at, value = parabola_peak(*[taus[k] for k in triple], *[m[k] for k in triple])
+                if not ok:
                     continue
-                at, value = peak
                 reference = max(m[k] for k in triple)
                 if window is not None and not window[0] < at < window[1]:
                     continue
-                if value + _OVERSHOOT * (value - reference) < 0.0:
+                if not peak_in_reach(value, reference):
                     continue
                 low, high = max(low, t_prev), min(high, t_new)
                 if not high > low:
@@ -311,9 +310,9 @@ class GuardScan:
         (bisection to adjacent floating-point numbers)."""
         _, sign, inclusive = self.form.parts[i]
         lo, hi, truth_lo = a.tau, b.tau, a.truths[i]
-        for _ in range(200):
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
+        for _ in range(BISECTIONS):
+            more, mid = halve(lo, hi)
+            if not more:
                 break
             if sign:
                 margin = self.margin(i, mid)
@@ -325,20 +324,6 @@ class GuardScan:
             else:
                 hi = mid
         return hi
-
-
-def _parabola_peak(t, m):
-    """``(time, value)`` of the maximum of the parabola through three points,
-    ``None`` if it is not concave."""
-    if not t[0] < t[1] < t[2]:
-        return None
-    d1 = (m[1] - m[0]) / (t[1] - t[0])
-    d2 = (m[2] - m[1]) / (t[2] - t[1])
-    curvature = (d2 - d1) / (t[2] - t[0])
-    if not curvature < 0.0:
-        return None
-    at = 0.5 * (t[0] + t[1]) - d1 / (2 * curvature)
-    return at, m[0] + d1 * (at - t[0]) + curvature * (at - t[0]) * (at - t[1])
 
 
 def _peak(f, a, b) -> float:
@@ -355,9 +340,9 @@ def _peak(f, a, b) -> float:
 def locate_event(cm, stepper, state_at, a, b, rtol, atol) -> float:
     """The first time in ``(a, b]`` at which a guard holds on the interpolant
     (bisection down to adjacent floating-point numbers)."""
-    for _ in range(200):
-        mid = 0.5 * (a + b)
-        if mid <= a or mid >= b:
+    for _ in range(BISECTIONS):
+        more, mid = halve(a, b)
+        if not more:
             break
         if cm.holds(state_at(mid, stepper.interpolate(mid)), mid, rtol, atol):
             b = mid

@@ -36,7 +36,8 @@ with the estimated ``|h·λ|`` of the fastest mode:
   nilpotent flow (free fall): for rk4 within the step, ``h·ρ = 2·(‖k3 −
   k2‖/‖k1‖)^½``; for Euler over three steps, ``h·ρ = (‖f₂ − 2f₁ +
   f₀‖/‖f₀‖)^½`` (from the third step of a flow on; the compiled kernels
-  apply the same rules).  Stiff when above the stability limit (euler 2, rk4 2.78)
+  apply the same rules).  The verdict is the rule
+  :mod:`switching.rules.stiffness`: stiff when above the stability limit (euler 2, rk4 2.78)
   on 3 consecutive steps, or once when 25 % above it for an autonomous flow
   (a fixed step that far beyond the limit diverges within a few steps; a
   flow driven by inputs may show one such estimate at a jump of an input).
@@ -49,14 +50,13 @@ import math
 import numpy as np
 
 from ..rules.steppers import euler_step, hermite_cubic, rk4_combine
+from ..rules.stiffness import AT_ONCE, fixed_stiffness
 
 __all__ = ["Euler", "RK4", "Adaptive", "ORDERS", "STABILITY_LIMITS", "StepFailed", "StiffnessDetected"]
 
 ORDERS = {"euler": 1, "rk4": 4}
 #: |h·λ| above which an explicit method is taken to be beyond its stability limit
 STABILITY_LIMITS = {"euler": 2.0, "rk4": 2.78, "RK45": 3.25, "RK23": 2.4, "DOP853": 6.1}
-_FIXED_STREAK = 3  # consecutive fixed steps beyond the limit
-_FIXED_AT_ONCE = 1.25  # … or one step this factor beyond it (autonomous flows)
 _HAIRER_STIFF, _HAIRER_RESET = 15, 6  # Hairer's counts for the adaptive methods
 _CRAWL_STEPS = 10_000  # … reported when the rest of the flow would take more steps than this at that step size
 
@@ -92,25 +92,20 @@ class _Stepper:
 
 
 class _FixedStiffness:
-    """The consecutive-steps rule of the fixed-step methods."""
+    """The rule :func:`switching.rules.stiffness.fixed_stiffness` over the steps of a flow."""
 
     def __init__(self, method, limit, autonomous, enabled=True):
         self.method = method
         self.limit = limit if enabled else math.inf
-        self.at_once = _FIXED_AT_ONCE * limit if autonomous and enabled else math.inf
+        self.at_once = AT_ONCE if autonomous and enabled else math.inf
         self.streak = 0
 
     def check(self, t, h, power4, component):
         """``power4``: the estimate of ``(h·ρ)⁴``; ``component``: array whose
         largest entry names the dominant state."""
-        limit = self.limit
-        if power4 > limit**4:
-            self.streak += 1
-            h_lambda = power4**0.25
-            if self.streak >= _FIXED_STREAK or h_lambda > self.at_once:
-                raise StiffnessDetected(self.method, t, h, h_lambda, limit, int(np.argmax(np.abs(component))))
-        else:
-            self.streak = 0
+        self.streak, h_lambda = fixed_stiffness(power4, self.limit, self.at_once, self.streak)
+        if self.streak < 0:
+            raise StiffnessDetected(self.method, t, h, h_lambda, self.limit, int(np.argmax(np.abs(component))))
 
 
 class Euler(_Stepper):

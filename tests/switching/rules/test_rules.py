@@ -56,16 +56,72 @@ def test_no_rule_is_defined_twice():
 
 
 def test_the_kernel_compiles_the_rules_themselves():
-    """Every rule is compiled by the kernel from the rule's own function object."""
+    """Every rule is compiled by the kernel (one of its modules) from the rule's own function object."""
     pytest.importorskip("numba")
+    import importlib
+
     from numba.core.dispatcher import Dispatcher
 
-    from switching.simulate.kernel import loop as kernel
+    from switching.simulate import kernel
 
-    compiled = {value.py_func for value in vars(kernel).values() if isinstance(value, Dispatcher)}
+    compiled = set()
+    for name in kernel.MODULES:
+        module = importlib.import_module(f"switching.simulate.kernel.{name}")
+        compiled |= {value.py_func for value in vars(module).values() if isinstance(value, Dispatcher)}
     for module in rules.MODULES:
         for name in module.RULES:
             assert getattr(module, name) in compiled, f"{module.__name__}.{name}"
+
+
+def test_the_rules_include_the_guards_comparison_and_the_stiffness_verdict():
+    """The rules moved here from their copies: a copy reintroduced under one of these names (the kernel's
+    ``_band``, ``_larger``, ``_fixed_stiffness``) fails test_no_rule_is_defined_twice."""
+    names = _rule_names()
+    for name in ("band", "larger", "pulse_decides", "pulse_holds", "finite_holds", "fixed_stiffness", "halve",
+                 "parabola_peak", "peak_in_reach", "worth_refining"):
+        assert name in names
+
+
+def test_the_comparison_stiffness_and_bracket_rules_python_and_compiled_agree_to_the_bit():
+    """The rules of codegen.decision, switching.rules.stiffness and switching.rules.bracket called and compiled:
+    the same results on random, edge and non-finite arguments."""
+    numba = pytest.importorskip("numba")
+    from codegen import decision
+    from switching.rules import bracket, stiffness
+
+    rng = random.Random(27)
+    special = [0.0, -0.0, 1.0, -1.0, 1e-300, 2.78**4, 16.0, math.inf, -math.inf, math.nan]
+
+    def number():
+        return rng.choice(special) if rng.random() < 0.3 else rng.uniform(-5, 5) * 10 ** rng.randint(-12, 3)
+
+    cases = {decision.band: 5, decision.larger: 2, decision.pulse_decides: 2, bracket.halve: 2,
+             bracket.parabola_peak: 6, bracket.peak_in_reach: 2, bracket.worth_refining: 2}
+    for rule, arity in cases.items():
+        compiled = numba.njit(rule)
+        for _ in range(400):
+            arguments = [number() for _ in range(arity)]
+            assert repr(compiled(*arguments)) == repr(rule(*arguments)), (rule.__name__, arguments)
+    for rule in (decision.pulse_holds, decision.finite_holds):
+        compiled = numba.njit(rule)
+        for _ in range(400):
+            arguments = [rng.randrange(6)] + [number() for _ in range(2 if rule is decision.pulse_holds else 3)]
+            assert compiled(*arguments) == rule(*arguments), (rule.__name__, arguments)
+    compiled = numba.njit(stiffness.fixed_stiffness)
+    for _ in range(400):
+        arguments = (abs(number()), rng.choice([2.0, 2.78, math.inf]), rng.choice([1.25, math.inf]), rng.randrange(3))
+        assert repr(compiled(*arguments)) == repr(stiffness.fixed_stiffness(*arguments)), arguments
+
+
+def test_the_stiffness_verdict_counts_a_streak_or_one_step_far_beyond():
+    from switching.rules.stiffness import fixed_stiffness
+
+    assert fixed_stiffness(15.0, 2.0, 1.25, 2) == (0, 0.0)  # calm: the streak restarts
+    assert fixed_stiffness(math.nan, 2.0, 1.25, 2) == (0, 0.0)  # no estimate counts as calm
+    assert fixed_stiffness(17.0, 2.0, 1.25, 0) == (1, 17.0**0.25)
+    assert fixed_stiffness(17.0, 2.0, 1.25, 2)[0] == -1  # the third step in a row
+    assert fixed_stiffness(2.6**4, 2.0, 1.25, 0)[0] == -1  # once, 30 % beyond the limit
+    assert fixed_stiffness(2.6**4, 2.0, math.inf, 0)[0] == 1  # … not for a flow driven by inputs
 
 
 # ---------------------------------------------------------------- Brent's maximisation

@@ -58,7 +58,7 @@ def test_a_mode_function_is_called_through_its_address():
 
     @numba.njit
     def call(record, op, x, s, out):
-        return kernel._call(record.fns[0], op, 0, 0.0, 1e-9, 1e-12, x, x, record.p, record.u, x, s, s,
+        return kernel.call(record.fns[0], op, 0, 0.0, 1e-9, 1e-12, x, x, record.p, record.u, x, s, s,
                             record.radix, record.radix, out)
 
     assert [s.name for s in model.states] == ["p", "y"] and model.parameter_array[2] == 1.0  # m = 1 kg
@@ -112,9 +112,12 @@ def test_unreadable_cache_files_of_the_kernel_are_deleted_and_it_is_compiled_aga
                            env=environment, cwd=root, capture_output=True, text=True, check=True)
     private = Path(probe.stdout.strip())
     private.mkdir(parents=True, exist_ok=True)
-    for path in installed.glob("kernel.*"):
-        shutil.copy2(path, private / path.name)
-    for index in private.glob("kernel.run-*.nbi"):  # (earlier versions of the file leave theirs too)
+    from switching.simulate.kernel import MODULES
+
+    for name in MODULES:  # the kernel's modules' cache files
+        for path in installed.glob(f"{name}.*"):
+            shutil.copy2(path, private / path.name)
+    for index in private.glob("loop.run-*.nbi"):  # (earlier versions of the file leave theirs too)
         index.write_bytes(os.urandom(300))
     first, warned = process()
     assert first["cache"] == str(private) and first["compiled"] == 1
