@@ -1,10 +1,9 @@
-"""The guards' comparison with its round-off band, written once: a rule in
-the sense of :mod:`switching.rules` (plain functions on floats that numba
-compiles and Python calls).  It lives on codegen's floor because
-:func:`codegen.runtime.decide` (the Python path, generated guard code and
-exported modules) calls it and codegen imports nothing of ``switching``; the
-compiled kernel (:mod:`switching.simulate.kernel`) and the generated per-mode
-functions compile these very functions.
+"""The guards' comparison with its round-off band, written once: plain
+functions on floats that numba compiles and Python calls.  It lives on
+codegen's floor because :func:`codegen.runtime.decide` (the Python path,
+generated guard code and exported modules) calls it; the callers above
+(a compiled simulation kernel, generated per-mode machine code) compile these
+very functions rather than copies.
 
 A comparison ``left op right`` of two signals, each with an impulse part
 ``i`` and a finite part ``f`` (DESIGN §5), ``op`` numbered as in :data:`OPS`
