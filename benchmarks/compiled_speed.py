@@ -10,7 +10,7 @@ Rows (median wall time of N interleaved rounds after a warm-up that compiles; se
   hand numba   a hand-written @njit RK45 (Dormand–Prince 5(4), scipy's step
                control) with dense-output bisection for the event and the jump
                v⁺ = −e·v, everything in one compiled call;
-  kernel       the model-independent kernel (switching.simulate.kernel.loop.run; flows,
+  kernel       the model-independent kernel (switching.kernel.loop.run; flows,
                guards, instant resolution and restarts compiled, each mode's
                functions called through a function pointer) through
                CompiledModel.run; "s=3" tests the guards at 3 interior
@@ -51,11 +51,11 @@ from scipy.integrate import solve_ivp  # noqa: E402
 from models import bouncing_ball  # noqa: E402
 from models.graphs import pivoting_rod  # noqa: E402
 from switching import HybridModel  # noqa: E402
-from switching.simulate.kernel.loop import RK_A as A  # noqa: E402
-from switching.simulate.kernel.loop import RK_B as B  # noqa: E402
-from switching.simulate.kernel.loop import RK_C as C  # noqa: E402
-from switching.simulate.kernel.loop import RK_E as EE  # noqa: E402
-from switching.simulate.kernel.loop import RK_P as P  # noqa: E402
+from switching.kernel.loop import RK_A as A  # noqa: E402
+from switching.kernel.loop import RK_B as B  # noqa: E402
+from switching.kernel.loop import RK_C as C  # noqa: E402
+from switching.kernel.loop import RK_E as EE  # noqa: E402
+from switching.kernel.loop import RK_P as P  # noqa: E402
 
 G, E = 9.81, 0.8
 

@@ -40,7 +40,7 @@ def main(names) -> None:
     from numba.core.ccallback import CFunc
 
     from codegen.backends import BACKENDS
-    from switching.simulate.kernel import loop as kernel
+    from switching.kernel import loop as kernel
     from switching.library.jit_model import MODE_DIALECT, mode_calls, mode_function_source, mode_signature
 
     signature = (kernel.MODE_SIGNATURE.args, kernel.MODE_SIGNATURE.return_type)

@@ -67,8 +67,19 @@ from .library.mode_library import ModeLibrary as _ModeLibrary  # noqa: E402
 from .simulate.driver import check_option_names as _check_option_names, simulate as _simulate  # noqa: E402
 from .simulate.run_options import check_sensitivity_options as _check_sensitivity_options  # noqa: E402
 from .simulate.resolution import resolve_instant as _resolve_instant  # noqa: E402
-from .analysis.sensitivity_run import simulate_with_sensitivities as _simulate_with_sensitivities  # noqa: E402
-from .analysis.verify import verify as _verify  # noqa: E402
+
+
+def _simulate_with_sensitivities(*args, **kwargs):
+    from .analysis.sensitivity_run import simulate_with_sensitivities
+
+    return simulate_with_sensitivities(*args, **kwargs)
+
+
+def _verify(*args, **kwargs):  # (scipy.optimize, 0.27 s, imported when a model is first verified)
+    from .analysis.verify import verify
+
+    return verify(*args, **kwargs)
+
 
 _provide(library=_ModeLibrary, simulate=_simulate, check_option_names=_check_option_names,
          check_sensitivity_options=_check_sensitivity_options, resolve_instant=_resolve_instant,

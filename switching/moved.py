@@ -5,7 +5,8 @@ Until then every module lived directly in ``switching/`` (``switching.simulator`
 still works: it gives the module at its new place (the same module object,
 so patching it patches the one the toolkit uses), with a
 :class:`DeprecationWarning` naming the new path. ``switching.model`` and
-``switching.library`` are packages now and re-export what their modules did.
+``switching.library`` are packages now and re-export what their modules did, and so is
+``switching.kernel`` (the compiled kernel, in modules by phase).
 """
 
 from __future__ import annotations
@@ -37,7 +38,6 @@ MOVED = {
     "run_options": "simulate.run_options",
     "preflight": "simulate.preflight",
     "real_values": "simulate.real_values",
-    "kernel": "simulate.kernel.loop",
     "verify": "analysis.verify",
     "sensitivity": "analysis.sensitivity",
     "sensitivity_run": "analysis.sensitivity_run",

@@ -94,6 +94,11 @@ class Sensitivities:
                 "(ask for it with simulate(..., sensitivities=[...]))", p)
         return self.names.index(p)
 
+    def signal(self, trajectory, name: str, p: str) -> np.ndarray:
+        """``∂s/∂p`` of a state or named signal of ``trajectory`` (the run these are of), at every sample
+        (:func:`signal_sensitivity`)."""
+        return signal_sensitivity(trajectory, name, p)
+
 
 @dataclass(frozen=True)
 class Parameters:

@@ -50,7 +50,7 @@ from codegen.source import Argument, FunctionSpec, composed_source, docstring, f
 from ..rules.jumps import jump_pulse
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
-           "decide_tree", "mode_source_and_meta", "shifted_tree"]
+           "decide_tree", "guard_parts", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
 MODE_SOURCE_VERSION = "11"
@@ -542,3 +542,44 @@ def _count_rel(tree) -> int:
     if kind == "not":
         return _count_rel(tree[1])
     return 0
+
+
+FLIPPED = {">=": "<", ">": "<=", "<=": ">", "<": ">=", "==": "!=", "!=": "=="}
+# one-sided parts of an (effective) comparison: (sign, inclusive); the part holds when
+# sign·(left − right) + (band if inclusive else −band) is ≥ 0 (inclusive) or > 0 (strict)
+PARTS = {">=": ((1, True),), ">": ((1, False),), "<=": ((-1, True),), "<": ((-1, False),),
+          "==": ((1, True), (-1, True)), "!=": ((0, False),)}
+
+
+def guard_parts(trees) -> tuple[list, list, list, dict]:
+    """The guards' one-sided *parts* for event detection (the Python scan's :class:`switching.simulate.events.GuardScan`, the kernel's tables).
+
+    Returns ``parts`` — ``(relation, sign, inclusive, guard)`` for every part,
+    a comparison under ``not`` counting reversed — each guard as an expression
+    of its parts' truths ``q[i]`` and as one of its comparisons' truths
+    ``r<k>``, and the operator of each comparison ``k``."""
+    parts, of_parts, of_relations, ops = [], [], [], {}
+
+    def walk(tree, positive, g):
+        kind = tree[0]
+        if kind in ("and", "or"):
+            pairs = [walk(sub, positive, g) for sub in tree[1]]
+            return tuple("(" + f" {kind} ".join(p[j] for p in pairs) + ")" for j in (0, 1))
+        if kind == "not":
+            q, r = walk(tree[1], not positive, g)
+            return f"(not {q})", f"(not {r})"
+        if kind == "const":
+            return repr(bool(tree[1])), repr(bool(tree[1]))
+        _, k, op, _text = tree
+        ops[k] = op
+        first = len(parts)
+        for sign, inclusive in PARTS[op if positive else FLIPPED[op]]:
+            parts.append((k, sign, inclusive, g))
+        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
+        return (f"({mine})" if positive else f"(not ({mine}))"), f"r{k}"
+
+    for g, tree in enumerate(trees):
+        q, r = walk(tree, True, g)
+        of_parts.append(q)
+        of_relations.append(r)
+    return parts, of_parts, of_relations, ops

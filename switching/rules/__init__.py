@@ -4,7 +4,7 @@ floats, integers, booleans, tuples of them and numpy arrays; no Python
 objects, no callables, no allocation of Python containers.
 
 The Python path calls a rule as it is; the compiled kernel
-(:mod:`switching.simulate.kernel`) compiles the very same function object
+(:mod:`switching.kernel`) compiles the very same function object
 (``njit(rule)``), so a fix made here lands in both engines at once and the
 two give the same results to the bit wherever they run the same arithmetic.
 A rule that needs a value only its caller can compute (a guard's margin at a

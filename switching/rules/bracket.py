@@ -2,7 +2,7 @@
 look more closely, and how far it narrows a bracket.
 
 Event detection (:class:`switching.simulate.events.GuardScan` and its
-compiled translation :mod:`switching.simulate.kernel.events`) samples a
+compiled translation :mod:`switching.kernel.events`) samples a
 guard part's margin ``m(τ)`` (signal units; ``τ`` in the model's time unit)
 at points of a step:
 

@@ -1,7 +1,7 @@
 """Brent's maximisation of a function on an interval, as reverse communication.
 
 Event detection (:class:`switching.simulate.events.GuardScan` and its compiled
-translation in :mod:`switching.simulate.kernel.loop`) refines a sampled extremum of a guard
+translation in :mod:`switching.kernel.loop`) refines a sampled extremum of a guard
 part's margin ``m(τ)`` on ``[a, b]``: does the margin reach 0 (the part
 holds) somewhere between the samples?  The search is Brent's minimisation
 (R. P. Brent, *Algorithms for Minimization without Derivatives*, 1973, ch. 5;

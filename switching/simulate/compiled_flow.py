@@ -6,11 +6,12 @@ from __future__ import annotations
 import functools
 
 from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
-from ..library.jit_model import KINDS, CompiledInstant
+from ..library.jit_model import KINDS
 from ..library.jit_model import STATUS as KERNEL_STATUS
 from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
 from .integrators import StiffnessDetected
 from .methods import METHOD_CLASSES
+from .resolution import CompiledInstant
 
 __all__ = ["run_kernel"]
 

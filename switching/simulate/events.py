@@ -10,7 +10,7 @@ briefly — an extremum of a margin that comes within reach of its threshold
 :mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
 :func:`locate_event` bisects the step's interpolant down to adjacent
 floating-point numbers for the first time a guard holds.  The compiled
-kernel (:mod:`switching.simulate.kernel.events`) ports the same search; the
+kernel (:mod:`switching.kernel.events`) ports the same search; the
 rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maximize`.
 """
 
@@ -20,52 +20,15 @@ import functools
 import weakref
 
 from codegen.decision import band
+from codegen.safety import execute
 
+from ..library.compiled import guard_parts
 from ..rules.bracket import BISECTIONS, halve, parabola_peak, peak_in_reach, worth_refining
 from ..rules.maximize import maximize_begin, maximize_next
 
-__all__ = ["GuardScan", "guard_parts", "locate_event"]
+__all__ = ["GuardScan", "locate_event"]
 
-_FLIPPED = {">=": "<", ">": "<=", "<=": ">", "<": ">=", "==": "!=", "!=": "=="}
-# one-sided parts of an (effective) comparison: (sign, inclusive); the part holds when
-# sign·(left − right) + (band if inclusive else −band) is ≥ 0 (inclusive) or > 0 (strict)
-_PARTS = {">=": ((1, True),), ">": ((1, False),), "<=": ((-1, True),), "<": ((-1, False),),
-          "==": ((1, True), (-1, True)), "!=": ((0, False),)}
 _GUARD_FORMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def guard_parts(trees) -> tuple[list, list, list, dict]:
-    """The guards' one-sided *parts* for event detection (see :class:`_GuardForm`).
-
-    Returns ``parts`` — ``(relation, sign, inclusive, guard)`` for every part,
-    a comparison under ``not`` counting reversed — each guard as an expression
-    of its parts' truths ``q[i]`` and as one of its comparisons' truths
-    ``r<k>``, and the operator of each comparison ``k``."""
-    parts, of_parts, of_relations, ops = [], [], [], {}
-
-    def walk(tree, positive, g):
-        kind = tree[0]
-        if kind in ("and", "or"):
-            pairs = [walk(sub, positive, g) for sub in tree[1]]
-            return tuple("(" + f" {kind} ".join(p[j] for p in pairs) + ")" for j in (0, 1))
-        if kind == "not":
-            q, r = walk(tree[1], not positive, g)
-            return f"(not {q})", f"(not {r})"
-        if kind == "const":
-            return repr(bool(tree[1])), repr(bool(tree[1]))
-        _, k, op, _text = tree
-        ops[k] = op
-        first = len(parts)
-        for sign, inclusive in _PARTS[op if positive else _FLIPPED[op]]:
-            parts.append((k, sign, inclusive, g))
-        mine = " and ".join(f"q[{i}]" for i in range(first, len(parts)))
-        return (f"({mine})" if positive else f"(not ({mine}))"), f"r{k}"
-
-    for g, tree in enumerate(trees):
-        q, r = walk(tree, True, g)
-        of_parts.append(q)
-        of_relations.append(r)
-    return parts, of_parts, of_relations, ops
 
 
 class _GuardForm:
@@ -86,7 +49,9 @@ class _GuardForm:
         self.parts = [(k, sign, inclusive) for k, sign, inclusive, _ in parts]  # (relation, sign, inclusive)
         self.by_guard = [[i for i, part in enumerate(parts) if part[3] == g] for g in range(len(cm.guards))]
         # each guard from its parts' truths (for possible(): which guards could hold)
-        self.guard_of_parts = [eval("lambda q: " + expression) for expression in of_parts]  # our own expressions
+        source = "\n".join(f"def guard_{g}(q):\n    return {expression}" for g, expression in enumerate(of_parts))
+        namespace = execute(source, {}, "<hbg guards of their parts>")
+        self.guard_of_parts = [namespace[f"guard_{g}"] for g in range(len(of_parts))]
         ops = [ops.get(k) for k in range(cm.n_relations)]
         truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
                  "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
@@ -109,8 +74,7 @@ class _GuardForm:
                 truths.append(f"abs(d{k}) > b{k}")
         lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
                      f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
-        namespace = {"band": band}
-        exec("\n".join(lines), namespace)  # our own code, built from the guard trees
+        namespace = execute("\n".join(lines), {"band": band}, "<hbg guard parts>", also=frozenset({"band"}))
         self.evaluate = namespace["evaluate"]
         self.source = "\n".join(lines)
         self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]

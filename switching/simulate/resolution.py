@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bondgraph.errors import HybridBondGraphError
 from codegen.runtime import PulseError
 
 from ..model.automaton import A_POSTERIORI
@@ -36,7 +37,7 @@ from ..library.compiled import decide_tree
 from ..errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
 from ..model.modes import Mode
 
-__all__ = ["Instant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
+__all__ = ["Instant", "CompiledInstant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
 
 
 @dataclass(frozen=True)
@@ -423,3 +424,44 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         loop=steps[-10:],
         instant=instant,
     )
+
+
+class CompiledInstant(Instant):
+    """An instant resolved in compiled code.  Its time, modes and states are
+    at hand; the steps through mythical modes and pinnacles (with the fired
+    guards) are replayed in Python on first access — the resolution is
+    deterministic, so the replay passes the same modes."""
+
+    def __init__(self, model, t, mode_before, x_before, mode_after, x_after):
+        self.model = model
+        self.t = t
+        self._before = (mode_before, x_before)
+        self._after = (mode_after, x_after)
+        self._steps = None
+
+    @property
+    def steps(self) -> list:
+        if self._steps is None:
+            if self.model is None:
+                raise HybridBondGraphError(
+                    f"the steps of the instant at t = {self.t!r} (resolved in compiled code) are replayed with the "
+                    "model, and this record was unpickled without it; its time, modes and states are at hand")
+            mode, x = self._before
+            self._steps = resolve_instant(self.model, x, mode, self.t, self.model.max_steps_per_instant).steps
+        return self._steps
+
+    @property
+    def x_before(self) -> np.ndarray:
+        return self._before[1]
+
+    @property
+    def x_after(self) -> np.ndarray:
+        return self._after[1]
+
+    @property
+    def mode_before(self):
+        return self._before[0]
+
+    @property
+    def mode_after(self):
+        return self._after[0]

@@ -209,10 +209,7 @@ class Trajectory:
         instant's two samples, the sensitivity just before and just after it.
         A signal's is its finite part's, by the chain rule
         ``∂s/∂x·∂x/∂p + ∂s/∂p`` in each sample's mode (:mod:`switching.analysis.sensitivity`)."""
-        from ..analysis.sensitivity import signal_sensitivity
-
-        self._sensitivities()
-        return signal_sensitivity(self, name, p)
+        return self._sensitivities().signal(self, name, p)
 
     def event_time_sensitivity(self, k: int, p: str) -> float:
         """``∂t_k/∂p`` of instant ``k`` (``events[k]``) for a parameter ``p``

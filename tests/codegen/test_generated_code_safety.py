@@ -485,3 +485,31 @@ def test_names_like_the_compiled_functions_own_give_the_same_compiled_run(tmp_pa
         write_toml(_renamed(data, names[k % len(names)], new), tmp_path / "renamed.toml")
         run = models.load(tmp_path / "renamed.toml").simulate(0.05, method="RK45-jit", rtol=1e-8)
         assert np.array_equal(run.t, reference.t) and np.array_equal(run.x, reference.x), new
+
+
+#: every place of the packages that runs code, and why it may: each runs what codegen.safety checked
+CHECKED_RUNS = {
+    "codegen/safety.py": 1,  # execute(): compile_checked, then exec
+    "codegen/jit.py": 1,  # a module checked (check_code) before it runs
+    "codegen/native.py": 1,  # the imports of a source check_source passed
+    "switching/analysis/sensitivity.py": 2,  # compile_checked code, run in two namespaces
+}
+
+
+def test_generated_code_runs_only_after_the_check():
+    """No module runs text as code (``exec``/``eval``) but those that run what
+    :mod:`codegen.safety` checked; a new ``exec`` anywhere fails here until it
+    goes through ``codegen.safety.execute``."""
+    import ast
+
+    from checkout import ROOT
+
+    found = {}
+    for package in ("bondgraph", "codegen", "switching", "models"):
+        for path in (ROOT / package).rglob("*.py"):
+            calls = [node for node in ast.walk(ast.parse(path.read_text()))
+                     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                     and node.func.id in ("exec", "eval")]
+            if calls:
+                found[str(path.relative_to(ROOT))] = len(calls)
+    assert found == CHECKED_RUNS

@@ -161,7 +161,7 @@ def test_integer_and_byte_arrays_and_short_circuits():
 
 
 def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
-    """The guard decision the mode functions call (switching.simulate.kernel.loop.decide,
+    """The guard decision the mode functions call (switching.kernel.loop.decide,
     translated from its Python source with the helpers it calls) against the
     Python path's reference, on the cases tests/switching/simulate/test_kernel.py checks the
     kernel with: band edges, impulses, infinities and NaN."""
@@ -170,7 +170,7 @@ def test_the_kernels_comparison_translated_is_codegen_runtime_decide():
 
     from codegen.runtime import Hyper, decide
 
-    source = HEADER + "from switching.simulate.kernel.loop import decide as _dec, larger as _larger\n\n"
+    source = HEADER + "from switching.kernel.loop import decide as _dec, larger as _larger\n\n"
     source += textwrap.dedent(
         """
         def d(op, li, lf, ri, rf, sc, sc2, rtol, atol):
@@ -238,7 +238,7 @@ def call_mode(function, op, which, t, arrays):
 def assert_modes_agree_with_numba(model, trials: int = 60):
     """Every visited mode's function, compiled both ways, gives the same bits
     for every operation on random states (zero pulses a third of the time)."""
-    from switching.simulate.kernel import loop as kernel
+    from switching.kernel import loop as kernel
     from switching.library.jit_model import mode_function_source, native_signature
 
     rng = np.random.default_rng(11)

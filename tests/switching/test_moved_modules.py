@@ -26,8 +26,8 @@ def test_names_are_imported_from_old_paths_in_a_new_process():
             "from switching.model import HybridModel; from switching.library import ModeLibrary;"
             "warnings.simplefilter('ignore');"
             "from switching.simulator import simulate; from switching.modelfile import load_model;"
-            "from switching import kernel; import switching.simulate.driver as d; import switching.simulate.kernel.loop as k;"
-            "assert simulate is d.simulate and kernel is k; print('ok')")
+            "from switching.kernel import run; import switching.simulate.driver as d; import switching.kernel.loop as k;"
+            "assert simulate is d.simulate and run is k.run; print('ok')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert out.stdout.strip() == "ok", out.stderr
 

@@ -1,6 +1,6 @@
 """The compiled (numba) kernel gives the Python methods' results.
 
-The kernel (switching.simulate.kernel.loop) is compiled once per installation (about 25 s,
+The kernel (switching.kernel.loop) is compiled once per installation (about 25 s,
 then loaded from numba's cache); each model compiles only its modes'
 functions (0.3–3.5 s each, then cached in the test session's cache directory)."""
 
@@ -449,7 +449,7 @@ def test_kernel_calls_keep_one_signature_and_reused_workspaces_change_nothing(ba
     type combination would compile the whole kernel again), and workspaces
     reused from call to call — zeroed where read before written — give each
     run the results of a fresh one, bit for bit."""
-    from switching.simulate.kernel import loop as kernel
+    from switching.kernel import loop as kernel
 
     first = ball.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")
     ball.simulate(1, "RK45-jit", rtol=np.float32(1e-5), atol=1e-8, max_step=2, event_samples=np.int64(5),
@@ -463,7 +463,7 @@ def test_kernel_calls_keep_one_signature_and_reused_workspaces_change_nothing(ba
 
 
 def test_a_workspace_smaller_than_the_kernel_needs_is_refused_before_anything_runs(ball):
-    from switching.simulate.kernel import loop as kernel
+    from switching.kernel import loop as kernel
 
     ball.simulate(0.1, "RK45-jit", rtol=1e-6, output="events")
     compiled = ball.compiled_model()

@@ -62,11 +62,11 @@ def test_the_kernel_compiles_the_rules_themselves():
 
     from numba.core.dispatcher import Dispatcher
 
-    from switching.simulate import kernel
+    from switching import kernel
 
     compiled = set()
     for name in kernel.MODULES:
-        module = importlib.import_module(f"switching.simulate.kernel.{name}")
+        module = importlib.import_module(f"switching.kernel.{name}")
         compiled |= {value.py_func for value in vars(module).values() if isinstance(value, Dispatcher)}
     for module in rules.MODULES:
         for name in module.RULES:

@@ -20,8 +20,8 @@ from numba import njit
 
 from codegen import decision
 
-from ... import rules
-from ...rules import bracket, jumps, maximize, steppers, stiffness
+from .. import rules
+from ..rules import bracket, jumps, maximize, steppers, stiffness
 
 __all__ = ["band", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
            "inline", "jit", "jump_pulse", "maximize_begin", "maximize_next", "parabola_peak", "peak_in_reach",

@@ -1,4 +1,4 @@
-"""The model-independent kernel (switching.simulate.kernel.loop) on its own: its rules
+"""The model-independent kernel (switching.kernel.loop) on its own: its rules
 agree with the Python path's references, and a mode's function is called
 through its address with the operations and array sizes it declares."""
 
@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("numba")
 
 from codegen.runtime import Hyper, decide  # noqa: E402
-from switching.simulate.kernel import loop as kernel  # noqa: E402
+from switching.kernel import loop as kernel  # noqa: E402
 from checkout import ROOT
 
 _OPS = ["<", "<=", ">", ">=", "==", "!="]
@@ -112,7 +112,7 @@ def test_unreadable_cache_files_of_the_kernel_are_deleted_and_it_is_compiled_aga
                            env=environment, cwd=root, capture_output=True, text=True, check=True)
     private = Path(probe.stdout.strip())
     private.mkdir(parents=True, exist_ok=True)
-    from switching.simulate.kernel import MODULES
+    from switching.kernel import MODULES
 
     for name in MODULES:  # the kernel's modules' cache files
         for path in installed.glob(f"{name}.*"):

@@ -1,6 +1,9 @@
 """The hybrid kernel of the compiled methods: flow, event location, resolution
 of instants and restart, compiled once per installation by numba, in modules
-by phase:
+by phase.  A wing of its own beneath the mode library: the per-mode functions
+the library generates are written to the kernel's calling convention
+(:data:`.calls.MODE_SIGNATURE`) and call its compiled guard decision, so the
+kernel sits below both the library and the simulation that runs it.
 
 =================  ==========================================================
 module             what
@@ -18,3 +21,11 @@ module             what
 
 #: the kernel's modules, in the order they import one another
 MODULES = ("compiler", "calls", "flow", "events", "instants", "loop")
+
+# the entry and the names of round 2's switching.kernel module (it was one module then)
+from .loop import (  # noqa: E402
+    COLLAPSED as COLLAPSED, DONE as DONE, FULL as FULL, MODE_SIGNATURE as MODE_SIGNATURE, Model as Model,
+    NONFINITE as NONFINITE, OPS as OPS, RESOLVE as RESOLVE, RK_A as RK_A, RK_B as RK_B, RK_C as RK_C, RK_E as RK_E,
+    RK_P as RK_P, STIFF as STIFF, WORKSPACE as WORKSPACE, call as call, decide as decide, larger as larger,
+    run as run, workspace_sizes as workspace_sizes,
+)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .calls import gparts, holds_at
-from ...rules.bracket import BISECTIONS
+from ..rules.bracket import BISECTIONS
 from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, parabola_peak, peak_in_reach,
                        stamp_with_rules, worth_refining)
 from .flow import interp
