@@ -142,6 +142,21 @@ def cache_entries(directory: str | os.PathLike) -> dict[str, list]:
     return entries
 
 
+def write_atomically(path: Path, data: str | bytes) -> None:
+    """``data`` (text or bytes) into ``path`` by a temporary file beside it,
+    moved into place: a reader sees the old file, the new one or none, and a
+    failed write leaves no temporary behind.  Raises ``OSError``."""
+    path = Path(path)
+    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb" if isinstance(data, bytes) else "w") as handle:
+            handle.write(data)
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+
+
 class SourceCache:
     """Generated sources by key, in memory and (optionally) in ``directory``,
     which is kept under ``max_bytes`` (default :func:`default_max_bytes`) by
@@ -202,24 +217,13 @@ class SourceCache:
         self.hits["built"] += 1
         if self.directory is None:
             return
-        tmp = None
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             header = _HEADER.format(key=key, digest=hashlib.sha256(source.encode()).hexdigest())
-            fd, tmp = tempfile.mkstemp(dir=self.directory, prefix=f".{key}.", suffix=".tmp")
-            with os.fdopen(fd, "w") as handle:
-                handle.write(header + source)
-            os.replace(tmp, self._path(key))
-            tmp = None
+            write_atomically(self._path(key), header + source)
         except OSError as exc:  # a read-only or full cache directory only costs speed
             warn_not_writable(self.directory, exc)
             return
-        finally:
-            if tmp is not None:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
         self.evict(keep=key)
 
     def record(self, key: str):

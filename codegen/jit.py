@@ -32,7 +32,7 @@ import warnings
 from pathlib import Path
 
 from . import numba_internals
-from .cache import CacheWarning, warn_not_writable
+from .cache import CacheWarning, warn_not_writable, write_atomically
 from .decision import OPS
 from .safety import PYTHON, Dialect, compile_checked
 
@@ -159,14 +159,7 @@ def _import(name: str, source: str, directory: Path, dialect: Dialect):
         except (OSError, UnicodeDecodeError):
             current = None
         if current != source:
-            fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.", suffix=".tmp")
-            try:
-                with os.fdopen(fd, "w") as handle:
-                    handle.write(source)
-                os.replace(tmp, path)
-            finally:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
+            write_atomically(path, source)
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module

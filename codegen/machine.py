@@ -16,12 +16,11 @@ a directory that cannot be written costs speed only.
 from __future__ import annotations
 
 import os
-import tempfile
 import warnings
 from pathlib import Path
 
 from .backends import NATIVE_ENVIRONMENT, Backend, CompiledFunction, Signature, machine_code_backends
-from .cache import CacheWarning, warn_not_writable
+from .cache import CacheWarning, warn_not_writable, write_atomically
 from .native import Untranslatable
 from .safety import PYTHON, Dialect, GeneratedCodeError
 
@@ -35,14 +34,7 @@ def _write(path: Path, data: bytes) -> None:
     """``data`` into ``path`` by a temporary file moved into place (a reader
     sees the old file, the new one or none).  Raises ``OSError``."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix="." + path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+    write_atomically(path, data)
 
 
 def _kept(backend: Backend, path: Path, symbol: str, signature: Signature, describe: str) -> CompiledFunction | None:

@@ -128,6 +128,19 @@ def _finite(value: str) -> str:
     return ""
 
 
+def _finite_number(value: str, not_a_number: str, not_finite: str) -> float:
+    """``value`` (text) as a finite float; a usage error ``not_a_number`` when it
+    reads as no number, ``not_finite (why)`` when it is NaN or infinite."""
+    try:
+        number = float(value)
+    except ValueError:
+        raise _UsageError(not_a_number) from None
+    problem = _finite(value)
+    if problem:
+        raise _UsageError(f"{not_finite} ({problem})")
+    return number
+
+
 def _parse_sets(items, defaults, others: dict | None = None) -> dict:
     """``--set name=value`` items → parameter values (numbers checked finite).
     A name that is no parameter goes to ``others`` (name → number) when given
@@ -144,14 +157,9 @@ def _parse_sets(items, defaults, others: dict | None = None) -> dict:
             values[name] = value.strip()
             continue
         what = "parameter" if name in defaults else "initial state"
-        try:
-            number = float(value)
-        except ValueError:
-            raise _UsageError(f"{what} {name!r} needs a number, got {value!r}") from None
-        problem = _finite(value)
-        if problem:
-            raise _UsageError(f"--set {name}={value.strip()}: {what} {name!r} must be a finite number, "
-                              f"got {value.strip()!r} ({problem})")
+        number = _finite_number(value, f"{what} {name!r} needs a number, got {value!r}",
+                                f"--set {name}={value.strip()}: {what} {name!r} must be a finite number, "
+                                f"got {value.strip()!r}")
         (values if name in defaults else others)[name] = number
     return values
 
@@ -660,14 +668,8 @@ def _grid_axis(item, defaults) -> tuple[str, list]:
         return name, values
 
     def number(value):
-        try:
-            x = float(value)
-        except ValueError:
-            raise _UsageError(f"--grid {item}: parameter {name!r} needs numbers, got {value.strip()!r}") from None
-        problem = _finite(value)
-        if problem:
-            raise _UsageError(f"--grid {item}: {value.strip()!r} is not a finite number ({problem})")
-        return x
+        return _finite_number(value, f"--grid {item}: parameter {name!r} needs numbers, got {value.strip()!r}",
+                              f"--grid {item}: {value.strip()!r} is not a finite number")
 
     if text.count(":") == 2 and "," not in text:
         start, stop, count = text.split(":")
