@@ -436,6 +436,20 @@ class _Progress:
             sys.stderr.write("\r" + " " * 70 + "\r")
 
 
+def _compile_notice(method: str) -> None:
+    """One line on stderr before a compiled method's first run on this
+    installation, which compiles the kernel first (about half a minute, once)."""
+    from switching.simulate.methods import METHOD_CLASSES
+
+    if method not in METHOD_CLASSES or not METHOD_CLASSES[method].compiled:
+        return
+    from switching.library.jit_model import KERNEL_COMPILE_SECONDS, kernel_compiled
+
+    if not kernel_compiled():
+        print(f"hbg: compiling the simulation kernel for this installation (once, about {KERNEL_COMPILE_SECONDS:.0f} s)",
+              file=sys.stderr, flush=True)
+
+
 def _cmd_list(args) -> int:
     for name in MODELS:
         module = load(name)
@@ -478,6 +492,7 @@ def _cmd_run(args) -> int:
     _check_run(model, t_end, method, options)
     wants_files = bool(args.csv or args.npz or args.plot)
 
+    _compile_notice(method)
     progress = _Progress(t_end)
     failure = None
     status = EXIT_OK

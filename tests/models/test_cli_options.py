@@ -127,3 +127,15 @@ def test_the_summary_says_what_the_kinds_of_modes_at_instants_mean(capsys):
     status, out, _ = hbg(capsys, "run", "falling-rod", "--set", "mu=0.002")
     assert status == 0 and "flowed [s]  at instants" in out
     assert "mythical: passed through without its jump" in out and "start: the mode the instant began in" in out
+
+
+@pytest.mark.parametrize("cached", [False, True])
+def test_a_notice_says_the_kernel_is_compiled_once(capsys, monkeypatch, cached):
+    """A compiled method's first run on an installation compiles the kernel for
+    half a minute: one line says so first (and nothing when it is cached)."""
+    from switching.library import jit_model
+
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda: cached)
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--method", "RK45-jit", "--t-end", 0.5)
+    assert status == 0
+    assert ("compiling the simulation kernel for this installation (once, about" in err) is not cached
