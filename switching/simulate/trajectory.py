@@ -23,6 +23,8 @@ from bondgraph.elements import R, OnePort, Source, Storage
 from bondgraph.energy import energy_function
 from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
 
+from .plotting import plot_trajectory
+
 __all__ = ["Trajectory", "EnergyRecord"]
 
 #: what each kind of a mode passed at an instant means (DESIGN §6), as run summaries explain it
@@ -354,6 +356,14 @@ class Trajectory:
         return "\n".join(lines)
 
     __str__ = summary
+
+    def plot(self, signals=None, **options):
+        """The run as a figure (:func:`switching.simulate.plotting.plot_trajectory`):
+        a panel per signal (default: every state), the flow in each mode shaded,
+        the instants marked, jumps upright where the run kept each instant's
+        before/after samples; ``options`` go to ``plot_trajectory`` (``axes``,
+        ``title``, ``max_instants``).  Returns the matplotlib figure."""
+        return plot_trajectory(self, signals, **options)
 
     # ---------------------------------------------------------------- export
 

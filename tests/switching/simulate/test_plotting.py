@@ -79,3 +79,9 @@ def test_the_command_line_draws_jumps_upright(tmp_path, monkeypatch):
     (instant,) = shown.events
     at = np.flatnonzero(shown.t == instant.t)
     assert len(at) == 2 and shown.signal("tip_vx")[at[0]] != shown.signal("tip_vx")[at[1]]
+
+
+def test_a_trajectory_plots_itself(ball_run):
+    fig = ball_run.plot(["y", "v"], title="ball")
+    assert [ax.get_ylabel() for ax in fig.axes] == ["y", "v"] and fig.axes[0].get_title() == "ball"
+    assert len(ball_run.plot().axes) == len(ball_run.state_names)  # default: every state
