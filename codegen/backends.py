@@ -27,6 +27,7 @@ order with the in-memory and on-disk caches.
 
 from __future__ import annotations
 
+import abc
 import ctypes
 import os
 from dataclasses import dataclass
@@ -108,7 +109,7 @@ class CompiledFunction:
         return f"<CompiledFunction {self.name} by {self.backend} ({self.origin})>"
 
 
-class Backend:
+class Backend(abc.ABC):
     """A way to compile a generated function (see the module).  Subclasses set
     :attr:`name`, :attr:`file_suffix` (their serialised form's file in a cache
     directory, or ``None`` when they keep none) and implement the methods."""
@@ -124,6 +125,7 @@ class Backend:
     def available(self) -> bool:
         return self.unavailable() is None
 
+    @abc.abstractmethod
     def compile(self, source: str, function_name: str, signature: Signature, *, symbol: str,
                 dialect: Dialect = PYTHON, calls=(), directory: str | os.PathLike | None = None) -> CompiledFunction:
         """Function ``function_name`` of module ``source`` compiled as C
@@ -134,7 +136,6 @@ class Backend:
         (native: the source is outside what it translates) and
         :class:`~codegen.safety.GeneratedCodeError` (a source the generator
         never writes)."""
-        raise NotImplementedError
 
     def load(self, data: bytes, symbol: str, signature: Signature | None = None) -> CompiledFunction | None:
         """The function ``symbol`` (of ``signature``) that :meth:`CompiledFunction.serialise`

@@ -50,8 +50,8 @@ class Method:
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        if not cls.compiled:
-            cls.python = cls  # a Python method flows as itself
+        if not cls.compiled and "python" not in vars(cls):
+            cls.python = cls  # a Python method flows as itself (unless it names the method it flows as)
 
     @classmethod
     def step_options(cls) -> tuple:
@@ -65,8 +65,13 @@ class Method:
         ``t_bound`` [s] (``autonomous``: ``fun`` has no explicit dependence
         on ``t`` through inputs, which lets the fixed-step stiffness test act
         on one estimate; ``fun_list``: the same rates on lists of floats, for
-        the fixed-step methods; ``stiffness_check=False``: no stiffness test)."""
-        raise NotImplementedError(f"method {cls.name!r} has no integrator of its own")
+        the fixed-step methods; ``stiffness_check=False``: no stiffness test).
+        A method that flows as another (``python``: a compiled method's flows
+        left to Python, ``auto``'s) takes that one's integrator; :func:`register`
+        refuses a method that has neither."""
+        return cls.python.stepper(fun, t0, y0, t_bound, dt=dt, rtol=rtol, atol=atol, max_step=max_step,
+                                  first_step=first_step, autonomous=autonomous, fun_list=fun_list,
+                                  stiffness_check=stiffness_check)
 
 
 class FixedStepMethod(Method):
@@ -101,10 +106,6 @@ class CompiledMethod(Method):
         if cls.python is not None:
             cls.fixed_step, cls.stiff = cls.python.fixed_step, cls.python.stiff
 
-    @classmethod
-    def stepper(cls, fun, t0, y0, t_bound, **options):
-        return cls.python.stepper(fun, t0, y0, t_bound, **options)
-
 
 def register(cls: type[Method]) -> type[Method]:
     """Add ``cls`` to :data:`METHOD_CLASSES` under ``cls.name`` (a name not
@@ -113,6 +114,9 @@ def register(cls: type[Method]) -> type[Method]:
         raise TypeError(f"a method is a subclass of Method, got {cls!r}")
     if not isinstance(cls.name, str) or not cls.name:
         raise ValueError(f"method class {cls.__name__} has no name")
+    if cls.python is None or (cls.python is cls and vars(Method)["stepper"].__func__ is cls.stepper.__func__):
+        raise TypeError(f"method class {cls.__name__} has no integrator: define stepper, or name the method it "
+                        "flows as (python = ...)")
     if cls.name in METHOD_CLASSES:
         raise ValueError(f"a method {cls.name!r} is registered already ({METHOD_CLASSES[cls.name].__name__})")
     METHOD_CLASSES[cls.name] = cls
@@ -224,6 +228,7 @@ class AutoMethod(Method):
     (:func:`switching.library.jit_model.choose_method`; the statistics say which and why)."""
 
     name, chooses = "auto", True
+    python = RK45Method  # its flows in Python (when it does not choose the compiled kernel)
     adaptive_text = "chooses between 'RK45' and 'RK45-jit' (adaptive)"
 
 

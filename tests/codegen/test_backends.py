@@ -112,3 +112,12 @@ def test_kept_machine_code_is_found_by_its_header_for_the_backends_that_would_be
     assert machine.is_compiled(symbol, tmp_path)
     monkeypatch.setenv("HBG_NATIVE", "0")
     assert not machine.is_compiled(symbol, tmp_path)  # numba's front end never compiled it
+
+
+def test_a_backend_must_compile():
+    """The contract's ``compile`` is abstract: a backend that does not define it cannot be made."""
+    class Incomplete(Backend):
+        name = "incomplete"
+
+    with pytest.raises(TypeError, match="abstract"):
+        Incomplete()

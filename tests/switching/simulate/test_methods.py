@@ -103,6 +103,25 @@ def test_register_refuses_a_taken_name_a_nameless_class_and_what_is_no_method():
         register(Nameless)
     with pytest.raises(TypeError):
         register(object)
+
+
+def test_register_refuses_a_method_with_no_integrator():
+    class Hollow(Method):
+        name = "hollow"
+
+    with pytest.raises(TypeError, match="Hollow has no integrator: define stepper, or name the method it flows as"):
+        register(Hollow)
+    assert "hollow" not in METHOD_CLASSES
+
+
+def test_auto_flows_in_python_as_rk45():
+    """``auto`` chooses RK45 compiled or not; its flows left to Python are RK45's (scipy's solver)."""
+    auto = METHOD_CLASSES["auto"]
+    assert auto.python is METHOD_CLASSES["RK45"] and not auto.compiled
+    stepper = auto.stepper(lambda t, y: -y, 0.0, np.array([1.0]), 1.0, rtol=1e-8, atol=1e-12)
+    assert type(stepper.solver).__name__ == "RK45"
+    t, y = stepper.step()
+    assert y[0] == pytest.approx(np.exp(-t), rel=1e-6)
     assert METHOD_CLASSES["rk4"] is RK4Method
 
 
