@@ -825,6 +825,16 @@ _RUN_SET_HELP = ("override a parameter, or set the initial value of a state by i
                  "repeatable")
 
 
+def _add_steps(p) -> None:
+    """The step options of ``run`` and ``sweep``: ``--dt`` (fixed-step methods) or the tolerances."""
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--dt", type=float, help="step of euler / rk4")
+    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
+    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
+    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
+                   help="the longest step an adaptive method may take, in s")
+
+
 def _add_run(sub) -> None:
     """``hbg run``: its arguments and options."""
     p = sub.add_parser("run", help="simulate a shipped model or a model file: print a summary, write the plot and "
@@ -835,12 +845,7 @@ def _add_run(sub) -> None:
                    "model's)")
     p.add_argument("--method", help="integration method (default: the model's, else RK45); 'auto': the compiled "
                    "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45")
-    group = p.add_mutually_exclusive_group()
-    group.add_argument("--dt", type=float, help="step of euler / rk4")
-    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
-    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
-    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
-                   help="the longest step an adaptive method may take, in s")
+    _add_steps(p)
     p.add_argument("--plot", metavar="FILE.png", help="plot the signals (PNG, SVG or PDF by the extension)")
     p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")
     p.add_argument("--npz", metavar="FILE", help="write the run as numpy arrays (t, x, modes, signals, instants)")
@@ -875,12 +880,7 @@ def _add_sweep(sub) -> None:
     p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of every run in s (default: "
                    "the model's)")
     p.add_argument("--method", help="integration method of every run (default: the model's, else RK45)")
-    group = p.add_mutually_exclusive_group()
-    group.add_argument("--dt", type=float, help="step of euler / rk4")
-    group.add_argument("--rtol", type=float, help="relative tolerance of adaptive methods")
-    p.add_argument("--atol", type=float, help="absolute tolerance of adaptive methods, in the units of the states")
-    p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
-                   help="the longest step an adaptive method may take, in s")
+    _add_steps(p)
     group = p.add_mutually_exclusive_group()
     group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
     group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
