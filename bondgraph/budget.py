@@ -13,22 +13,24 @@ How a step is stopped:
   timer (``setitimer``).  Any handler and timer already set (``pytest-timeout``,
   the user's own alarm) are put back afterwards, the timer with what was left
   of it; an outer alarm due before the budget ends is left to fire itself.
-* in any other thread (a Dask worker thread, a GUI's worker), by a trace
-  function (``sys.settrace``) that checks the clock at each Python call: the
-  step runs a little slower, and any trace function set before (a debugger,
-  coverage) is put back afterwards.
+* in any other thread (a Dask worker thread, a GUI's worker), by a watchdog
+  thread that raises the stop in the step's thread
+  (``PyThreadState_SetAsyncExc``), and raises it again every
+  :data:`_REPEAT` seconds until the step has stopped: Python ignores an
+  exception raised inside a weakref callback, a ``__del__`` or a generator the
+  garbage collector closes, and the step would run on after a single stop.
+  A stop that lands inside the thread's trace or profile function (a
+  debugger, coverage) makes Python remove it: it is put back afterwards.
 
 Either way the stop is an exception (a ``BaseException``, so sympy's own
 ``except Exception`` clauses do not swallow it) raised inside the step.  In
 the main thread it comes even from inside C-level arithmetic on huge
 integers (which checks for signals; sympy gets there when it raises
-``10¹²`` to a large power).  Off the main thread it comes at the next Python
-call: a single C-level operation runs to its end there, which is why
-:mod:`bondgraph.solving` takes the numbers out of a law before solving.  A
-trace function is removed once it raises, so the stop is raised only in a
-plain function (not a generator the garbage collector closes, nor a
-``__del__``, where Python ignores it); a bare ``except:`` inside sympy that
-swallowed it would let the step run on.
+``10¹²`` to a large power).  Off the main thread it comes at the next
+bytecode the interpreter runs: a single C-level operation runs to its end
+there, which is why :mod:`bondgraph.solving` takes the numbers out of a law
+before solving.  A bare ``except:`` inside sympy that swallowed one stop
+meets the next.
 
 The budget, in seconds per step: :data:`SECONDS` when set (``None`` by
 default), else the environment variable ``HBG_SYMBOLIC_BUDGET``, else
@@ -37,7 +39,7 @@ default), else the environment variable ``HBG_SYMBOLIC_BUDGET``, else
 
 from __future__ import annotations
 
-import inspect
+import ctypes
 import math
 import os
 import signal
@@ -60,11 +62,6 @@ SECONDS: float | None = None
 #: after the budget, the alarm repeats at this interval until the step has stopped
 #: (in case a bare ``except:`` inside sympy swallowed the first one)
 _REPEAT = 0.05
-
-
-#: generators and coroutines: a trace function's exception there may be ignored (one closed by the
-#: garbage collector), and a trace function that raises is removed, so the stop waits for a plain call
-_RESUMABLE = inspect.CO_GENERATOR | inspect.CO_COROUTINE | inspect.CO_ASYNC_GENERATOR | inspect.CO_ITERABLE_COROUTINE
 
 
 class OverBudget(DerivationError):
@@ -116,13 +113,35 @@ def run(step: str, function: Callable, *args, **kwargs):
     if seconds is None:
         return function(*args, **kwargs)
     token = object()
+    _quiet_ignored_stops()
     if _can_alarm():
         outcome = _with_alarm(token, seconds, function, args, kwargs)
     else:
-        outcome = _with_trace(token, seconds, function, args, kwargs)
+        outcome = _with_watchdog(token, seconds, function, args, kwargs)
     if outcome is token:
         raise OverBudget(step, seconds)
     return outcome
+
+
+#: the hook that ``_drop_stops`` hands every other unraisable exception to
+_next_unraisable_hook = sys.__unraisablehook__
+
+
+def _quiet_ignored_stops() -> None:
+    """Install :func:`_drop_stops` as ``sys.unraisablehook`` (in front of the
+    hook set now) unless it is there."""
+    global _next_unraisable_hook
+    if sys.unraisablehook is not _drop_stops:
+        _next_unraisable_hook = sys.unraisablehook
+        sys.unraisablehook = _drop_stops
+
+
+def _drop_stops(unraisable) -> None:
+    """A stop that lands where Python ignores exceptions (a weakref callback,
+    a ``__del__``) is sent again; it is not an error to print ("Exception
+    ignored in ...").  Anything else goes on to the hook that was there."""
+    if not isinstance(unraisable.exc_value, _Expired):
+        _next_unraisable_hook(unraisable)
 
 
 def _can_alarm() -> bool:
@@ -169,25 +188,53 @@ def _let_pending_signals_run() -> None:
     """Python runs pending signal handlers on entering a function: this one."""
 
 
-def _with_trace(token, seconds, function, args, kwargs):
-    """The step under a trace function that checks the clock at each call;
-    ``token`` if it ran out of time."""
-    deadline = time.monotonic() + seconds
-    previous = sys.gettrace()
+def _with_watchdog(token, seconds, function, args, kwargs):
+    """The step in this thread, stopped by a watchdog thread once ``seconds``
+    have passed; ``token`` if it ran out of time."""
 
-    def check(frame, event, arg):
-        if (event == "call" and time.monotonic() > deadline and not frame.f_code.co_flags & _RESUMABLE
-                and frame.f_code.co_name != "__del__"):
-            raise _Expired(token)
-        return previous(frame, event, arg) if previous is not None else None
+    class Stop(_Expired):
+        """This step's own stop: a stop pending for another step is not this one."""
 
-    sys.settrace(check)
+    thread = threading.get_ident()
+    lock = threading.Lock()
+    finished = threading.Event()
+
+    def watchdog():
+        if finished.wait(seconds):
+            return
+        while True:
+            with lock:
+                if finished.is_set():
+                    return
+                _raise_in_thread(thread, Stop)
+            if finished.wait(_REPEAT):
+                return
+
+    trace, profile = sys.gettrace(), sys.getprofile()  # a stop inside either removes it: put back after
+    threading.Thread(target=watchdog, name="hbg-symbolic-budget", daemon=True).start()
+    outcome = token
     try:
+        outcome = function(*args, **kwargs)
+    except Stop:
+        outcome = token
+    while True:  # a stop sent before the lock was ours arrives at the latest inside ``finished.set``
         try:
-            return function(*args, **kwargs)
-        finally:
-            sys.settrace(previous)
-    except _Expired as stop:
-        if stop.args[0] is not token:
-            raise
-        return token
+            with lock:
+                finished.set()
+            break
+        except Stop:
+            continue
+    if sys.gettrace() is not trace:
+        sys.settrace(trace)
+    if sys.getprofile() is not profile:
+        sys.setprofile(profile)
+    return outcome
+
+
+def _raise_in_thread(thread: int, exception_class) -> None:
+    """Have ``exception_class`` raised in the thread ``thread`` at its next
+    check of pending events (a call, a backward jump).  A stop is never
+    withdrawn (``PyThreadState_SetAsyncExc(thread, NULL)``): on Python 3.11
+    that leaves the interpreter's pending flag set, and a traced thread then
+    spins on its next call for ever."""
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread), ctypes.py_object(exception_class))
