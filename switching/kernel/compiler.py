@@ -21,10 +21,10 @@ from numba import njit
 from codegen import decision
 
 from .. import rules
-from ..rules import bracket, jumps, maximize, steppers, stiffness
+from ..rules import bracket, instants, jumps, maximize, steppers, stiffness
 
-__all__ = ["band", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
-           "inline", "jit", "jump_pulse", "maximize_begin", "maximize_next", "parabola_peak", "peak_in_reach",
+__all__ = ["band", "decides_as_in_flow", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
+           "inline", "instant_begin", "instant_next", "jit", "jump_pulse", "maximize_begin", "maximize_next", "parabola_peak", "peak_in_reach",
            "pulse_decides", "pulse_holds", "rk4_combine", "stamp_with_rules", "worth_refining"]
 
 jit = njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -45,6 +45,9 @@ rk4_combine = inline(steppers.rk4_combine)
 hermite_cubic = inline(steppers.hermite_cubic)
 jump_pulse = inline(jumps.jump_pulse)
 fixed_stiffness = inline(stiffness.fixed_stiffness)
+instant_begin = inline(instants.instant_begin)
+instant_next = inline(instants.instant_next)
+decides_as_in_flow = inline(instants.decides_as_in_flow)
 band = inline(decision.band)
 pulse_decides = inline(decision.pulse_decides)
 pulse_holds = inline(decision.pulse_holds)

@@ -27,6 +27,7 @@ module                          rules
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
 :mod:`.bracket`                 event bracketing: which margins to refine, bisection to adjacent floats
 :mod:`.stiffness`               the fixed-step methods' stiffness verdict on an estimate of ``|h·λ|``
+:mod:`.instants`                the resolution of an instant: mythical modes, pinnacles, divergence of time
 :mod:`codegen.decision`         the guards' comparison: its round-off band and decision, the larger scale
 ==============================  ===============================================
 """
@@ -34,10 +35,11 @@ module                          rules
 from codegen import decision as decision
 
 from . import bracket as bracket
+from . import instants as instants
 from . import jumps as jumps
 from . import maximize as maximize
 from . import steppers as steppers
 from . import stiffness as stiffness
 
 #: the rule modules (each with its ``RULES``)
-MODULES = (maximize, bracket, steppers, jumps, stiffness, decision)
+MODULES = (maximize, bracket, steppers, jumps, stiffness, instants, decision)

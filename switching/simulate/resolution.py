@@ -36,6 +36,8 @@ from ..model.automaton import A_POSTERIORI
 from ..library.compiled import decide_tree
 from ..errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
 from ..model.modes import Mode
+from ..rules.instants import (CONTINUOUS, DECIDE_AS_FLOW, JUMP_AND_DECIDE, NO_ROOM, PINNACLE_REPEATS,
+                              REPEATS_IN_CHAIN, decides_as_in_flow, instant_begin, instant_next)
 
 __all__ = ["Instant", "CompiledInstant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
 
@@ -355,75 +357,71 @@ def _too_many_message(model, t, steps, max_steps: int) -> str:
 
 
 def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) -> Instant:
-    """Resolve the instant at ``t`` from a priori ``x`` in ``mode``; see the module docstring."""
+    """Resolve the instant at ``t`` from a priori ``x`` in ``mode`` by the rule
+    :mod:`switching.rules.instants` (the passes, the divergences of time, the
+    cap on steps), recording every mode passed; see the module docstring."""
     x = np.array(x, dtype=float)
     steps: list[Step] = []
     instant = Instant(t, steps, model)
-    chain = [mode]
+    modes = [mode]  # the rule knows a mode by its place here
+    number = {mode: 0}
+    chain = np.zeros(max_steps + 1, dtype=np.int64)
+    pin_modes, pin_x, pin_steps = np.zeros(16, dtype=np.int64), np.zeros((16, x.shape[0])), []
     chain_start = 0  # index in `steps` where the current mythical chain began
-    pinnacles: dict[Mode, list] = {}  # (step index, state) of each pass of each pinnacle mode
-    current = mode
     pulses = True  # False while the candidate was reached only by transitions marked pulses=False
-    for n in range(max_steps):
-        cm = model.compiled_mode(current)
-        x_plus = cm.jump(x, t)
-        # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
-        # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
-        quiet_start = n == 0 and not np.any(cm.pulse(x, x_plus))
-        fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet_start, pulses=pulses)
-        if fired:
-            kind = "start" if quiet_start else "mythical"
-            steps.append(Step(current, kind, x, x, tuple(fired)))
-            nxt = _next_mode(model, current, fired)
-            if nxt in chain:
-                first = chain.index(nxt)
-                loop = steps[chain_start + first :]
-                numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
-                raise DivergenceOfTimeError(
-                    _loop_message(t, numbered, f"mode {nxt.describe()} repeats in a chain of mythical modes"),
-                    loop=loop,
-                    instant=instant,
+    state = instant_begin(0, chain)
+    while True:
+        action, current = state[0], modes[state[2]]
+        if action == JUMP_AND_DECIDE:
+            cm = model.compiled_mode(current)
+            x_plus = cm.jump(x, t)
+            # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
+            # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
+            quiet = decides_as_in_flow(state, not np.any(cm.pulse(x, x_plus)))
+            fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet, pulses=pulses)
+            if fired:
+                steps.append(Step(current, "start" if quiet else "mythical", x, x, tuple(fired)))
+        elif action == DECIDE_AS_FLOW:
+            x_before, x = x, x_plus
+            if not np.all(np.isfinite(x)):
+                raise HybridBondGraphError(
+                    f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
+                    + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
                 )
-            chain.append(nxt)
-            current = nxt
+            fired = evaluate_guards(model, cm, x, x, t, as_in_flow=True)  # no jump from here: as flow decides
+            steps.append(Step(current, "pinnacle" if fired else "continuous", x_before, x, tuple(fired)))
+        elif action == CONTINUOUS:
+            return instant
+        elif action == REPEATS_IN_CHAIN:
+            first = state[5]
+            loop = steps[chain_start + first:]
+            numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
+            raise DivergenceOfTimeError(
+                _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes"),
+                loop=loop, instant=instant)
+        elif action == PINNACLE_REPEATS:
+            loop = [s for s in steps if s.kind == "pinnacle"]
+            raise DivergenceOfTimeError(_pinnacle_repeat_message(model, t, steps, pin_steps[state[5]], x),
+                                        loop=loop, instant=instant)
+        else:
+            raise TooManyStepsError(_too_many_message(model, t, steps, max_steps), loop=steps[-10:], instant=instant)
+        target = _next_mode(model, current, fired) if fired else current
+        if target not in number:
+            number[target] = len(modes)
+            modes.append(target)
+        while True:
+            following = instant_next(state, bool(fired), number[target], x, max_steps, chain, pin_modes, pin_x)
+            if following[0] != NO_ROOM:
+                break
+            pin_modes = np.concatenate([pin_modes, np.zeros_like(pin_modes)])
+            pin_x = np.concatenate([pin_x, np.zeros_like(pin_x)])
+        if following[4] > state[4]:  # a pinnacle recorded: its step
+            pin_steps.append(len(steps) - 1)
+        if fired and following[0] == JUMP_AND_DECIDE:
             pulses = any(f.pulses for f in fired)
-            continue
-        x_before, x = x, x_plus
-        if not np.all(np.isfinite(x)):
-            from bondgraph.errors import HybridBondGraphError
-
-            raise HybridBondGraphError(
-                f"the jump into mode {current.describe()} at t = {t:.12g} gave a non-finite state: "
-                + ", ".join(f"{s}={v}" for s, v in zip(model.states, x))
-            )
-        # no jump from here: every guard is decided as flow will decide it
-        fired = evaluate_guards(model, cm, x, x, t, as_in_flow=True)
-        if fired:
-            # a loop of pinnacles repeats a state: compare with this mode's recent passes
-            # (bounded work per pinnacle; longer cycles end at the step cap)
-            for other_index, other_x in pinnacles.get(current, ())[-64:]:
-                if np.allclose(other_x, x, rtol=1e-12, atol=1e-300):
-                    steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
-                    loop = [s for s in steps if s.kind == "pinnacle"]
-                    raise DivergenceOfTimeError(
-                        _pinnacle_repeat_message(model, t, steps, other_index, x),
-                        loop=loop,
-                        instant=instant,
-                    )
-            pinnacles.setdefault(current, []).append((len(steps), x.copy()))
-            steps.append(Step(current, "pinnacle", x_before, x, tuple(fired)))
-            current = _next_mode(model, current, fired)
-            pulses = any(f.pulses for f in fired)
-            chain = [current]
-            chain_start = len(steps)
-            continue
-        steps.append(Step(current, "continuous", x_before, x, ()))
-        return instant
-    raise TooManyStepsError(
-        _too_many_message(model, t, steps, max_steps),
-        loop=steps[-10:],
-        instant=instant,
-    )
+            if action == DECIDE_AS_FLOW:
+                chain_start = len(steps)
+        state = following
 
 
 class CompiledInstant(Instant):

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from switching import rules
+from switching.rules import instants
 from switching.rules.maximize import GOLDEN, maximize_begin, maximize_next
 from checkout import ROOT
 
@@ -285,3 +286,70 @@ def test_the_pulse_python_and_compiled_agree_to_the_bit():
         assert jump_pulse(x, xp, moved, count, 1e-12, 1e-15, d_python) == compiled(x, xp, moved, count, 1e-12,
                                                                                      1e-15, d_compiled)
         assert d_python.tobytes() == d_compiled.tobytes()
+
+
+def _drive_instant(begin, step, script, max_steps, capacity=8, n=2):
+    """Run the instant rule on a script: each entry ``(fired, target, x)`` answers one of its requests."""
+    import numpy as np
+
+    chain = np.zeros(max_steps + 1, dtype=np.int64)
+    pin_modes, pin_x = np.zeros(capacity, dtype=np.int64), np.zeros((capacity, n))
+    state = begin(0, chain)
+    trail = [tuple(state)]
+    for fired, target, x in script:
+        if state[0] not in (instants.JUMP_AND_DECIDE, instants.DECIDE_AS_FLOW):
+            break
+        state = step(state, fired, target, np.array(x, dtype=float), max_steps, chain, pin_modes, pin_x)
+        trail.append(tuple(state))
+    return trail
+
+
+#: scripts of answers (fired, target mode, state) and the rule's last verdict
+_INSTANT_SCRIPTS = {
+    "continuous at once": ([(False, 0, [0, 0]), (False, 0, [1, 0])], "CONTINUOUS", -1),
+    "a mythical chain that returns": ([(True, 1, [0, 0]), (True, 2, [0, 0]), (True, 1, [0, 0])],
+                                      "REPEATS_IN_CHAIN", 1),
+    "mythical then a pinnacle then continuous": (
+        [(True, 1, [0, 0]), (False, 1, [0, 0]), (True, 2, [1, 0]), (False, 2, [1, 0]), (False, 2, [2, 0])],
+        "CONTINUOUS", -1),
+    "a pinnacle repeating its state": (
+        [(False, 0, [0, 0]), (True, 1, [1, 1]), (False, 1, [1, 1]), (True, 0, [2, 2]),
+         (False, 0, [1, 1]), (True, 1, [1, 1 + 1e-14])],
+        "PINNACLE_REPEATS", 0),
+    "pinnacles of other states go on to the cap": (
+        [(False, 0, [0, 0]), (True, 0, [1, 0]), (False, 0, [1, 0]), (True, 0, [2, 0]), (False, 0, [2, 0]),
+         (True, 0, [3, 0])],
+        "TOO_MANY_STEPS", -1),
+}
+
+
+@pytest.mark.parametrize("name", sorted(_INSTANT_SCRIPTS))
+def test_the_instant_rule_passes_mythical_modes_and_pinnacles_and_finds_divergences(name):
+    script, verdict, detail = _INSTANT_SCRIPTS[name]
+    trail = _drive_instant(instants.instant_begin, instants.instant_next, script, max_steps=3)
+    assert trail[-1][0] == getattr(instants, verdict) and trail[-1][5] == detail, trail
+
+
+def test_the_instant_rule_says_when_it_has_no_room_and_changes_nothing():
+    script = [(False, 0, [0, 0]), (True, 1, [1, 0]), (False, 1, [1, 0]), (True, 0, [2, 0])]
+    trail = _drive_instant(instants.instant_begin, instants.instant_next, script, max_steps=10, capacity=1)
+    assert trail[-1][0] == instants.NO_ROOM and trail[-1][1:5] == trail[-2][1:5]
+
+
+def test_the_instant_rule_decides_as_in_flow_only_on_a_first_pass_without_pulse():
+    import numpy as np
+
+    state = instants.instant_begin(3, np.zeros(4, dtype=np.int64))
+    assert instants.decides_as_in_flow(state, True) and not instants.decides_as_in_flow(state, False)
+    later = instants.instant_next(state, True, 4, np.zeros(1), 3, np.zeros(4, dtype=np.int64), np.zeros(1, np.int64),
+                                  np.zeros((1, 1)))
+    assert later[:3] == (instants.JUMP_AND_DECIDE, 2, 4) and not instants.decides_as_in_flow(later, True)
+
+
+def test_the_instant_rule_python_and_compiled_agree():
+    numba = pytest.importorskip("numba")
+    begin, step = numba.njit(instants.instant_begin), numba.njit(instants.instant_next)
+    for name, (script, _, _) in sorted(_INSTANT_SCRIPTS.items()):
+        python = _drive_instant(instants.instant_begin, instants.instant_next, script, max_steps=3)
+        compiled = _drive_instant(begin, step, script, max_steps=3)
+        assert python == compiled, name
