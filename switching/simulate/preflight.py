@@ -62,6 +62,8 @@ def nonfinite_at_start(model, cm, x, t) -> str | None:
         else:
             rates_error = ""
         sides = np.asarray(cm.sides(x, t), dtype=float) if cm.n_sides else np.zeros(0)
+    if np.isfinite(rates).all() and np.isfinite(sides).all():
+        return None  # (the common case, at every flow started: no search through the guards)
     bad_rates = np.flatnonzero(~np.isfinite(rates))
     leaves = [(guard, leaf) for guard in cm.guards for leaf in _comparisons(guard["tree"], [])]
     bad_sides = [(guard, leaf, side, sides[3 * leaf[1] + j])
