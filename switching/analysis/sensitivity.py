@@ -50,7 +50,6 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from bondgraph.errors import UnknownNameError
 from codegen.cache import fingerprint
@@ -58,6 +57,7 @@ from codegen.safety import compile_checked, execute
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
 from ..library.compiled import condition_tree
+from ..library.jacobian import real_gradient
 from ..errors import SimulationError
 
 __all__ = ["Sensitivities", "INITIAL_PREFIX", "SENSITIVITY_SOURCE_VERSION", "derivatives", "parse_names",
@@ -176,25 +176,12 @@ def _arguments(model):
     )
 
 
-def gradient(expression, variables) -> list:
-    """``∂e/∂v`` for each of ``variables``, differentiated with every symbol
-    taken real (so ``|s|`` gives ``sign(s)``, not complex parts)."""
-    e = sp.sympify(expression)
-    free = e.free_symbols
-    if not free & set(variables):
-        return [sp.S.Zero] * len(variables)
-    real = {s: sp.Dummy(s.name, real=True) for s in free}
-    back = {r: s for s, r in real.items()}
-    e = e.xreplace(real)
-    return [sp.diff(e, real[v]).xreplace(back) if v in free else sp.S.Zero for v in variables]
-
-
 def gradients(expressions, model, symbols):
     """``[∂e/∂x (n), ∂e/∂p (len(symbols)), ∂e/∂t, ∂e/∂u (inputs)]`` of every expression, concatenated."""
     variables = (*model.states, *symbols, model.time, *model.input_symbols)
     out = []
     for e in expressions:
-        out += gradient(e, variables)
+        out += real_gradient(e, variables)
     return out
 
 
@@ -239,7 +226,7 @@ class Derivatives:
         def build():
             model = self.model
             me = model.mode_equations(mode)
-            rows = [gradient(me.f[s], (*model.states, *self.symbols)) for s in model.states]
+            rows = [real_gradient(me.f[s], (*model.states, *self.symbols)) for s in model.states]
             n = len(model.states)
             outputs = [d for row in rows for d in row[:n]] + [d for row in rows for d in row[n:]]
             return self._source("jac", outputs, "Jacobians df/dx, df/dp", mode)
@@ -285,7 +272,7 @@ class Derivatives:
             source = model.cache.load(cache_key)
             if source is None:
                 s = model.mode_equations(mode).signal(name).finite
-                outputs = gradient(s, (*model.states, *self.symbols))
+                outputs = real_gradient(s, (*model.states, *self.symbols))
                 source = self._source("grad", outputs, f"Gradient of signal {name!r} (finite part)", mode)
                 model.cache.store(cache_key, source)
             code = compile_checked(source, f"<hbg sensitivity signal {name} {mode.label}>")

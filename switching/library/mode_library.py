@@ -139,6 +139,8 @@ class ModeLibrary:
         name of a block of guard sides → its compiled function (shared by the modes).
     ``symbols_memo``
         expression → (free symbols, whether a law switch's Rate occurs) (:meth:`symbols_of`).
+    ``jacobians``
+        mode → the generated Jacobian of its flow (:func:`switching.library.jacobian.flow_jacobian`).
     """
 
     def __init__(self, model, cache=None):
@@ -157,6 +159,7 @@ class ModeLibrary:
         self.side_block_sources: dict = {}
         self.side_block_functions: dict = {}
         self.symbols_memo: dict = {}
+        self.jacobians: dict = {}
         self._fingerprint = None
 
     @property

@@ -242,14 +242,18 @@ _HAIRER_STAGE = {"RK45": 5, "DOP853": 11, "RK23": None}
 
 
 class Adaptive(_Stepper):
-    """A scipy ``OdeSolver`` driven step by step."""
+    """A scipy ``OdeSolver`` driven step by step (``jac``: the implicit
+    methods' Jacobian ``J(t, y)``, an array or a sparse matrix)."""
 
-    def __init__(self, fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step, stiffness_check=True):
+    def __init__(self, fun, t0, y0, t_bound, method, rtol, atol, max_step, first_step, stiffness_check=True,
+                 jac=None):
         import scipy.integrate as si
 
         super().__init__(fun, t0, y0, t_bound)
         cls = getattr(si, method)
         options = dict(rtol=rtol, atol=atol, max_step=max_step)
+        if jac is not None:  # (Radau, BDF, LSODA: ∂fun/∂y, else estimated by finite differences)
+            options["jac"] = getattr(jac, "dense", jac) if method == "LSODA" else jac  # (LSODA: dense only)
         if first_step is not None:
             options["first_step"] = min(first_step, t_bound - t0)
         self.solver = cls(fun, t0, self.y, t_bound, **options)

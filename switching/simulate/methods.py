@@ -60,18 +60,20 @@ class Method:
 
     @classmethod
     def stepper(cls, fun, t0, y0, t_bound, *, dt=None, rtol=1e-6, atol=1e-9, max_step=float("inf"),
-                first_step=None, autonomous=True, fun_list=None, stiffness_check=True):
+                first_step=None, autonomous=True, fun_list=None, stiffness_check=True, jac=None):
         """The integrator of ``y' = fun(t, y)`` from ``(t0, y0)`` up to
         ``t_bound`` [s] (``autonomous``: ``fun`` has no explicit dependence
         on ``t`` through inputs, which lets the fixed-step stiffness test act
         on one estimate; ``fun_list``: the same rates on lists of floats, for
-        the fixed-step methods; ``stiffness_check=False``: no stiffness test).
+        the fixed-step methods; ``stiffness_check=False``: no stiffness test;
+        ``jac``: ``J(t, y) = ∂fun/∂y``, which the implicit methods use instead
+        of finite differences, the others ignore).
         A method that flows as another (``python``: a compiled method's flows
         left to Python, ``auto``'s) takes that one's integrator; :func:`register`
         refuses a method that has neither."""
         return cls.python.stepper(fun, t0, y0, t_bound, dt=dt, rtol=rtol, atol=atol, max_step=max_step,
                                   first_step=first_step, autonomous=autonomous, fun_list=fun_list,
-                                  stiffness_check=stiffness_check)
+                                  stiffness_check=stiffness_check, jac=jac)
 
 
 class FixedStepMethod(Method):
@@ -82,7 +84,7 @@ class FixedStepMethod(Method):
 
     @classmethod
     def stepper(cls, fun, t0, y0, t_bound, *, dt=None, rtol=1e-6, atol=1e-9, max_step=float("inf"),
-                first_step=None, autonomous=True, fun_list=None, stiffness_check=True):
+                first_step=None, autonomous=True, fun_list=None, stiffness_check=True, jac=None):
         return cls.integrator(fun, t0, y0, t_bound, dt, autonomous, fun_list, stiffness_check)
 
 
@@ -91,8 +93,9 @@ class ScipyMethod(Method):
 
     @classmethod
     def stepper(cls, fun, t0, y0, t_bound, *, dt=None, rtol=1e-6, atol=1e-9, max_step=float("inf"),
-                first_step=None, autonomous=True, fun_list=None, stiffness_check=True):
-        return Adaptive(fun, t0, y0, t_bound, cls.name, rtol, atol, max_step, first_step, stiffness_check)
+                first_step=None, autonomous=True, fun_list=None, stiffness_check=True, jac=None):
+        return Adaptive(fun, t0, y0, t_bound, cls.name, rtol, atol, max_step, first_step, stiffness_check,
+                        jac if cls.stiff else None)
 
 
 class CompiledMethod(Method):

@@ -9,6 +9,7 @@ import functools
 import numpy as np
 
 from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
+from ..library.jacobian import flow_jacobian
 from .events import GuardScan, locate_event
 from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
 from .flow_rates import flow_functions, sides_function
@@ -27,8 +28,9 @@ def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, l
     x_ev)``."""
     fun, state_at, y0 = flow_functions(model, cm, x)
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= list_states else None
+    jac = flow_jacobian(model, cm, x) if method.stiff else None  # the implicit methods' J, derived
     stepper = method.stepper(fun, t, y0, t_end, autonomous=not model.input_symbols, fun_list=on_lists,
-                             **o.stepping.integrator_options())
+                             jac=jac, **o.stepping.integrator_options())
     scan = (GuardScan(cm, sides_function(model, cm), stepper, state_at, t, x, o.rtol_g, o.atol_g, o.samples)
             if cm.guards else None)
     save = recorder.output == "steps"
