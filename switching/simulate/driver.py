@@ -46,6 +46,7 @@ from .compiled_flow import run_kernel
 from .flow_failures import FlowFailure, nonfinite_jump_message
 from .methods import METHOD_CLASSES, METHODS
 from .option_groups import RunOptions
+from .energy_watch import warn_if_created
 from .preflight import nonfinite_at_start
 from .python_flow import flow_python
 from .real_values import ComplexValueError, complex_failure
@@ -355,7 +356,12 @@ class HybridRun:
         recorder = self.recorder
         if self.output == "events" and (not recorder.t or recorder.t[-1] != self.t):
             recorder.sample(self.t, self.x, self.mode, force=True)
-        return recorder.trajectory(stopped=status.value, stats=stats)
+        trajectory = recorder.trajectory(stopped=status.value, stats=stats)
+        if self.method_class.fixed_step and self.output == "steps":  # (adaptive methods control their error)
+            created = warn_if_created(trajectory, self.method, self.options.stepping.dt)
+            if created is not None:
+                trajectory.stats["energy created in flows [J]"] = created
+        return trajectory
 
 
 @dataclasses.dataclass(frozen=True)
