@@ -53,18 +53,37 @@ force is ``q_i·k + b·(v<i> − v<i+1>)``.  ``0_ci`` off imposes zero force:
 with ``b = 0`` the spring is then in derivative causality with ``q_i = 0``
 (a relaxed spring), with ``b > 0`` it relaxes through the damper.
 Automaton ``contact<i>`` (states ``free``, ``touch``), both guards
-**a priori** on the gap (a geometric switch of the compliant model, no
-abstraction of fast dynamics — the contact dynamics is resolved, so no
-restitution and no threshold is needed):
+**a priori** (a switch of the compliant model, no abstraction of fast
+dynamics — the contact dynamics is resolved, so no restitution and no
+threshold is needed).  Undamped (``b = 0``), on the gap:
 
 * ``free → touch`` when ``x<i+1> - x<i> <= 2*r`` (overlap begins; touching
   balls start engaged, with ``q_i = 0`` and no force);
 * ``touch → free`` when ``x<i+1> - x<i> > 2*r`` (the overlap has ended).
 
 ``<=`` includes and ``>`` excludes the tolerance band at zero gap, so each
-state admits exactly one mode (divergence of time holds).  With ``b > 0``
-the damper pulls briefly at the end of each contact (the known Kelvin-Voigt
-artefact; release is on the geometry, not the force).
+state admits exactly one mode (divergence of time holds).
+
+Damped (``b > 0``), a contact that **only pushes**: it lets go when its
+force would pull, not when the overlap ends (a Kelvin–Voigt contact released
+on the geometry pulls the balls together before it lets go, and a heavily
+damped one approaches zero overlap without crossing it, so round-off
+decided its release).  With the *unloaded overlap* ``u_i = q_i + (b/k)·(v<i>
+− v<i+1>)`` (the force over ``k``, [m]):
+
+* ``free → touch`` when ``x<i+1> - x<i> <= 2*r - q_i and u_i >= 0`` (the
+  balls reach the spring's surface, which relaxes through the damper at the
+  rate ``k/b`` while free, and the contact would push);
+* ``touch → free`` when ``u_i < 0`` (the force would become tensile).
+
+At the release the force is zero, so the spring's surface then recedes
+exactly as fast as the balls part and the balls do not touch it again unless
+they approach.  Touching balls at rest carry a force of exactly zero: the
+model's guard tolerance takes lengths below ``LENGTH_ROUNDOFF·r`` as zero,
+so that the integrator's round-off does not make them pull.  Every method
+then gives the same instants (Radau, BDF, LSODA, RK45 where it runs).  The
+effective restitution of a two-ball contact is ``e = −u̇(t*)/v0`` at the
+release ``tan(ω_d t*) = −2ζ√(1−ζ²)/(1−2ζ²)`` (``tests/switching/simulate/test_extremes.py``).
 
 The linear contact has no length scale of its own: with touching balls
 (``gap = 0``) the motion in the time unit ``sqrt(m/k)`` is the same for every
@@ -107,11 +126,16 @@ import sympy as sp
 
 from bondgraph import C, BondGraph, I, One, R, Zero
 from bondgraph.errors import InvalidGraphError
-from switching import Automaton, HybridModel
+from switching import Automaton, HybridModel, Tolerance
 
 from ._common import Range, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "signals_for", "error_estimate"]
+#: a damped contact's guards (lengths: overlaps, the force over k) take lengths below this fraction of
+#: the radius as zero: touching balls at rest carry a force of exactly zero, which the integrator's
+#: round-off (far below this) must not turn into a pull
+LENGTH_ROUNDOFF = 1e-12
+
+__all__ = ["build", "LENGTH_ROUNDOFF", "DEFAULTS", "RUN", "SIGNALS", "signals_for", "error_estimate"]
 
 DEFAULTS = {
     "N": 4,
@@ -176,8 +200,14 @@ def build(**parameters) -> HybridModel:
             else:
                 g.connect(c, spring, name=f"contact{i}")
             contact = Automaton(f"contact{i}", {"free": {f"c{i}": False}, "touch": {f"c{i}": True}}, initial="free")
-            contact.add_transition("free", "touch", touching, "a priori")
-            contact.add_transition("touch", "free", f"x{i + 1} - x{i} > 2*r", "a priori")
+            if damped:  # a contact that only pushes: released when its force would pull, engaged when it pushes
+                unloaded = f"q{i} + b/k*(v{i} - v{i + 1})"  # the force over k [m]
+                contact.add_transition("free", "touch", f"x{i + 1} - x{i} <= 2*r - q{i} and {unloaded} >= 0",
+                                       "a priori")
+                contact.add_transition("touch", "free", f"{unloaded} < 0", "a priori")
+            else:
+                contact.add_transition("free", "touch", touching, "a priori")
+                contact.add_transition("touch", "free", f"x{i + 1} - x{i} > 2*r", "a priori")
         else:
             contact = Automaton(
                 f"contact{i}",
@@ -201,7 +231,9 @@ def build(**parameters) -> HybridModel:
         x += 2 * p["r"] + p["gap"]
     signals = {f"x{i}": f"pos{i}" for i in range(1, n + 1)}
     signals.update({f"v{i}": f"p{i}/m" for i in range(1, n + 1)})
-    return HybridModel(g, automata, model_parameters, initial_state=initial, signals=signals, name="ball_chain")
+    tolerance = Tolerance(atol=LENGTH_ROUNDOFF * p["r"]) if damped else None
+    return HybridModel(g, automata, model_parameters, initial_state=initial, signals=signals, name="ball_chain",
+                       tolerance=tolerance)
 
 
 

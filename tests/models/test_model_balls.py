@@ -376,3 +376,33 @@ def test_default_runs_and_their_error_estimates(module, parameters):
     text = module.error_estimate(trajectory)
     numbers = [float(word) for word in text.replace(",", " ").split() if word[:1].isdigit() and "e" in word]
     assert numbers and max(numbers) < 1e-8, text
+
+
+@pytest.mark.parametrize("N", [3, 6])
+def test_a_heavily_damped_chain_gives_the_same_instants_with_every_method(N):
+    """Issue 30, item 3: compliant contacts k = 1e8 at ζ = 10 only push (released when their force would
+    pull), so every method passes the same instants and gives the same final velocities.  Before, a contact
+    released on the geometry approached zero overlap without crossing it: Radau 4, BDF 10, LSODA 10 instants,
+    RK45 5892."""
+    k, m = 1e8, 1.0
+    model = ball_chain.build(N=N, compliant=True, k=k, b=2 * 10 * math.sqrt(k * m / 2))
+    runs = {method: model.simulate(0.5, method, rtol=1e-8, atol=1e-10, output="events")
+            for method in ("Radau", "BDF", "LSODA", "RK45")}
+    momenta = [model.state_index[s] for s in model.states if s.name in {f"p{i}" for i in range(1, N + 1)}]
+    reference = runs["Radau"]
+    for method, trajectory in runs.items():
+        assert [(e.mode_before, e.mode_after) for e in trajectory.events] == \
+            [(e.mode_before, e.mode_after) for e in reference.events], method
+        np.testing.assert_allclose(trajectory.event_times, reference.event_times, rtol=1e-7, err_msg=method)
+        np.testing.assert_allclose(trajectory.x[-1][momenta], reference.x[-1][momenta], atol=1e-7, err_msg=method)
+        assert sum(trajectory.x[-1][momenta]) == pytest.approx(m * 1.0, abs=1e-12)
+
+
+def test_a_damped_contact_never_pulls():
+    """While engaged the contact force k·q + b·(v1 − v2) is never tensile beyond round-off."""
+    k, m, b = 1e6, 1.0, 2 * 0.7 * math.sqrt(1e6 / 2)
+    model = ball_chain.build(N=2, compliant=True, k=k, b=b)
+    trajectory = model.simulate(0.3, "Radau", rtol=1e-10, atol=1e-13)
+    engaged = np.array([mode.states[0] == "touch" for mode in trajectory.modes])
+    force = k * trajectory.state("q1") + b * (trajectory.signal("v1") - trajectory.signal("v2"))
+    assert engaged.any() and np.min(force[engaged]) > -1e-6 * np.max(force)

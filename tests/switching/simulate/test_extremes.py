@@ -356,12 +356,17 @@ K_VALUES = [1e2, 1e4, 1e6, 1e8, 1e10]
 
 
 def kelvin_voigt_velocities(k, b, m=1.0, v0=1.0):
-    """Exact velocities after a two-ball Kelvin–Voigt contact released on the
-    geometry (overlap back to 0): effective restitution
-    ``exp(−ζπ/√(1−ζ²))``, ζ = b/(2√(μk)), μ = m/2."""
+    """Exact velocities after a two-ball Kelvin–Voigt contact that only pushes
+    (released when its force ``k·q + b·q̇`` reaches 0, issue 30): the overlap
+    ``q = (v0/ω_d)·e^(−ζωt)·sin(ω_d t)`` (ω = √(k/μ), ζ = b/(2√(μk)), μ = m/2,
+    ω_d = ω√(1−ζ²)) is released at ``tan(ω_d t*) = −2ζ√(1−ζ²)/(1−2ζ²)``, with
+    the effective restitution ``e = −q̇(t*)/v0``."""
     mu = m / 2
-    zeta = b / (2 * math.sqrt(mu * k))
-    e = math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
+    omega, zeta = math.sqrt(k / mu), b / (2 * math.sqrt(mu * k))
+    root = math.sqrt(1 - zeta**2)
+    release = (math.pi - math.atan2(2 * zeta * root, 1 - 2 * zeta**2)) / (omega * root)
+    angle = omega * root * release
+    e = -math.exp(-zeta * omega * release) * (math.cos(angle) - zeta / root * math.sin(angle))
     return np.array([(1 - e) / 2 * v0, (1 + e) / 2 * v0])
 
 
@@ -449,9 +454,9 @@ def test_fixed_step_on_a_stiff_damped_contact_stops_with_a_stiffness_error(metho
     """dt = 1e-4 s against a relaxation rate k/b ≥ 1e6 /s in the mode after
     separation (|h·λ| ≥ 100): the explicit fixed-step methods stop with a
     StiffnessError within the first steps of that mode, naming q1 — rk4 with
-    |h·λ| to 1e-3 (its estimate is exact for a mode that dominates k1),
-    Euler with a lower bound, as soon as the unstable mode dominates its
-    rates — instead of blowing up.  At k = 1e10 the contact itself is beyond
+    |h·λ| to 20 % (a lower bound: the relaxing spring shares k1 with the
+    positions' rates), Euler with a lower bound, as soon as the unstable mode
+    dominates its rates — instead of blowing up.  At k = 1e10 the contact itself is beyond
     the limit (ω·dt = 14): the error comes at the impact, in the contact
     mode."""
     model = ball_chain.build(N=2, compliant=True, k=k, b=1.0)
@@ -470,8 +475,9 @@ def test_fixed_step_on_a_stiff_damped_contact_stops_with_a_stiffness_error(metho
         assert [e.mode_after.label for e in partial.events] == ["touch", "free"]
         assert partial.events[-1].t <= error.t < partial.events[-1].t + 10e-4  # within 10 steps
         assert error.h_lambda <= 1e-4 * k * (1 + 1e-9)
-        if method == "rk4":
-            assert error.h_lambda == pytest.approx(1e-4 * k, rel=1e-3)
+        if method == "rk4":  # released at zero force, the spring relaxes as fast as the balls part (q̇ = v_rel):
+            # its mode shares k1 with the positions' rates, and rk4's estimate is a lower bound (83–84 % here)
+            assert 0.8 * 1e-4 * k <= error.h_lambda
 
 
 @pytest.mark.parametrize("method, dt, h_lambda", [
