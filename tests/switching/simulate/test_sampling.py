@@ -209,3 +209,42 @@ def test_the_sampling_options_are_checked_and_named():
         ball.simulate(1.0, "RK45", samples=10**11)
     assert info.value.option == "samples"
     assert ball.derivation_count == 0  # refused before anything ran
+
+
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit"])
+def test_samples_at_an_initial_instant_order_its_rows_before_after_then_the_time(method):
+    """Released on the floor moving down (p = −2 kg·m/s): the instant at t0
+    bounces it (p⁺ = −e·p⁻ = 1.6).  With ``samples=N`` the rows at t0 are the
+    instant's before and after, then the time t0 itself with the state after
+    it; with ``t_eval`` only the last."""
+    model = bouncing_ball.build(y0=0.0, v0=-2.0)
+    model.simulate(0.3, "RK45")  # both modes visited
+    run = model.simulate(0.3, method, samples=4, rtol=1e-10, atol=1e-12)
+    p = run.state_names.index("p")
+    assert len(run.t) == 4 + 2 and list(run.t[:3]) == [0.0, 0.0, 0.0] and run.event_index == [1]
+    assert [run.x[k][p] for k in range(3)] == [-2.0, pytest.approx(1.6, abs=1e-15), pytest.approx(1.6, abs=1e-15)]
+    np.testing.assert_array_equal(run.without_instants().t, np.linspace(0.0, 0.3, 4))
+    times = model.simulate(0.3, method, t_eval=[0.0, 0.3], rtol=1e-10, atol=1e-12)
+    assert list(times.t) == [0.0, 0.3] and times.x[0][p] == pytest.approx(1.6, abs=1e-15)
+
+
+def test_samples_without_kept_instants_is_the_uniform_times_alone():
+    run = bouncing_ball.build().simulate(2.5, "RK45", samples=11, keep_instants=False)
+    np.testing.assert_array_equal(run.t, np.linspace(0.0, 2.5, 11))
+    assert run.instant_count == 4 and run.events == [] and run.event_index == []
+    assert len(run.at_instants().t) == 0 and run.at_instants().x_before.shape == (0, 2)
+
+
+def test_a_failed_runs_partial_trajectory_has_the_times_reached_then_where_it_failed():
+    """The diode circuit with I_th = 100 has no consistent mode at the opening
+    (t = 0.5 s, a divergence of time): the error's trajectory holds the
+    requested times before it, then the state where the run stopped."""
+    from models import diode_circuit
+    from switching.errors import DivergenceOfTimeError
+
+    times = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(DivergenceOfTimeError) as info:
+        diode_circuit.build(I_th=100.0).simulate(1.0, "RK45", t_eval=times)
+    partial = info.value.trajectory
+    np.testing.assert_array_equal(partial.t[:-1], times[times < 0.5])
+    assert partial.t[-1] == pytest.approx(0.5, abs=1e-12) and partial.sampling == "times"
