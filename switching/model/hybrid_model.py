@@ -432,7 +432,8 @@ class HybridModel:
           solver's own steps, so few on a smooth flow (read a peak between
           them with ``samples=`` or ``t_eval=``); ``output="events"``: only
           the start, the instants' rows and the end;
-        * ``t_eval=ts``: exactly one row per requested time, ``trajectory.t
+        * ``t_eval=ts`` (times [s] in ``[t0, t_end]``): exactly one row per
+          requested time, ``trajectory.t
           == np.sort(ts)``, the states there read from the steps' dense
           output (as scipy's ``solve_ivp``), for the Python and compiled
           methods alike.  A time equal to an instant's gets the state just
@@ -448,7 +449,8 @@ class HybridModel:
           instant: before, after, then the time's row, equal to after) —
           dense uniform rows with the jumps upright, for plots;
           ``trajectory.without_instants()`` leaves the ``N`` times.  ``hbg run
-          --samples N --with-instants`` writes exactly these rows.
+          --samples N --with-instants`` writes exactly these rows, ``hbg run
+          --samples N`` their ``N`` times (``t_eval=linspace(0, t_end, N)``).
 
         ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
