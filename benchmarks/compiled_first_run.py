@@ -3,8 +3,8 @@
     python benchmarks/compiled_first_run.py [--model falling-rod] [--repeats 1]
 
 Each row is one new process running ``hbg run MODEL`` with the CLI's
-defaults (``--samples 500``: the t_eval output, from the kernel's dense
-output on the compiled path), timed from outside (wall time of the whole
+defaults (``--samples 500``: ``simulate(..., samples=500)``, from the
+kernel's dense output on the compiled path), timed from outside (wall time of the whole
 command: Python start-up, imports, derivations, compilation, the run, the
 summary).  States of the caches:
 
@@ -99,8 +99,7 @@ if {compiled}:
     from switching.library.jit_model import kernel
     kernel()
     mark("kernel module")
-import numpy as np
-model.simulate({t_end}, {method!r}, t_eval=np.linspace(0.0, {t_end}, 500))
+model.simulate({t_end}, {method!r}, samples=500)  # hbg run's default rows
 mark("run done")
 print(", ".join(f"{{name}} {{seconds:.3f}}" for name, seconds in marks))
 """

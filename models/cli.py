@@ -21,12 +21,18 @@ takes a MODEL it also takes the path of a model file (``hbg run my.toml``;
 see :mod:`switching.files.modelfile`); ``--set`` then overrides the file's
 parameters, and the file's ``[run]`` table gives the default run.
 
-Output of ``hbg run``: ``--samples N`` (default 500, at least 2) writes at
-most ``N`` rows to the CSV/NPZ/plot, at ``N`` equally spaced times from 0 to
-``t_end`` (a run that ends early: the times it reached and its last state).
-``--with-instants`` adds the two samples (just before, just after) of every
-instant, so each instant adds two rows.  ``--samples 0`` writes every
-integrator step and every instant (no cap).  Two outputs may not name one
+Output of ``hbg run``: ``--samples N`` (default 500, at least 2) runs
+``simulate(..., samples=N)``: the ``N`` equally spaced times
+``linspace(0, t_end, N)`` and, at every instant, its two rows (just before,
+just after).  The plot draws all of them (jumps upright); the CSV/NPZ files
+hold the ``N`` times (``trajectory.without_instants()``; a run that ends
+early: the times it reached and its last state), and with
+``--with-instants`` the instants' rows too — exactly the rows of
+``model.simulate(t_end, samples=N)`` in Python (whose own default,
+``output="steps"``, is every integrator step; ``t_eval=linspace(0, t_end,
+N)`` gives the ``N`` rows alone).  A time that falls on an instant holds the
+state after it.  ``--samples 0`` writes every integrator step and every
+instant (no cap; Python's default).  Two outputs may not name one
 file.  ``hbg sweep`` makes at most :data:`MAX_RUNS` runs.
 ``--no-keep-instants`` does not keep the record of each instant (memory stays flat on long runs; the summary
 then only counts instants).  ``--on-zeno stop`` ends a Zeno run at the
@@ -226,7 +232,7 @@ def _run_options(args, module) -> tuple[float, str, dict]:
 
 #: the command line's flag for an option of ``simulate``
 _FLAGS = {"dt": "--dt", "rtol": "--rtol", "atol": "--atol", "max_step": "--max-step", "max_steps": "--max-steps",
-          "t_end": "--t-end", "t_eval": "--samples", "x0": "--set"}
+          "t_end": "--t-end", "samples": "--samples", "x0": "--set"}
 
 
 def _check_run(model, t_end, method, options) -> None:
@@ -243,21 +249,16 @@ def _check_run(model, t_end, method, options) -> None:
         raise _UsageError(f"{flag}: {exc}" if flag else str(exc)) from None
 
 
-def _sample_times(model, t_end, samples):
-    """The ``--samples`` times (``None`` for every step), refused before they
-    are made when they would not fit (:func:`switching.simulate.run_options.check_output_size`)."""
-    import numpy as np
-
+def _check_samples(model, samples) -> None:
+    """``--samples`` refused before anything runs when its rows would not fit
+    (:func:`switching.simulate.run_options.check_output_size`)."""
     from switching.errors import OptionError
     from switching.simulate.run_options import check_output_size
 
-    if not samples:
-        return None
     try:
         check_output_size(samples, len(model.states), "--samples")
     except OptionError as exc:
         raise _UsageError(str(exc)) from None
-    return np.linspace(0.0, t_end, samples)
 
 
 # ------------------------------------------------------------------ output files
@@ -322,36 +323,20 @@ def _check_output(option: str, path: str, plot: bool = False) -> None:
         raise _UsageError(f"{option} {path}: not writable (permission denied)")
 
 
-def _output_rows(trajectory, t_eval, with_instants: bool):
-    """The trajectory restricted to what the output files hold: the samples at
-    the times ``t_eval`` and the last state (where a run that ended early
-    stopped), plus the two samples of every instant when ``with_instants``;
-    ``t_eval=None``: every sample.  At most ``len(t_eval)`` rows without
-    instants: a run that ends early misses the sample at ``t_end``."""
-    if t_eval is None:
+def _output_rows(trajectory, with_instants: bool, ended_early: bool):
+    """The rows the data files hold: those of a run with ``samples=N`` (the
+    times and the instants' pairs) when ``with_instants``, else its ``N``
+    times alone (:meth:`Trajectory.without_instants`); a run that
+    ``ended_early`` keeps its last state (where it stopped), which replaces a
+    row at that time.  A run of every step (``--samples 0``): every row."""
+    if with_instants or trajectory.sampling != "samples" or not trajectory.event_index:
         return trajectory
     n = len(trajectory.t)
-    event_rows = set()
-    for k in trajectory.event_index:
-        event_rows.update((k - 1, k))
-    plain = [k for k in range(n) if k not in event_rows]
-    # of samples at one time (the start before and after the initial instant) keep the last
-    keep = {k for k, nxt in zip(plain, plain[1:] + [None]) if nxt is None or trajectory.t[nxt] != trajectory.t[k]}
-    if with_instants:
-        keep |= event_rows & set(range(n))
-    elif n and n - 1 not in keep:  # the run ended at an instant: its last state replaces a sample at that time
-        keep = {k for k in keep if trajectory.t[k] != trajectory.t[n - 1]} | {n - 1}
-    rows = sorted(keep)
-    if len(rows) == n:
-        return trajectory
-    position = {k: j for j, k in enumerate(rows)}
-    out = object.__new__(type(trajectory))  # a shallow copy that keeps the model (pickling drops it)
-    out.__dict__.update(trajectory.__dict__)
-    out.t = trajectory.t[rows]
-    out.x = trajectory.x[rows]
-    out.modes = [trajectory.modes[k] for k in rows]
-    out.event_index = [position[k] for k in trajectory.event_index if k in position] if with_instants else []
-    return out
+    dropped = set(trajectory.event_index) | {k - 1 for k in trajectory.event_index}
+    rows = [k for k in range(n) if k not in dropped]
+    if ended_early and n and n - 1 not in rows:  # the run stopped at an instant: its last state is the last row
+        rows = [k for k in rows if trajectory.t[k] != trajectory.t[n - 1]] + [n - 1]
+    return trajectory.take(rows)
 
 
 def _write_outputs(args, trajectory, signals, plotted=None) -> list[str]:
@@ -483,9 +468,9 @@ def _cmd_run(args) -> int:
             raise _UsageError(f"unknown signal {s!r}; signals: {', '.join(model.signal_names)}")
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
-    t_eval = _sample_times(model, t_end, args.samples)
-    if t_eval is not None:
-        options["t_eval"] = t_eval
+    if args.samples:
+        _check_samples(model, args.samples)
+        options["samples"] = args.samples
     options.update(on_zeno=args.on_zeno, keep_instants=args.keep_instants)
     if not args.stiffness_check:
         options["stiffness_check"] = False
@@ -531,12 +516,12 @@ def _cmd_run(args) -> int:
         except Exception as exc:  # noqa: BLE001
             print(f"hbg: warning: no error estimate ({exc})", file=sys.stderr)
     if wants_files:
-        out = _output_rows(trajectory, t_eval, args.with_instants)
-        if out is not trajectory:
+        out = _output_rows(trajectory, args.with_instants, failure is not None or trajectory.stopped is not None)
+        if args.samples:
             print(f"  output: {len(out.t)} rows at --samples {args.samples} times"
                   + ("" if args.with_instants or not trajectory.event_index
                      else f" (--with-instants adds 2 rows for each of the {len(trajectory.event_index)} instants)"))
-        plotted = _output_rows(trajectory, t_eval, True) if args.plot else None  # jumps drawn upright
+        plotted = trajectory  # the times and the instants' pairs: jumps drawn upright
         if _write_outputs(args, out, signals, plotted) and status == EXIT_OK:
             status = EXIT_FAILED
     return status
@@ -850,11 +835,14 @@ def _add_run(sub) -> None:
     p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")
     p.add_argument("--npz", metavar="FILE", help="write the run as numpy arrays (t, x, modes, signals, instants)")
     p.add_argument("--signals", help="comma-separated signals to plot/save")
-    p.add_argument("--samples", type=int, default=500,
-                   help="write at most this many rows, at equally spaced times (default 500, at least 2; "
-                        "0: every step and every instant)")
+    p.add_argument("--samples", type=int, default=500, metavar="N",
+                   help="sample the run at this many equally spaced times from 0 to t_end, plus the two rows "
+                        "(before, after) of every instant: simulate(..., samples=N) (default 500, at least 2; "
+                        "0: every step and every instant, Python's default output='steps'); the plot draws "
+                        "them all, the data files the N times (a time on an instant: the state after it)")
     p.add_argument("--with-instants", action="store_true",
-                   help="also write the two samples (before, after) of every instant")
+                   help="also write the two rows (before, after) of every instant to the data files: exactly the "
+                        "rows of simulate(..., samples=N)")
     p.add_argument("--keep-instants", action=argparse.BooleanOptionalAction, default=True,
                    help="keep the record of every instant (default); --no-keep-instants keeps memory flat "
                         "on long runs, the summary then only counts them")

@@ -10,10 +10,10 @@ Example — the bouncing ball's restitution from its heights::
 
     >>> import numpy as np
     >>> from models import bouncing_ball
-    >>> from switching import fit, sample_indices
+    >>> from switching import fit
     >>> times = np.linspace(0.05, 1.5, 30)
     >>> truth = bouncing_ball.build(e=0.7).simulate(1.5, "RK45", t_eval=times, rtol=1e-10, atol=1e-12)
-    >>> heights = truth.state("y")[sample_indices(truth, times)]
+    >>> heights = truth.state("y")  # t_eval: one row per time, exactly
     >>> result = fit(bouncing_ball.build, {"y": (times, heights)}, {"e": 0.6})
     >>> round(result.values["e"], 6)
     0.7
@@ -81,9 +81,12 @@ class FitResult:
 
 
 def sample_indices(trajectory, times) -> np.ndarray:
-    """The sample index of each of ``times`` in a run with ``t_eval``
-    covering them: the last sample at exactly that time that is not one of
-    an instant's two samples (at an instant's time, the state after it)."""
+    """The row index of each of ``times`` [s] in a run whose rows hold them
+    (``t_eval`` covering them, or ``samples=N`` with them among its times):
+    the last row at exactly that time that is not one of an instant's two
+    rows — at an instant's time, the state after it.  With ``t_eval=times``
+    itself the rows are exactly ``times`` and this is ``arange(len(times))``;
+    it picks a subset's rows (``fit`` runs on the union of the data's times)."""
     times = np.asarray(times, dtype=float).ravel()
     instant = set(trajectory.event_index) | {k - 1 for k in trajectory.event_index}
     candidates = np.array([k for k in range(len(trajectory.t)) if k not in instant], dtype=int)

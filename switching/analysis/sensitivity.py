@@ -99,6 +99,10 @@ class Sensitivities:
         (:func:`signal_sensitivity`)."""
         return signal_sensitivity(trajectory, name, p)
 
+    def take(self, rows) -> "Sensitivities":
+        """The sensitivities at the samples ``rows`` (indices) only."""
+        return Sensitivities(self.names, self.S[list(rows)], self.event_times)
+
 
 @dataclass(frozen=True)
 class Parameters:

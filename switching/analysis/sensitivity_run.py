@@ -12,7 +12,8 @@ import numpy as np
 
 from ..errors import SimulationError
 from .sensitivity import DEFAULT_ATOL, DEFAULT_RTOL, Parameters, Sensitivities, derivatives, gradients, parse_names
-from ..simulate.driver import simulate
+from ..simulate.driver import HybridRun, option_defaults
+from ..simulate.run_options import checked_options
 
 __all__ = ["sensitivity_method", "simulate_with_sensitivities"]
 
@@ -35,17 +36,24 @@ def sensitivity_method(method, options) -> str:
 def simulate_with_sensitivities(model, t_end, method, names, options, rtol=None, atol=None):
     """``model.simulate(t_end, method, **options)`` and the sensitivities of
     its run with respect to ``names`` (see the module docstring); the
-    trajectory returned answers :meth:`~switching.simulate.trajectory.Trajectory.sensitivity`."""
+    trajectory returned answers :meth:`~switching.simulate.trajectory.Trajectory.sensitivity`.
+    They are integrated along every sample the run recorded (its start, the
+    instants' before and after states, the requested times), then read at
+    the rows of its sampling (``t_eval``: the requested times only)."""
     method = sensitivity_method(method, options)
     parameters = parse_names(model, names)
     options = dict(options)
     options["keep_instants"] = True
-    trajectory = simulate(model, t_end, method, **options)
+    run = HybridRun(model, checked_options(model, t_end, method, {**option_defaults(), **options}))
+    recorded = run.execute(all_rows=True)
     started = time.perf_counter()
     stiff = method in _STIFF
-    trajectory.sensitivities = _Run(model, trajectory, parameters, options, stiff,
-                                    DEFAULT_RTOL if rtol is None else float(rtol),
-                                    DEFAULT_ATOL if atol is None else float(atol)).compute()
+    recorded.sensitivities = _Run(model, recorded, parameters, options, stiff,
+                                  DEFAULT_RTOL if rtol is None else float(rtol),
+                                  DEFAULT_ATOL if atol is None else float(atol)).compute()
+    rows, event_index = run.recorder.rows(complete=recorded.stopped is None)
+    trajectory = recorded.take(rows)
+    trajectory.event_index = event_index
     trajectory.stats["sensitivities"] = ", ".join(parameters.names)
     trajectory.stats["sensitivity wall time [s]"] = round(time.perf_counter() - started, 6)
     return trajectory

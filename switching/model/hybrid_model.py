@@ -423,15 +423,43 @@ class HybridModel:
         every step; inputs must be expressions of ``t``, ExpressionInput);
         ``"auto"``: ``"RK45-jit"`` when its compilation is cached or paid for
         by the run's expected length, else ``"RK45"`` (``stats`` says which
-        and why).  Output:
-        every step (default), ``output="events"`` (instants only) or
-        ``t_eval=[...]``.  ``on_zeno="raise"`` (default) or ``"stop"``.
+        and why).
+
+        Output (the trajectory's rows; ``trajectory.sampling`` says which):
+
+        * default, ``output="steps"``: every integrator step, the start, the
+          end, and every instant's two rows (just before, just after) — the
+          solver's own steps, so few on a smooth flow (read a peak between
+          them with ``samples=`` or ``t_eval=``); ``output="events"``: only
+          the start, the instants' rows and the end;
+        * ``t_eval=ts`` (times [s] in ``[t0, t_end]``): exactly one row per
+          requested time, ``trajectory.t
+          == np.sort(ts)``, the states there read from the steps' dense
+          output (as scipy's ``solve_ivp``), for the Python and compiled
+          methods alike.  A time equal to an instant's gets the state just
+          after it (right-continuous: the instant has happened at its time);
+          the states just before and after every instant are
+          ``trajectory.at_instants()`` (and ``trajectory.events``).  A run
+          that stops before ``t_end`` (``on_zeno="stop"``, or the partial
+          run of an error) has the times it reached, then the state where it
+          stopped;
+        * ``samples=N`` (``hbg run``'s default, ``N = 500``): the ``N``
+          times ``linspace(t0, t_end, N)`` as with ``t_eval``, and every
+          instant's before and after rows, in time order (at a time on an
+          instant: before, after, then the time's row, equal to after) —
+          dense uniform rows with the jumps upright, for plots;
+          ``trajectory.without_instants()`` leaves the ``N`` times.  ``hbg run
+          --samples N --with-instants`` writes exactly these rows, ``hbg run
+          --samples N`` their ``N`` times (``t_eval=linspace(0, t_end, N)``).
+
+        ``on_zeno="raise"`` (default) or ``"stop"``.
         ``progress``: a callable receiving the time after every step.
         ``keep_instants=False`` keeps neither the instants' records nor their
         samples (only their count, ``trajectory.instant_count``, and the time
         spent in each mode, ``time_in_modes()``): with ``t_eval`` or
         ``output="events"`` the memory of a long run then stays bounded.
-        ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run.
+        ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run;
+        ``samples`` a whole number ≥ 2, not together with ``t_eval``.
         ``max_steps`` (default 10 000 000) bounds the steps of a run: options
         implying more (``(t_end − t0)/dt``, ``(t_end − t0)/max_step``), a
         step below the resolution of ``t`` (``t + dt == t``), too many guard

@@ -40,10 +40,11 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             return None, t, x, mode, 0, "initial"
         steps += result.steps
         saved = 0
+        keep = recorder.requested if dense is not None else functools.partial(recorder.sample, force=True)
         if result.n_events:
             for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
                 for sample in result.samples(saved, at):
-                    recorder.sample(*sample, force=True)
+                    keep(*sample)
                 saved = at
                 t, x, mode = t_ev, x_after, after
                 instant = CompiledInstant(model, t_ev, before, x_before, after, x_after)
@@ -54,7 +55,7 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         initial = False
         if result.n_saved > saved:
             for sample in result.samples(saved, result.n_saved):
-                recorder.sample(*sample, force=True)
+                keep(*sample)
         if o.progress is not None:
             o.progress(result.t)
         t, x, mode = result.t, result.x, result.mode

@@ -110,6 +110,7 @@ def simulate(
     mode=None,
     output: str = "steps",
     t_eval=None,
+    samples: int | None = None,
     max_step: float = np.inf,
     first_step: float | None = None,
     on_zeno: str = "raise",
@@ -125,7 +126,7 @@ def simulate(
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.simulate.run_options`)."""
     keywords = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, mode=mode, output=output, t_eval=t_eval,
-                    max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
+                    samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
     return HybridRun(model, checked_options(model, t_end, method, keywords)).execute()
@@ -164,7 +165,8 @@ class HybridRun:
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
         self.recorder = Recorder(model, self.output, options.output.t_eval, options.output.keep_instants,
-                                 None if projected is None else (float(t0), *projected))
+                                 None if projected is None else (float(t0), *projected),
+                                 with_instants=options.output.samples is not None)
         self.recorder.start(t0)
         self.zeno = ZenoWatch(events.zeno_window, t_end,
                                1e-9 * (t_end - t0) if events.zeno_min_gap is None else events.zeno_min_gap)
@@ -314,8 +316,11 @@ class HybridRun:
                 return Status.ZENO
         return Status.FINISHED
 
-    def execute(self) -> Trajectory:
-        """Run to ``t_end``; the trajectory, or an error carrying it (Ctrl-C: :class:`SimulationInterrupted`)."""
+    def execute(self, all_rows: bool = False) -> Trajectory:
+        """Run to ``t_end``; the trajectory, or an error carrying it (Ctrl-C:
+        :class:`SimulationInterrupted`).  Its rows are those of the run's
+        sampling (:meth:`Recorder.rows`), or with ``all_rows`` every sample
+        recorded (the sensitivities integrate along those, then take the rows)."""
         try:
             status = self._run()
         except KeyboardInterrupt as exc:
@@ -339,9 +344,9 @@ class HybridRun:
                             f"the run failed at t = {self.t:.12g} s in mode {self.mode.describe()} with "
                             f"{type(exc).__name__}: {exc} (the trajectory up to there is attached; the original "
                             "error and its traceback are its cause)") from exc
-        return self._finish(status)
+        return self._finish(status, all_rows)
 
-    def _finish(self, status: Status) -> Trajectory:
+    def _finish(self, status: Status, all_rows: bool = False) -> Trajectory:
         """The trajectory of a run that ended (``status``), with its statistics."""
         stats = {"method": self.method, "steps": self.n_steps,
                  "wall time [s]": round(_time.perf_counter() - self.started, 6)}
@@ -354,10 +359,14 @@ class HybridRun:
         if status is Status.ZENO:
             stats["zeno accumulation time [s]"] = self.accumulation
         recorder = self.recorder
+        recorder.finish(self.t, self.x, self.mode)  # requested times at an instant that ended the run
         if self.output == "events" and (not recorder.t or recorder.t[-1] != self.t):
             recorder.sample(self.t, self.x, self.mode, force=True)
-        trajectory = recorder.trajectory(stopped=status.value, stats=stats)
-        if self.method_class.fixed_step and self.output == "steps":  # (adaptive methods control their error)
+        trajectory = recorder.trajectory(stopped=status.value, stats=stats, complete=status is Status.FINISHED,
+                                         all_rows=all_rows)
+        # the energy balance of a fixed-step run's flows (adaptive methods control their error), on its steps:
+        # other rows would not close it
+        if self.method_class.fixed_step and self.output == "steps" and trajectory.sampling == "steps":
             created = warn_if_created(trajectory, self.method, self.options.stepping.dt)
             if created is not None:
                 trajectory.stats["energy created in flows [J]"] = created

@@ -9,7 +9,7 @@ the work it may do (:class:`Limits`), and what it keeps and tells
 (:class:`Output`).  Each group's fields are the keywords of ``simulate`` by
 the same names, with their values as given (so the integrators see exactly
 what the caller passed), except ``x0`` and ``t_eval``, which are the checked
-arrays.  Units: times in seconds, ``rtol`` relative (1), ``atol`` in the
+arrays (with ``samples=N``, ``t_eval`` holds its ``N`` uniform times).  Units: times in seconds, ``rtol`` relative (1), ``atol`` in the
 states' units.
 """
 
@@ -77,17 +77,20 @@ class Limits:
 class Output:
     """What the run keeps and tells: every step (``output="steps"``), the
     instants only (``"events"``), or the samples at the sorted times
-    ``t_eval`` [s]; the instants' records (``keep_instants``); ``progress(t)``
-    called as the run goes."""
+    ``t_eval`` [s] — with ``samples=N`` the ``N`` times
+    ``linspace(t0, t_end, N)`` and the instants' before/after rows; the
+    instants' records (``keep_instants``); ``progress(t)`` called as the run
+    goes."""
 
     output: str
     t_eval: object
     keep_instants: bool
     progress: object
+    samples: int | None = None
 
     @property
     def recorded(self) -> str:
-        """What is recorded besides the instants: ``"steps"``, or ``"events"`` (also with ``t_eval``)."""
+        """What is recorded besides the instants: ``"steps"``, or ``"events"`` (also with ``t_eval``, ``samples``)."""
         return "events" if self.t_eval is not None else self.output
 
 

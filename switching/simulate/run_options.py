@@ -31,6 +31,10 @@ option                  unit       kind and bounds
 ``t_eval``              s          ``None`` or finite numbers in ``[t0, t_end]``; their
                                    samples (``len(t_eval) × states × 8`` bytes) at most
                                    :data:`MAX_OUTPUT_BYTES` (1 GiB)
+``samples``             times      ``None`` or integer ≥ 2 (the times
+                                   ``linspace(t0, t_end, samples)``, both ends included);
+                                   not with ``t_eval``; ``samples × states × 8`` bytes at
+                                   most :data:`MAX_OUTPUT_BYTES`
 ``max_steps``           steps      integer ≥ 1, default :data:`DEFAULT_MAX_STEPS`
                                    (10 000 000): a bound on the steps the options imply,
                                    checked up front, and on the steps the run takes (beyond
@@ -68,8 +72,8 @@ from ..errors import OptionTypeError, OptionValueError, WorkLimitError
 from .methods import COMPILED, METHODS, method_class
 from .option_groups import RunOptions
 
-__all__ = ["checked_options", "check_run", "check_work", "check_output_size", "check_sensitivity_options", "METHODS", "COMPILED",
-           "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
+__all__ = ["checked_options", "check_run", "check_work", "check_output_size", "check_samples",
+           "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
 DEFAULT_MAX_STEPS = 10_000_000
@@ -291,6 +295,20 @@ def check_t_eval(t_eval, t0, t_end) -> np.ndarray:
     return np.sort(times)
 
 
+def check_samples(samples, t_eval, states: int) -> int:
+    """``samples=N``: a whole number ≥ 2 of uniform times [the start and the
+    end at least], not together with ``t_eval``, within
+    :data:`MAX_OUTPUT_BYTES` for ``states`` states."""
+    if t_eval is not None:
+        raise OptionValueError(
+            f"samples={_show(samples)} and t_eval are two ways to choose the sample times: give samples=N for N "
+            "uniform times and the instants' before/after rows, or t_eval=[...] for exactly those times, not both",
+            "samples", samples)
+    number = whole("samples", samples, 2, unit="sample times (the start and the end at least)")
+    check_output_size(number, states, "samples")
+    return number
+
+
 def _bytes(count: float) -> str:
     for unit in ("bytes", "KiB", "MiB", "GiB", "TiB"):
         if count < 1024 or unit == "TiB":
@@ -364,8 +382,9 @@ def check_run(model, t_end, method, options: dict):
     """Every check of a run of ``model`` up to ``t_end`` [s] with ``method``
     and the keyword ``options`` of ``simulate``, every one (their defaults:
     :func:`switching.simulate.driver.option_defaults`), before anything
-    runs; returns ``(t_eval, x0)``: the sample times sorted and the initial
-    state as an array (``None`` when not given)."""
+    runs; returns ``(t_eval, x0)``: the sample times sorted (with
+    ``samples=N``: ``linspace(t0, t_end, N)``) and the initial state as an
+    array (``None`` when not given)."""
     o = options
     check_ends(o["t0"], t_end)
     check_steps(o)
@@ -377,6 +396,10 @@ def check_run(model, t_end, method, options: dict):
     if t_eval is not None:
         check_output_size(_count(t_eval), len(model.states))
         t_eval = check_t_eval(t_eval, t0, t_end)
+    samples = o.get("samples")
+    if samples is not None:
+        samples = check_samples(samples, o["t_eval"], len(model.states))
+        t_eval = np.linspace(t0, t_end, samples)
     x0 = None if o["x0"] is None else check_x0(model, o["x0"])
     check_work(method, t0, t_end, None if o["dt"] is None else float(o["dt"]), float(o["max_step"]),
                int(o["event_samples"]), int(o["max_steps"]))

@@ -1,11 +1,26 @@
 """Simulation results on hybrid time.
 
-A :class:`Trajectory` holds samples ``(t_k, x_k, mode_k)``; at every
-instant it holds two samples with the same time: the state just before (in
-the mode that was flowing) and just after (in the mode that flows next), so
-jumps are kept, not smeared.  ``events`` lists the
-:class:`~switching.simulate.resolution.Instant` records; ``event_index[k]`` is the
-sample index of the "after" sample of event ``k``.
+A :class:`Trajectory` holds rows ``(t_k, x_k, mode_k)``, chosen by the
+run's sampling (``trajectory.sampling``):
+
+* ``"steps"`` (``output="steps"``, the default of ``simulate``; also
+  ``output="events"``): every sample the run recorded — its start, every
+  step (``"steps"``), and at every instant two rows with the same time, the
+  state just before (in the mode that was flowing) and just after (in the
+  mode that flows next), so jumps are kept, not smeared;
+* ``"times"`` (``t_eval=ts``): exactly one row per requested time,
+  ``t == sorted(ts)``, as scipy's ``solve_ivp`` gives them; at a time equal
+  to an instant's the state after it (right-continuous);
+* ``"samples"`` (``samples=N``, ``hbg run``'s output): the ``N`` times
+  ``linspace(t0, t_end, N)`` and every instant's before and after rows in
+  time order (a time equal to an instant's comes after its pair, with the
+  state after it); :meth:`Trajectory.without_instants` leaves the ``N``.
+
+Whatever the rows, ``events`` lists the
+:class:`~switching.simulate.resolution.Instant` records (their states before
+and after as arrays: :meth:`Trajectory.at_instants`); ``event_index[k]`` is
+the row of the "after" state of event ``k`` when the rows hold the instants
+(empty with ``t_eval``).
 """
 
 from __future__ import annotations
@@ -25,7 +40,7 @@ from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNam
 
 from .plotting import plot_trajectory
 
-__all__ = ["Trajectory", "EnergyRecord"]
+__all__ = ["Trajectory", "EnergyRecord", "InstantStates"]
 
 #: what each kind of a mode passed at an instant means (DESIGN §6), as run summaries explain it
 STEP_KINDS = {
@@ -82,6 +97,19 @@ class EnergyRecord(NamedTuple):
     what: str = "instant"
 
 
+class InstantStates(NamedTuple):
+    """The kept instants of a run as arrays (:meth:`Trajectory.at_instants`):
+    times ``t`` [s] (K,), the states just before ``x_before`` and just after
+    ``x_after`` (K, n; columns in ``state_names`` order, states' units) and
+    the modes ``modes_before``, ``modes_after`` (lists of K)."""
+
+    t: np.ndarray
+    x_before: np.ndarray
+    x_after: np.ndarray
+    modes_before: list
+    modes_after: list
+
+
 def _energy_evaluator(model):
     """``bondgraph.energy_function`` for a model's graph and parameter values, cached per model."""
     key = tuple(model.parameter_array)
@@ -97,12 +125,15 @@ class Trajectory:
 
     Attributes
     ----------
-    t : ndarray (N,)            sample times [s]
+    t : ndarray (N,)            row times [s] (see the module docstring for which rows a run keeps)
     x : ndarray (N, n)          states, columns in ``state_names`` order
     state_names : list[str]
-    modes : list[Mode]          the mode of each sample
-    events : list[Instant]      every instant resolved, in order
-    event_index : list[int]     the sample index just after each event
+    modes : list[Mode]          the mode of each row
+    events : list[Instant]      every instant resolved, in order (as arrays: :meth:`at_instants`)
+    event_index : list[int]     the row of each event's "after" state (empty when the rows hold no
+                                instants: ``t_eval``)
+    sampling : str              the rows kept: ``"steps"`` (every sample recorded), ``"times"``
+                                (``t_eval``), ``"samples"`` (``samples=N``: the times and the instants)
     stopped : str | None        why the run ended early (``"zeno"``) or None
     stats : dict                method, steps, wall time, ``"instants"`` (the count, kept or not), …
     sensitivities : Sensitivities | None   ``∂x/∂p`` of a run with ``simulate(..., sensitivities=[...])``
@@ -118,7 +149,7 @@ class Trajectory:
     """
 
     def __init__(self, model, t, x, modes, events, event_index, stopped=None, stats=None, mode_time=None,
-                 instants_kept=True, initial_projection=None):
+                 instants_kept=True, initial_projection=None, sampling="steps"):
         self.model = model
         self.model_name = model.name
         self.t = np.asarray(t, dtype=float)
@@ -131,6 +162,7 @@ class Trajectory:
         self.stats = dict(stats or {})
         self._mode_time = None if mode_time is None else dict(mode_time)
         self.instants_kept = instants_kept
+        self.sampling = sampling
         #: ``(t0, given, projected)`` when the run started from the model's initial state projected onto
         #: the initial mode's constraints (:meth:`HybridModel.initial_state`), else None
         self.initial_projection = initial_projection
@@ -153,6 +185,48 @@ class Trajectory:
     @property
     def event_times(self) -> np.ndarray:
         return np.array([e.t for e in self.events])
+
+    def at_instants(self) -> InstantStates:
+        """Every kept instant's time [s] and states just before and just after
+        it, as arrays (:class:`InstantStates`), whatever rows the run kept:
+        with ``t_eval`` the rows are the requested times only, and the jumps
+        are read here.  Empty arrays when no instant was kept
+        (``keep_instants=False``: :attr:`instant_count` still counts them)."""
+        n = len(self.state_names)
+        events = self.events
+        before = np.array([e.x_before for e in events], dtype=float).reshape(len(events), n)
+        after = np.array([e.x_after for e in events], dtype=float).reshape(len(events), n)
+        return InstantStates(self.event_times.astype(float).reshape(len(events)), before, after,
+                             [e.mode_before for e in events], [e.mode_after for e in events])
+
+    def without_instants(self) -> "Trajectory":
+        """The trajectory without the instants' before/after rows (the rows at
+        ``event_index`` and the one before each): of a run with ``samples=N``,
+        exactly its ``N`` times (and, if it stopped early, where it stopped);
+        the instants stay in :attr:`events`.  Itself when the rows hold no
+        instants (``t_eval``)."""
+        if not self.event_index:
+            return self
+        dropped = set(self.event_index) | {k - 1 for k in self.event_index}
+        return self.take([k for k in range(len(self.t)) if k not in dropped])
+
+    def take(self, rows) -> "Trajectory":
+        """A trajectory of the rows ``rows`` (increasing indices) of this one,
+        with the same model, instants, statistics (and sensitivities, their
+        rows taken too); ``event_index`` keeps the instants whose before and
+        after rows are both taken."""
+        rows = [int(k) for k in rows]
+        position = {k: j for j, k in enumerate(rows)}
+        out = object.__new__(type(self))
+        out.__dict__.update(self.__dict__)
+        out.t = self.t[rows]
+        out.x = self.x[rows]
+        out.modes = [self.modes[k] for k in rows]
+        out.event_index = [position[k] for k in self.event_index if k in position and k - 1 in position]
+        out.stats = dict(self.stats)
+        if self.sensitivities is not None:
+            out.sensitivities = self.sensitivities.take(rows)
+        return out
 
     @property
     def instant_count(self) -> int:

@@ -252,14 +252,53 @@ def test_samples_is_a_cap_and_instants_come_only_when_asked(capsys, tmp_path):
     assert status == 0, err
     _, rows = read_csv(full)
     # 200 switching periods, two instants each; the last edge is at t_end = 200·T to round-off: inside the run
-    # (400 instants) or not; exactly at t_end, the sample there is that instant's "after" row
+    # (400 instants) or not; exactly at t_end, the time t_end still has its row (the state after that instant)
     instants = int(re.search(r"^\s*instants: (\d+)$", out, re.MULTILINE).group(1))
     assert instants in (399, 400)
-    at_end = [float(r[0]) for r in rows].count(0.02) == 2
-    assert len(rows) == 50 + 2 * instants - at_end
+    assert len(rows) == 50 + 2 * instants
     for samples in ("1", "-3"):
         status, _, err = hbg(capsys, "run", "bouncing-ball", "--samples", samples)
         assert status == 2 and "--samples" in err and samples in err
+
+
+def test_hbg_run_writes_the_rows_of_simulate_with_samples(capsys, tmp_path):
+    """One sampling for Python and the command line: ``hbg run --samples N
+    --with-instants`` writes exactly the rows of ``simulate(..., samples=N)``
+    (the N times and every instant's pair), and without ``--with-instants``
+    exactly the N times of ``simulate(..., t_eval=linspace(0, t_end, N))``."""
+    from models import bouncing_ball
+
+    both, times = tmp_path / "both.npz", tmp_path / "times.npz"
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--t-end", "2", "--samples", "40", "--with-instants",
+                         "--npz", both)
+    assert status == 0, err
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--t-end", "2", "--samples", "40", "--npz", times)
+    assert status == 0, err
+    model = bouncing_ball.build()
+    run = model.simulate(2.0, model_run_method(), samples=40, **model_run_options())
+    written = np.load(both)
+    assert len(run.events) == 3 and len(written["t"]) == 40 + 2 * 3
+    np.testing.assert_array_equal(written["t"], run.t)
+    np.testing.assert_allclose(written["x"], run.x, rtol=1e-12, atol=1e-12)
+    assert list(written["modes"]) == run.mode_labels
+    requested = model.simulate(2.0, model_run_method(), t_eval=np.linspace(0.0, 2.0, 40), **model_run_options())
+    written = np.load(times)
+    np.testing.assert_array_equal(written["t"], np.linspace(0.0, 2.0, 40))
+    np.testing.assert_array_equal(written["t"], requested.t)
+    np.testing.assert_allclose(written["x"], requested.x, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(run.without_instants().x, requested.x)
+
+
+def model_run_method():
+    from models import bouncing_ball
+
+    return bouncing_ball.RUN.get("method", "RK45")
+
+
+def model_run_options():
+    from models import bouncing_ball
+
+    return {k: v for k, v in bouncing_ball.RUN.items() if k in ("rtol", "atol", "max_step")}
 
 
 @pytest.mark.parametrize("samples", ["0", "-1"])

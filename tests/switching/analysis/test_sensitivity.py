@@ -129,12 +129,15 @@ def test_signal_sensitivity_by_the_chain_rule(ball_run):
     np.testing.assert_allclose(run.sensitivity("v", "m"), 0.0, atol=1e-7)
 
 
-def test_sensitivities_at_an_instant_are_taken_at_fixed_time(ball_run):
-    """An impact's two samples hold ∂x/∂p just before and just after it.  The
-    first impact's time does not depend on e, and ``v⁺ = −e·v⁻``: so
+def test_sensitivities_at_an_instant_are_taken_at_fixed_time():
+    """An impact's two samples hold ∂x/∂p just before and just after it (rows
+    of every output but ``t_eval``, whose rows are the requested times only).
+    The first impact's time does not depend on e, and ``v⁺ = −e·v⁻``: so
     ``∂v⁻/∂e = 0`` and ``∂v⁺/∂e = −v⁻``."""
-    run, _, (e, g, h) = ball_run
+    run = bouncing_ball.build(e=0.8, g=9.81, y0=1.0).simulate(1.7, "RK45", output="events", sensitivities=["e"],
+                                                               **TIGHT)
     after = run.event_index[0]
+    assert run.t[after - 1] == run.t[after] == run.events[0].t
     v_minus = run.signal("v")[after - 1]
     assert run.sensitivity("v", "e")[after - 1] == pytest.approx(0.0, abs=1e-9)
     assert run.sensitivity("v", "e")[after] == pytest.approx(-v_minus, rel=1e-9)
@@ -173,8 +176,11 @@ def test_diode_time_guard_mythical_mode_and_dependent_state():
     exact = np.where(times < t_o, 0.0, np.where(times < t_off, (V + V_th) * np.exp(-R_ * (times - t_o) / L), 0.0))
     at = sample_indices(run, times)
     np.testing.assert_allclose(run.sensitivity("p_L", "t_open")[at], exact, rtol=1e-7, atol=1e-10)
-    # the jump of the rate at the opening, carried over the instant: S⁺ − S⁻ = f⁻ − f⁺ = V + V_th
+    # the jump of the rate at the opening, carried over the instant: S⁺ − S⁻ = f⁻ − f⁺ = V + V_th (read on
+    # the instant's two rows: a run with samples=N holds them, besides its N times)
+    run = diode_circuit.build().simulate(1.0, "RK45", samples=11, sensitivities=["t_open"], **TIGHT)
     after = run.event_index[0]
+    assert run.t[after - 1] == run.t[after] == run.events[0].t
     jump = run.sensitivity("p_L", "t_open")[after] - run.sensitivity("p_L", "t_open")[after - 1]
     assert jump == pytest.approx(V + V_th, rel=1e-9)
 

@@ -105,33 +105,49 @@ def test_inputs_given_as_expressions_of_t_run_compiled():
 def test_t_eval_on_the_compiled_methods_samples_the_kernels_dense_output(ball, method, options):
     """The samples at requested times come from the same interpolant as the
     Python path's (scipy's RK45 dense output, rk4's cubic Hermite, Euler's
-    line), with the instants' two samples in between, in the same order.
-    Times exactly at t0 and t_end, and ones inside a step ending in an event,
-    are all there."""
+    line): exactly one row per requested time (sorted), the same on both
+    paths, and the instants' before/after states the same on both too
+    (``at_instants``).  Times exactly at t0 and t_end, and ones inside a step
+    ending in an event, are all there; with ``samples=N`` the instants' rows
+    come in between, in the same order."""
     t_eval = np.concatenate([[0.0], np.linspace(0.01, 2.49, 97), BOUNCES[:2], [2.5]])
     ball.simulate(2.5, method, **options)  # Python visits both modes: the kernel covers them
     python = ball.simulate(2.5, method, t_eval=t_eval, **options)
     compiled = ball.simulate(2.5, f"{method}-jit", t_eval=t_eval, **options)
     assert compiled.stats["instants resolved in Python"] == 0
-    assert len(compiled.t) == len(python.t) == 1 + len(t_eval) + 2 * len(python.events) + 1  # x0 … the end
-    np.testing.assert_allclose(compiled.t, python.t, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(compiled.t, np.sort(t_eval))
+    np.testing.assert_array_equal(python.t, np.sort(t_eval))
     np.testing.assert_allclose(compiled.x, python.x, rtol=1e-10, atol=1e-10)
     assert compiled.mode_labels == python.mode_labels
-    assert set(t_eval) <= set(compiled.t)
+    assert compiled.event_index == python.event_index == [] and len(python.events) == 4
+    for mine, theirs in zip(compiled.at_instants(), python.at_instants()):
+        if isinstance(mine, np.ndarray):
+            np.testing.assert_allclose(mine, theirs, rtol=1e-10, atol=1e-10)
+        else:
+            assert mine == theirs
+    python = ball.simulate(2.5, method, samples=101, **options)
+    compiled = ball.simulate(2.5, f"{method}-jit", samples=101, **options)
+    assert len(compiled.t) == len(python.t) == 101 + 2 * len(python.events)
+    np.testing.assert_allclose(compiled.t, python.t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(compiled.x, python.x, rtol=1e-10, atol=1e-10)
+    assert compiled.mode_labels == python.mode_labels and compiled.event_index == python.event_index
+    np.testing.assert_array_equal(compiled.without_instants().t, np.linspace(0.0, 2.5, 101))
 
 
 def test_t_eval_after_an_initial_instant_resolved_in_the_kernel_samples_the_state_after_it():
     """Released on the floor moving down: the instant at t = 0 is resolved in
     the kernel; the sample requested at t = 0 is the state after it (v⁺ = 1.6),
-    as on the Python path."""
+    as on the Python path; the state before it is the instant's record."""
     model = bouncing_ball.build(y0=0.0, v0=-2.0)
     t_eval = [0.0, 0.1, 0.2, 0.3]
     python, compiled = _same_run(model, 0.3, "RK45-jit", "RK45", rtol=1e-9, atol=1e-12, t_eval=t_eval)
     assert compiled.events[0].t == 0.0
+    np.testing.assert_array_equal(compiled.t, t_eval)
     np.testing.assert_array_equal(compiled.t, python.t)
     np.testing.assert_allclose(compiled.x, python.x, rtol=1e-9, atol=1e-12)
-    first = list(compiled.t).index(0.0, 2)  # x0, the instant's before and after, then the requested t = 0
-    assert compiled.x[first][0] == pytest.approx(1.6, abs=1e-15)
+    assert compiled.x[0][0] == pytest.approx(1.6, abs=1e-15)
+    jumps = compiled.at_instants()
+    assert jumps.t[0] == 0.0 and jumps.x_before[0][0] == -2.0 and jumps.x_after[0][0] == pytest.approx(1.6, abs=1e-15)
 
 
 def test_zeno_is_detected_on_the_compiled_path_too(ball):
@@ -575,7 +591,7 @@ def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, 
 
 def test_hbg_run_takes_every_compiled_method_with_its_default_output(tmp_path):
     """``hbg run MODEL --method RK45-jit`` with the CLI's default --samples
-    (t_eval from the kernel's dense output) writes the rows the plain RK45
+    (``samples=500``: from the kernel's dense output) writes the rows the plain RK45
     writes; the fixed-step compiled methods take --dt; --method auto is
     accepted and says what it chose."""
     import os
