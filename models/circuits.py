@@ -75,14 +75,18 @@ Example — a capacitor charged through a resistor::
     >>> round(float(run.signal("v_C1")[-1]), 4)    # 10 (1 − e^−5)
     9.9326
 
-Limitations: a mode where every diode and switch around a node blocks leaves
-that node floating (no voltage is defined: a full bridge rectifier with a
-purely resistive load); such a mode is refused when it is reached
-(:class:`~bondgraph.errors.CausalityConflictError`).  So is a mode in which
+Limitations: a mode where every diode and switch around a group of nodes
+blocks leaves those nodes floating (their voltage, and the voltage across
+each blocking element, is undefined: a full bridge rectifier with every
+diode off); such a mode is refused when it is reached with a
+:class:`~bondgraph.errors.FloatingPartError` that names the mode and the
+floating nodes (their 0-junctions ``node_<n>``) and says it is
+under-determined.  A mode in which
 ideal elements short an ideal voltage source — a switch closing while an ideal
 diode across the source's path conducts (a buck converter's freewheeling
-diode): give that diode an ``r_on``, and the mode is judged by its reverse
-current and left.  A PWM
+diode) — is over-determined and refused
+(:class:`~bondgraph.errors.CausalityConflictError`): give that diode an
+``r_on``, and the mode is judged by its reverse current and left.  A PWM
 switch needs integrator steps shorter than its shortest on or off interval
 (``max_step <= min(duty, 1 − duty)·period``).
 """

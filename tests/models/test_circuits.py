@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from bondgraph.errors import (DuplicateNameError, HybridBondGraphError, InvalidGraphError, MissingParameterError,
-                              UnknownNameError)
+from bondgraph.errors import (CausalityConflictError, DuplicateNameError, FloatingPartError, HybridBondGraphError,
+                              InvalidGraphError, MissingParameterError, UnknownNameError)
 from models import diode_circuit
 from models.circuits import PWM, Circuit, Input
 from switching import load_model
@@ -279,3 +279,43 @@ def test_source_text_is_parsed_not_run():
 def test_errors_are_the_toolkits():
     with pytest.raises(HybridBondGraphError):
         Circuit("c").build()
+
+
+def bridge(load_capacitance=None, **build):
+    """A full-wave bridge: the source drives node a against ground; D1 a→p,
+    D2 0→p, D3 n→a, D4 n→0; the load (and its filter capacitor) between p and n."""
+    c = Circuit("bridge")
+    c.V("Vs", "a", "0", "Vm*sin(w*t)")
+    c.diode("D1", "a", "p")
+    c.diode("D2", "0", "p")
+    c.diode("D3", "n", "a")
+    c.diode("D4", "n", "0")
+    if load_capacitance is not None:
+        c.C("C1", "p", "n", load_capacitance)
+    c.R("Rload", "p", "n", 100.0)
+    return c.build(parameters={"Vm": 10.0, "w": 2 * math.pi * 50}, **build)
+
+
+@pytest.mark.parametrize("load_capacitance", [None, 100e-6])
+def test_bridge_with_every_diode_blocking_is_refused_as_floating_naming_the_load_nodes(load_capacitance):
+    model = bridge(load_capacitance)
+    with pytest.raises(FloatingPartError) as info:   # at t = 0 every diode blocks (v_D = 0, not > 0)
+        model.simulate(0.01, "RK45")
+    message = str(info.value)
+    assert "under-determined, not over-determined" in message
+    assert "mode D1=off, D2=off, D3=off, D4=off" in message
+    assert "'p', 'n'" in message and set(info.value.elements) == {"node_p", "node_n"}
+    assert set(info.value.cut) == {"D1", "D2", "D3", "D4"}
+    assert "resistor or capacitor from the node to ground" in message and "gmin" in message
+
+
+def test_voltage_sources_paralleled_by_a_switch_are_still_over_determined():
+    c = Circuit("parallel_sources")
+    c.V("V1", "a", "0", 5.0)
+    c.switch("S", "a", "b", closed_when="t >= 0")
+    c.V("V2", "b", "0", 6.0)
+    c.R("R1", "b", "0", 10.0)
+    with pytest.raises(CausalityConflictError) as info:
+        c.build().simulate(1e-3, "RK45")
+    assert not isinstance(info.value, FloatingPartError)
+    assert "over-determine" in str(info.value) and "'V1'" in str(info.value) and "S: on" in str(info.value)
