@@ -319,3 +319,55 @@ def test_voltage_sources_paralleled_by_a_switch_are_still_over_determined():
         c.build().simulate(1e-3, "RK45")
     assert not isinstance(info.value, FloatingPartError)
     assert "over-determine" in str(info.value) and "'V1'" in str(info.value) and "S: on" in str(info.value)
+
+
+def test_capacitor_filtered_bridge_with_gmin_switches_at_the_exact_instants_and_no_others():
+    V, w, R, C = 10.0, 2 * math.pi * 50, 100.0, 100e-6
+    run = bridge(C, gmin=1e-12).simulate(0.05, "RK45", **RUN)
+    half = math.pi / w
+    t_off = (math.pi - math.atan(w * R * C)) / w          # tan(w t) = −wRC: the charging current reaches 0
+
+    def decay(t):
+        return V * math.sin(w * t_off) * math.exp(-(t - t_off) / (R * C))
+
+    t_on = brentq(lambda t: -V * math.sin(w * t) - decay(t), half, 1.5 * half, xtol=1e-15)   # |v_s| meets v_C
+    exact = [0.0]
+    for k in range(5):
+        exact += [t_off + k * half, t_on + k * half]
+    exact = [t for t in exact if t < 0.05]
+    assert len(run.events) == len(exact)                     # the leak adds no instant
+    assert run.events[0].t < 1e-12
+    np.testing.assert_allclose([e.t for e in run.events[1:]], exact[1:], rtol=1e-7)
+    ends = [e.steps[-1].mode.label for e in run.events]
+    assert ends == ["on|off|off|on", "off|off|off|off", "off|on|on|off", "off|off|off|off"] * 2 + ends[8:]
+    blocking = (run.t > t_off * (1 + 1e-6)) & (run.t < t_on * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_C1")[blocking], [decay(t) for t in run.t[blocking]], rtol=1e-7)
+    conducting = (run.t > t_on * (1 + 1e-6)) & (run.t < (t_off + half) * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_C1")[conducting], V * np.abs(np.sin(w * run.t[conducting])), rtol=1e-7)
+    # the leaks carry gmin·v: picoamperes against the load's 0.1 A
+    assert np.max(np.abs(run.signal("i_D1_gmin"))) < 2 * V * 1e-12
+
+
+def test_resistive_bridge_with_gmin_commutates_at_the_zero_crossings():
+    V, w = 10.0, 2 * math.pi * 50
+    model = bridge(gmin=1e-12)
+    assert {s.name: v for s, v in model.parameter_values.items()}["gmin"] == 1e-12
+    run = model.simulate(0.03, "RK45", **RUN)
+    assert [e.steps[-1].mode.label for e in run.events] == ["on|off|off|on", "off|on|on|off", "on|off|off|on"]
+    np.testing.assert_allclose([e.t for e in run.events[1:]], [math.pi / w, 2 * math.pi / w], rtol=1e-9)
+    np.testing.assert_allclose(run.signal("v_Rload"), V * np.abs(np.sin(w * run.t)), rtol=1e-7, atol=1e-9)
+
+
+def test_gmin_takes_a_parameter_name_and_refuses_what_is_no_conductance():
+    c = Circuit("half")
+    c.V("Vs", "in", "0", 5.0)
+    c.diode("D1", "in", "out")
+    c.R("Rload", "out", "0", 1e3)
+    model = c.build(gmin="g_leak", parameters={"g_leak": 1e-9})
+    assert {s.name: v for s, v in model.parameter_values.items()}["g_leak"] == 1e-9 and "D1_gmin" in model.graph.elements
+    for bad in (-1e-12, 0.0, float("nan"), True, [1e-12]):
+        with pytest.raises(InvalidGraphError, match="gmin"):
+            c.build(gmin=bad)
+    c.R("D1_gmin", "out", "0", 1.0)
+    with pytest.raises(DuplicateNameError, match="D1_gmin"):
+        c.build(gmin=1e-12)
