@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bondgraph.errors import HybridBondGraphError
+from bondgraph.errors import FloatingPartError, HybridBondGraphError
 from codegen.runtime import PulseError, hyper
 
 from ..model.automaton import A_POSTERIORI
@@ -416,7 +416,11 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     while True:
         action, current = state[0], modes[state[2]]
         if action == JUMP_AND_DECIDE:
-            cm = model.compiled_mode(current)
+            try:
+                cm = model.compiled_mode(current)
+            except FloatingPartError as error:  # a mode first met here: say when
+                raise FloatingPartError(f"at t = {t:.12g}, {error}", error.elements, error.cut, error.configuration,
+                                        error.kind) from None
             x_plus = cm.jump(x, t)
             # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
             # guards are decided as during flow, so a located crossing is seen to hold at its band's edge

@@ -371,3 +371,20 @@ def test_gmin_takes_a_parameter_name_and_refuses_what_is_no_conductance():
     c.R("D1_gmin", "out", "0", 1.0)
     with pytest.raises(DuplicateNameError, match="D1_gmin"):
         c.build(gmin=1e-12)
+
+
+def test_a_floating_mode_met_during_a_run_is_refused_at_its_instant_with_the_run_so_far():
+    c = Circuit("bridge")
+    c.V("Vs", "a", "0", "Vm*sin(w*t)")
+    c.diode("D1", "a", "p", on=True)
+    c.diode("D2", "0", "p")
+    c.diode("D3", "n", "a")
+    c.diode("D4", "n", "0", on=True)
+    c.C("C1", "p", "n", 100e-6)
+    c.R("Rload", "p", "n", 100.0)
+    w = 2 * math.pi * 50
+    with pytest.raises(FloatingPartError) as info:
+        c.build(parameters={"Vm": 10.0, "w": w}).simulate(0.05, "RK45", **RUN)
+    t_off = (math.pi - math.atan(w * 100.0 * 100e-6)) / w    # D1 and D4 stop conducting: the load floats
+    assert f"at t = {t_off:.6g}" in str(info.value)[:20]
+    assert info.value.trajectory is not None and info.value.trajectory.t[0] == 0.0
