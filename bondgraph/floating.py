@@ -184,8 +184,8 @@ def floating_part(graph, config, dead=frozenset()):
     if nodes and kind == "effort":  # models.circuits names the 0-junction of node n "node_<n>"
         names += f" (circuit node{'s' if len(nodes) > 1 else ''} {', '.join(map(repr, nodes))})"
     if kind == "effort":
-        isolated = (f"; every bond that joins them to the rest ends on {', '.join(map(repr, cut))}, which "
-                    "fix(es) flows only (a switched-off 1-junction fixes its flow at 0)" if cut else "")
+        isolated = (f"; around them {', '.join(map(repr, cut))} fix only flows (a switched-off 1-junction fixes "
+                    "its flow at 0)" if cut else "")
         message = (
             f"the graph is under-determined, not over-determined, in configuration {_fmt_config(config)}: "
             f"nothing fixes the effort of {names} — they float{isolated}. In a circuit these are nodes no "

@@ -388,3 +388,16 @@ def test_a_floating_mode_met_during_a_run_is_refused_at_its_instant_with_the_run
     t_off = (math.pi - math.atan(w * 100.0 * 100e-6)) / w    # D1 and D4 stop conducting: the load floats
     assert f"at t = {t_off:.6g}" in str(info.value)[:20]
     assert info.value.trajectory is not None and info.value.trajectory.t[0] == 0.0
+
+
+def test_closed_switches_in_parallel_leave_the_loop_current_free_and_say_so():
+    c = Circuit("parallel_switches")
+    c.V("V1", "a", "0", 5.0)
+    c.R("R1", "a", "b", 1.0)
+    c.switch("S1", "b", "c", closed_when="t >= 0")
+    c.switch("S2", "b", "c", closed_when="t >= 0")
+    c.R("R2", "c", "0", 10.0)
+    with pytest.raises(FloatingPartError) as info:
+        c.build().simulate(1e-3, "RK45")
+    assert info.value.kind == "flow" and set(info.value.elements) == {"S1", "S2"}
+    assert "under-determined" in str(info.value) and "mode S1=closed, S2=closed" in str(info.value)
