@@ -387,7 +387,9 @@ def test_a_floating_mode_met_during_a_run_is_refused_at_its_instant_with_the_run
         c.build(parameters={"Vm": 10.0, "w": w}).simulate(0.05, "RK45", **RUN)
     t_off = (math.pi - math.atan(w * 100.0 * 100e-6)) / w    # D1 and D4 stop conducting: the load floats
     assert f"at t = {t_off:.6g}" in str(info.value)[:20]
-    assert info.value.trajectory is not None and info.value.trajectory.t[0] == 0.0
+    run = info.value.trajectory                                 # the run up to the instant is kept
+    assert run.t[0] == 0.0 and run.t[-1] == pytest.approx(t_off, rel=1e-9)
+    assert run.signal("v_C1")[-1] == pytest.approx(10.0 * math.sin(w * t_off), rel=1e-7)
 
 
 def test_closed_switches_in_parallel_leave_the_loop_current_free_and_say_so():
