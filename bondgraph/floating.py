@@ -28,11 +28,12 @@ collect the homogeneous rows
   other sources);
 * of the *ports* ``P``: ``e = f = 0`` for every R, C, I and open port.
 
-Then (``rank`` over the reals):
+Then, over the reals (singular values below 10⁻⁹ of the largest count as 0):
 
-* over-determined ⇔ ``rank [S; Q] < rank S + rows(Q)``: some source's
-  value is fixed by the structure and the other sources, and may contradict
-  them;
+* over-determined ⇔ a left null vector ``y`` of ``[S; Q]`` (``yᵀ[S; Q] = 0``)
+  weighs on a row of ``Q``: that source's value is a combination of the
+  other sources' values (the structure's rows equal 0), and may
+  contradict them — the sources it weighs on are the ones named;
 * under-determined ⇔ ``[S; Q; P]`` has a non-zero null vector: with every
   source and every port at zero, some bond variables can still be non-zero —
   nothing fixes them.  The null vectors' efforts name the floating
@@ -111,12 +112,6 @@ def _matrix(rows, width):
     return A
 
 
-def _rank(A) -> int:
-    if A.size == 0:
-        return 0
-    return int(np.linalg.matrix_rank(A, tol=_TOLERANCE * max(1.0, np.abs(A).max())))
-
-
 def determination(graph, config, dead=frozenset()):
     """``(over, free_efforts, free_flows)`` of ``config``: ``over`` names the
     sources whose values the structure and the other sources fix (empty when
@@ -128,13 +123,16 @@ def determination(graph, config, dead=frozenset()):
     S = _matrix(structure, width)
     Q = _matrix([row for _, row in sources], width)
     over = []
-    base = _rank(S)
-    if sources and _rank(np.vstack([S, Q])) < base + len(sources):
-        full = _rank(np.vstack([S, Q]))
-        for k, (name, _) in enumerate(sources):  # a source whose row the others already give
-            others = np.vstack([S, np.delete(Q, k, axis=0)])
-            if _rank(others) == full:
-                over.append(name)
+    if sources:
+        # a source is over-determined when a left null vector y of [S; Q] (yᵀ[S; Q] = 0: a combination
+        # of rows that vanishes) weighs on its row: then its value is a combination of the others'
+        M = np.vstack([S, Q])
+        u, singular, _ = np.linalg.svd(M)
+        rank = int(np.sum(singular > _TOLERANCE * max(1.0, singular[0] if singular.size else 1.0)))
+        left_null = u[:, rank:]  # orthonormal basis of the left null space
+        if left_null.shape[1]:
+            weight = np.sqrt(np.sum(left_null[len(structure):] ** 2, axis=1))
+            over = [name for (name, _), w in zip(sources, weight) if w > 1e-6]
     A = np.vstack([S, Q, _matrix(ports, width)])
     if A.shape[0] == 0:
         return tuple(over), (), ()
