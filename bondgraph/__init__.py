@@ -38,6 +38,7 @@ from .equations import derive_equations as derive_equations
 from .errors import AlgebraicLoopError as AlgebraicLoopError
 from .errors import CausalityConflictError as CausalityConflictError
 from .errors import DerivationError as DerivationError
+from .errors import FloatingPartError as FloatingPartError
 from .errors import DuplicateNameError as DuplicateNameError
 from .errors import HybridBondGraphError as HybridBondGraphError
 from .errors import InvalidGraphError as InvalidGraphError

@@ -35,6 +35,7 @@ import sympy as sp
 from .algebra import dependency_components
 from .elements import GY, TF, Junction, OpenPort, R, Se, Sf, Storage, Zero
 from .errors import CausalityConflictError
+from .floating import floating_part
 
 __all__ = ["Causality", "assign_causality", "causality_violations"]
 
@@ -323,7 +324,10 @@ def assign_causality(graph, config, *, validate: bool = True, rank_storage: bool
     """Assign causality for ``config`` (controlled junction → on/off).
 
     Returns a :class:`Causality`.  Raises :class:`CausalityConflictError`
-    when sources over-determine the graph, and
+    when sources over-determine the graph,
+    :class:`~bondgraph.errors.FloatingPartError` (a subclass) when part of
+    it is under-determined instead (floating junctions, see
+    :mod:`bondgraph.floating`), and
     :class:`~bondgraph.errors.InvalidGraphError` if the graph is malformed
     (``validate=False`` skips that check, for a graph already checked or an
     island of one; ``rank_storage``: see :meth:`_SCAP._storage_order`).
@@ -333,7 +337,13 @@ def assign_causality(graph, config, *, validate: bool = True, rank_storage: bool
     if validate:
         graph.validate()
     scap = _SCAP(graph, dict(config), rank_storage)
-    scap.run()
+    try:
+        scap.run()
+    except CausalityConflictError:
+        floating = floating_part(graph, dict(config), scap.dead)
+        if floating is not None:  # under-determined, not over-determined: say so
+            raise floating from None
+        raise
 
     dependent, independent = [], []
     for el in graph.storage:

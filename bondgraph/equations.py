@@ -35,7 +35,8 @@ import sympy as sp
 
 from .algebra import solve_explicit
 from .solving import simplified
-from .errors import DerivationError
+from .errors import AlgebraicLoopError, DerivationError
+from .floating import floating_part
 from .symbols import rate_symbol, t
 
 __all__ = ["ConfigurationEquations", "derive_equations", "tidy"]
@@ -287,9 +288,17 @@ def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
     rel = causality.relations
     owner = {v: r.element for v, r in rel.relations.items()}
 
-    bond_values = solve_explicit(
-        {v: r.expr for v, r in rel.relations.items()}, owner=lambda v: owner[v], what="algebraic loop"
-    )
+    try:
+        bond_values = solve_explicit(
+            {v: r.expr for v, r in rel.relations.items()}, owner=lambda v: owner[v], what="algebraic loop"
+        )
+    except AlgebraicLoopError as error:
+        # a singular loop left by a floating part (a causality was found, but it leaves some efforts or a
+        # loop flow free: bondgraph.floating) is reported as that part, not as the loop
+        floating = floating_part(graph, dict(config), causality.dead)
+        if floating is None:
+            raise
+        raise floating from error
 
     def bonds_in(expr):
         subs = {s: bond_values[s] for s in expr.free_symbols if s in bond_values}

@@ -18,6 +18,7 @@ __all__ = [
     "UnknownNameError",
     "DuplicateNameError",
     "CausalityConflictError",
+    "FloatingPartError",
     "AlgebraicLoopError",
     "MissingParameterError",
     "UnknownParameterError",
@@ -97,6 +98,29 @@ class CausalityConflictError(HybridBondGraphError):
     def __init__(self, message: str, elements: Iterable[str] = ()):
         super().__init__(message)
         self.elements = tuple(elements)
+
+
+class FloatingPartError(CausalityConflictError):
+    """Part of the graph is *under-determined* (the opposite of a conflict):
+    nothing fixes the effort of some junctions — they float — or the flow
+    around a loop of junctions.  In a circuit: every diode and switch around
+    a group of nodes blocks (a full bridge rectifier with all four diodes
+    off), so the group's common voltage is free; or ideal closed switches
+    form a loop, so the current around it is free.
+
+    ``elements`` names the floating junctions; ``cut`` the switched-off
+    junctions (and sources) that isolate them; ``configuration`` is the
+    configuration (controlled junction → on/off) and ``kind`` is
+    ``"effort"`` (floating efforts) or ``"flow"`` (a free loop flow).  A
+    subclass of :class:`CausalityConflictError`, which code catching a
+    conflict already catches."""
+
+    def __init__(self, message: str, elements: Iterable[str] = (), cut: Iterable[str] = (),
+                 configuration: dict | None = None, kind: str = "effort"):
+        super().__init__(message, elements)
+        self.cut = tuple(cut)
+        self.configuration = dict(configuration or {})
+        self.kind = kind
 
 
 class AlgebraicLoopError(HybridBondGraphError):

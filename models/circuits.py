@@ -75,14 +75,27 @@ Example — a capacitor charged through a resistor::
     >>> round(float(run.signal("v_C1")[-1]), 4)    # 10 (1 − e^−5)
     9.9326
 
-Limitations: a mode where every diode and switch around a node blocks leaves
-that node floating (no voltage is defined: a full bridge rectifier with a
-purely resistive load); such a mode is refused when it is reached
-(:class:`~bondgraph.errors.CausalityConflictError`).  So is a mode in which
+Limitations: a mode where every diode and switch around a group of nodes
+blocks leaves those nodes floating (their voltage, and the voltage across
+each blocking element, is undefined: a full bridge rectifier with every
+diode off); such a mode is refused when it is reached with a
+:class:`~bondgraph.errors.FloatingPartError` that names the mode and the
+floating nodes (their 0-junctions ``node_<n>``) and says it is
+under-determined.  ``build(gmin=1e-12)`` puts a leak conductance across
+every diode and switch (SPICE's ``GMIN``; explicit, off by default): no node
+then floats, and the leaks divide the network's voltage over the blocking
+elements as it would divide over equal reverse resistances, so each diode
+turns on when its share exceeds ``v_f``.  In a bridge the leaks give every
+blocking diode ``v_D = (|v_in| − v_out)/2`` (with ``v_f = 0``): the diodes
+turn on exactly where ``|v_in|`` meets ``v_out``, and the leak only moves
+the instants by a relative O(gmin·R), without adding any (a leak from each
+node to ground instead puts the floating nodes at arbitrary voltages and
+adds spurious instants).  A mode in which
 ideal elements short an ideal voltage source — a switch closing while an ideal
 diode across the source's path conducts (a buck converter's freewheeling
-diode): give that diode an ``r_on``, and the mode is judged by its reverse
-current and left.  A PWM
+diode) — is over-determined and refused
+(:class:`~bondgraph.errors.CausalityConflictError`): give that diode an
+``r_on``, and the mode is judged by its reverse current and left.  A PWM
 switch needs integrator steps shorter than its shortest on or off interval
 (``max_step <= min(duty, 1 − duty)·period``).
 """
@@ -347,16 +360,32 @@ class Circuit:
     # ------------------------------------------------------------ building
 
     def build(self, parameters: Mapping | None = None, name: str | None = None,
-              inputs: Mapping[str, Callable] | None = None, **options) -> HybridModel:
+              inputs: Mapping[str, Callable] | None = None, *, gmin=None, **options) -> HybridModel:
         """The :class:`~switching.HybridModel` of the netlist.
 
         ``parameters`` gives values to the parameter names used and overrides
         the numbers given with the components (``{"R1": 2e3}``); ``inputs``
         the functions of ``t`` of declared inputs; ``name`` names the model
         (default: the circuit's name); other ``options`` go to
-        :class:`~switching.HybridModel` (``tolerance``, …)."""
+        :class:`~switching.HybridModel` (``tolerance``, …).
+
+        ``gmin`` [S] (off by default): a leak conductance across every ideal
+        diode and switch, as SPICE's ``GMIN`` across every pn junction — a
+        resistor ``<name>_gmin`` of resistance ``1/gmin`` between the
+        element's two nodes, so that no mode leaves a node floating (see the
+        module documentation).  A number (the parameter ``gmin``) or a
+        parameter name.  The element's ``i_<name>`` stays the current of the
+        ideal element, which its guards judge; the leak carries
+        ``i_<name>_gmin = gmin·v_<name>`` besides.  Across an element at rest
+        the leaks of a bridge divide the voltages symmetrically, so a blocking
+        diode's ``v_D`` is the share of the network's voltage it actually
+        takes and turns it on when that share exceeds ``v_f``: the leak moves
+        the instants by a relative O(gmin·R) of the circuit's resistances and
+        adds none."""
         self._check_topology()
-        return _Builder(self, dict(parameters or {}), inputs or {}).model(name or self.name, options)
+        builder = _Builder(self, dict(parameters or {}), inputs or {})
+        builder.gmin = gmin
+        return builder.model(name or self.name, options)
 
 
 def _checked_component(name, what):
@@ -446,6 +475,7 @@ class _Builder:
         self.signals: dict[str, str] = {}
         self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
         self.automata: list[Automaton] = []
+        self.gmin = None  # leak conductance across ideal diodes and switches (Circuit.build)
         self.node_bond: dict[str, str] = {}
         self.junctions = {n: self.graph.add(Zero(f"node_{n}")) for n in circuit.nodes if n != GROUND}
 
@@ -647,6 +677,26 @@ class _Builder:
         self.signals[f"v_{name}_s"] = f"e_{name}_s"
         self.signals[f"i_{name}_s"] = f"f_{name}_s"
 
+    def leaks(self):
+        """A resistor ``<name>_gmin`` of resistance ``1/gmin`` across every
+        ideal diode and switch (:meth:`Circuit.build`'s ``gmin``)."""
+        gmin = self.gmin
+        if isinstance(gmin, bool) or not isinstance(gmin, (str, int, float)):
+            raise InvalidGraphError(f"circuit {self.circuit.name!r}: gmin must be a conductance [S] (a positive "
+                                    f"number, e.g. 1e-12) or a parameter name, got {gmin!r}")
+        if not isinstance(gmin, str) and not (math.isfinite(gmin) and gmin > 0):
+            raise InvalidGraphError(f"circuit {self.circuit.name!r}: gmin = {gmin!r} is not a positive finite "
+                                    "conductance [S]; give e.g. gmin=1e-12, or leave it out for no leak")
+        conductance = self.number_or_parameter(gmin, "gmin", "gmin")
+        for part in list(self.circuit._parts.values()):
+            if part.kind not in ("D", "S"):
+                continue
+            leak = f"{part.name}_gmin"
+            if leak in self.circuit._parts:
+                raise DuplicateNameError(f"circuit {self.circuit.name!r}: gmin puts a leak named {leak!r} across "
+                                         f"{part.name!r}, and a component has that name; rename it", leak)
+            self.passive(_Part("R", leak, part.nodes[:2], {"value": 1 / conductance}))
+
     # -- the model
 
     def model(self, name: str, options: dict) -> HybridModel:
@@ -655,6 +705,8 @@ class _Builder:
             {"R": self.passive, "C": self.passive, "L": self.passive, "V": self.voltage_source,
              "I": self.current_source, "D": self.diode, "S": self.switch,
              "T": self.two_port, "G": self.two_port}[part.kind](part)
+        if self.gmin is not None:
+            self.leaks()
         node_signals = {f"v_{n}": f"e_{bond}" for n, bond in self.node_bond.items()}
         for name_, (a, b) in self.later:
             self.signals[f"v_{name_}"] = f"{_node_signal(a)} - {_node_signal(b)}"

@@ -8,6 +8,8 @@ import warnings
 
 import numpy as np
 
+from bondgraph.errors import FloatingPartError
+
 
 class InitialStateProjected(UserWarning):
     """The given initial state violated the initial mode's constraints and was projected."""
@@ -17,7 +19,17 @@ def projected(model, x_given: np.ndarray) -> np.ndarray:
     """``g(x_given)`` of the initial mode's jump map (no restitution), at ``t = 0``.
     Where the mode carries no restitution its generated jump function is
     that map, so a process whose cache holds the mode's code derives
-    nothing; otherwise the symbolic map is used."""
+    nothing; otherwise the symbolic map is used.  An initial mode with a
+    floating part (:class:`~bondgraph.errors.FloatingPartError`) is refused
+    here, the message saying it is the initial mode."""
+    try:
+        return _projected(model, x_given)
+    except FloatingPartError as error:
+        raise FloatingPartError(f"the initial mode (t = 0): {error}", error.elements, error.cut,
+                                error.configuration, error.kind) from None
+
+
+def _projected(model, x_given: np.ndarray) -> np.ndarray:
     mode = model.initial_mode
     if model.restitution_of(mode) is None:
         compiled = model.compiled_mode(mode)

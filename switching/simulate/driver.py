@@ -243,7 +243,9 @@ class HybridRun:
         try:
             instant = self.model.resolve(self.x, self.mode, self.t)
         except Exception as exc:
-            if hasattr(exc, "instant"):
+            # a divergence of time, or a mode first met here that cannot be derived (a floating part):
+            # the state at the instant is known, keep it
+            if hasattr(exc, "instant") or isinstance(exc, HybridBondGraphError):
                 self.recorder.sample(self.t, self.x, self.mode, force=True)
                 exc.trajectory = self.recorder.trajectory(stats={"failed": str(exc).splitlines()[0]})
             raise

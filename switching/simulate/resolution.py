@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bondgraph.errors import HybridBondGraphError
-from codegen.runtime import PulseError
+from bondgraph.errors import FloatingPartError, HybridBondGraphError
+from codegen.runtime import PulseError, hyper
 
 from ..model.automaton import A_POSTERIORI
 from ..library.compiled import decide_tree
@@ -317,6 +317,49 @@ def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
     return "\n".join(lines)
 
 
+def _at_edge(c) -> bool:
+    """Whether the inclusive comparison ``c`` (``>=``, ``<=``) held only
+    because it counts its edge: ``|left − right|`` within its band, where the
+    strict comparison (``>``, ``<``) fails."""
+    if c.op not in (">=", "<=") or not c.result or c.margin is None:
+        return False
+    left, right = hyper(c.left), hyper(c.right)
+    if left.impulse or right.impulse:
+        return False
+    return abs(left.finite - right.finite) <= c.band
+
+
+def _strict_text(text: str) -> str:
+    return text.replace(">=", ">").replace("<=", "<")
+
+
+def _tie_detail(loop):
+    """``(detail lines, advice)`` when a chain of mythical modes repeats only
+    because every guard of the loop holds at the edge of an inclusive
+    comparison (:func:`_at_edge`: an ideal diode at rest, ``v_D = 0`` and
+    ``i_D = 0``, with ``v_D >= 0`` to turn on and ``i_D <= 0`` to turn off:
+    each mode's guard sends it to the other), else ``None``."""
+    fired = [f for step in loop for f in step.fired]
+    if not fired or not all(any(_at_edge(c) for c in f.comparisons) for f in fired):
+        return None
+    ties = [(f, c) for f in fired for c in f.comparisons if _at_edge(c)]
+    shown = "; ".join(f"{f.automaton}: {c.text} at {c.left} vs {c.right}" for f, c in ties)
+    strict = ", ".join(dict.fromkeys(f"{_strict_text(f.guard)} for {f.guard}" for f in fired))
+    detail = [
+        f"A tie at the edge: every guard of the loop holds only because an inclusive comparison (>= or <=) counts "
+        f"the edge of its tolerance band as holding ({shown}). At this state the modes' guards overlap — an ideal "
+        "diode or switch at rest (zero voltage and zero current) is both blocking and conducting — so each mode "
+        "sends to the other at the same instant."
+    ]
+    advice = (
+        f"Write these comparisons strictly ({strict}; models.circuits' diodes do: off → on when v_D > v_f, "
+        "on → off when i_D < 0): at the edge both guards then fail, the element stays in its mode, and the flow "
+        "carries the state off the edge and fires the guard that becomes true there. Inclusive comparisons hold "
+        "within the band around their edge, so with them the tie recurs until the state leaves the band."
+    )
+    return detail, advice
+
+
 def _pinnacle_repeat_message(model, t, steps, first: int, x: np.ndarray) -> str:
     """Pinnacle ``steps[-1]`` came back to the state it had at ``steps[first]``."""
     last = len(steps) - 1
@@ -373,7 +416,11 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     while True:
         action, current = state[0], modes[state[2]]
         if action == JUMP_AND_DECIDE:
-            cm = model.compiled_mode(current)
+            try:
+                cm = model.compiled_mode(current)
+            except FloatingPartError as error:  # a mode first met here: say when
+                raise FloatingPartError(f"at t = {t:.12g}, {error}", error.elements, error.cut, error.configuration,
+                                        error.kind) from None
             x_plus = cm.jump(x, t)
             # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
             # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
@@ -396,8 +443,10 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             first = state[5]
             loop = steps[chain_start + first:]
             numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
+            detail, advice = _tie_detail(loop) or ((), _ADVICE)
             raise DivergenceOfTimeError(
-                _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes"),
+                _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes",
+                              detail, advice),
                 loop=loop, instant=instant)
         elif action == PINNACLE_REPEATS:
             loop = [s for s in steps if s.kind == "pinnacle"]

@@ -9,6 +9,7 @@ from bondgraph import (
     BondGraph,
     C,
     CausalityConflictError,
+    FloatingPartError,
     I,
     One,
     R,
@@ -17,6 +18,7 @@ from bondgraph import (
     Zero,
     causality_violations,
 )
+from bondgraph.floating import determination
 from models.graphs import GRAPHS, msd_chain, parallel_capacitors, pivoting_rod, switched_rl
 
 
@@ -152,3 +154,61 @@ def test_effort_source_on_switched_off_zero_junction_conflicts_in_that_configura
     with pytest.raises(CausalityConflictError) as info:
         g.causality({"n": False})
     assert "'V'" in str(info.value) and "n: off" in str(info.value)
+
+
+def floating_pair(switched_on=False):
+    """Nodes p and n joined by a resistor, each tied to the driven node a only
+    through a controlled 1-junction (an ideal diode): with both off, p and n float."""
+    g = BondGraph("floating_pair")
+    a, p, n = g.add(Zero("a")), g.add(Zero("p")), g.add(Zero("n"))
+    g.connect(Se("V", "V"), a)
+    g.connect(a, R("Rs", "Rs"))
+    d1, d2 = g.add(One("D1", controlled=True)), g.add(One("D2", controlled=True))
+    g.connect(a, d1)
+    g.connect(d1, p)
+    g.connect(n, d2)
+    g.connect(d2, a)
+    load = g.add(One("load"))
+    g.connect(p, load)
+    g.connect(load, n)
+    g.connect(load, R("RL", "RL"))
+    return g
+
+
+def test_floating_junctions_are_called_under_determined_and_named():
+    g = floating_pair()
+    assert causality_violations(g, g.causality({"D1": True, "D2": True})) == []
+    with pytest.raises(FloatingPartError) as info:
+        g.causality({"D1": False, "D2": False})
+    message = str(info.value)
+    assert "under-determined, not over-determined" in message and "Sources (or switched-off" not in message
+    assert set(info.value.elements) == {"p", "n"}
+    assert set(info.value.cut) == {"D1", "D2"}
+    assert "D1: off, D2: off" in message and "float" in message
+    assert info.value.kind == "effort"
+    assert isinstance(info.value, CausalityConflictError)  # code catching conflicts still catches it
+
+
+def test_sources_that_meet_are_still_over_determined_not_floating():
+    g = BondGraph("parallel_sources")
+    n = g.add(Zero("n"))
+    g.connect(Se("V1", "V1"), n)
+    g.connect(Se("V2", "V2"), n)
+    g.connect(n, R("R", "R"))
+    with pytest.raises(CausalityConflictError) as info:
+        g.causality()
+    assert not isinstance(info.value, FloatingPartError)
+    assert "over-determine" in str(info.value)
+
+
+def test_determination_separates_the_two_failures():
+    over, efforts, flows = determination(floating_pair(), {"D1": False, "D2": False})
+    assert over == () and flows == ()
+    assert {"D1__p", "p__load", "load__n", "n__D2"} <= set(efforts)
+    g = BondGraph("series_sources")          # I1 and I2 in series: I1 = I2 is required, an over-determination
+    j = g.add(One("j"))
+    g.connect(Sf("I1", "I1"), j)
+    g.connect(Sf("I2", "I2"), j)
+    g.connect(j, C("C", "C"))
+    over, efforts, flows = determination(g, {})
+    assert set(over) == {"I1", "I2"}

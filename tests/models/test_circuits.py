@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from bondgraph.errors import (DuplicateNameError, HybridBondGraphError, InvalidGraphError, MissingParameterError,
-                              UnknownNameError)
+from bondgraph.errors import (CausalityConflictError, DuplicateNameError, FloatingPartError, HybridBondGraphError,
+                              InvalidGraphError, MissingParameterError, UnknownNameError)
 from models import diode_circuit
 from models.circuits import PWM, Circuit, Input
 from switching import load_model
@@ -279,3 +279,127 @@ def test_source_text_is_parsed_not_run():
 def test_errors_are_the_toolkits():
     with pytest.raises(HybridBondGraphError):
         Circuit("c").build()
+
+
+def bridge(load_capacitance=None, **build):
+    """A full-wave bridge: the source drives node a against ground; D1 a→p,
+    D2 0→p, D3 n→a, D4 n→0; the load (and its filter capacitor) between p and n."""
+    c = Circuit("bridge")
+    c.V("Vs", "a", "0", "Vm*sin(w*t)")
+    c.diode("D1", "a", "p")
+    c.diode("D2", "0", "p")
+    c.diode("D3", "n", "a")
+    c.diode("D4", "n", "0")
+    if load_capacitance is not None:
+        c.C("C1", "p", "n", load_capacitance)
+    c.R("Rload", "p", "n", 100.0)
+    return c.build(parameters={"Vm": 10.0, "w": 2 * math.pi * 50}, **build)
+
+
+@pytest.mark.parametrize("load_capacitance", [None, 100e-6])
+def test_bridge_with_every_diode_blocking_is_refused_as_floating_naming_the_load_nodes(load_capacitance):
+    model = bridge(load_capacitance)
+    with pytest.raises(FloatingPartError) as info:   # at t = 0 every diode blocks (v_D = 0, not > 0)
+        model.simulate(0.01, "RK45")
+    message = str(info.value)
+    assert "under-determined, not over-determined" in message
+    assert message.startswith("the initial mode (t = 0): mode D1=off, D2=off, D3=off, D4=off")
+    assert "'p', 'n'" in message and set(info.value.elements) == {"node_p", "node_n"}
+    assert set(info.value.cut) == {"D1", "D2", "D3", "D4"}
+    assert "resistor or capacitor from the node to ground" in message and "gmin" in message
+
+
+def test_voltage_sources_paralleled_by_a_switch_are_still_over_determined():
+    c = Circuit("parallel_sources")
+    c.V("V1", "a", "0", 5.0)
+    c.switch("S", "a", "b", closed_when="t >= 0")
+    c.V("V2", "b", "0", 6.0)
+    c.R("R1", "b", "0", 10.0)
+    with pytest.raises(CausalityConflictError) as info:
+        c.build().simulate(1e-3, "RK45")
+    assert not isinstance(info.value, FloatingPartError)
+    assert "over-determine" in str(info.value) and "'V1'" in str(info.value) and "S: on" in str(info.value)
+
+
+def test_capacitor_filtered_bridge_with_gmin_switches_at_the_exact_instants_and_no_others():
+    V, w, R, C = 10.0, 2 * math.pi * 50, 100.0, 100e-6
+    run = bridge(C, gmin=1e-12).simulate(0.05, "RK45", **RUN)
+    half = math.pi / w
+    t_off = (math.pi - math.atan(w * R * C)) / w          # tan(w t) = −wRC: the charging current reaches 0
+
+    def decay(t):
+        return V * math.sin(w * t_off) * math.exp(-(t - t_off) / (R * C))
+
+    t_on = brentq(lambda t: -V * math.sin(w * t) - decay(t), half, 1.5 * half, xtol=1e-15)   # |v_s| meets v_C
+    exact = [0.0]
+    for k in range(5):
+        exact += [t_off + k * half, t_on + k * half]
+    exact = [t for t in exact if t < 0.05]
+    assert len(run.events) == len(exact)                     # the leak adds no instant
+    assert run.events[0].t < 1e-12
+    np.testing.assert_allclose([e.t for e in run.events[1:]], exact[1:], rtol=1e-7)
+    ends = [e.steps[-1].mode.label for e in run.events]
+    assert ends == ["on|off|off|on", "off|off|off|off", "off|on|on|off", "off|off|off|off"] * 2 + ends[8:]
+    blocking = (run.t > t_off * (1 + 1e-6)) & (run.t < t_on * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_C1")[blocking], [decay(t) for t in run.t[blocking]], rtol=1e-7)
+    conducting = (run.t > t_on * (1 + 1e-6)) & (run.t < (t_off + half) * (1 - 1e-6))
+    np.testing.assert_allclose(run.signal("v_C1")[conducting], V * np.abs(np.sin(w * run.t[conducting])), rtol=1e-7)
+    # the leaks carry gmin·v: picoamperes against the load's 0.1 A
+    assert np.max(np.abs(run.signal("i_D1_gmin"))) < 2 * V * 1e-12
+
+
+def test_resistive_bridge_with_gmin_commutates_at_the_zero_crossings():
+    V, w = 10.0, 2 * math.pi * 50
+    model = bridge(gmin=1e-12)
+    assert {s.name: v for s, v in model.parameter_values.items()}["gmin"] == 1e-12
+    run = model.simulate(0.03, "RK45", **RUN)
+    assert [e.steps[-1].mode.label for e in run.events] == ["on|off|off|on", "off|on|on|off", "on|off|off|on"]
+    np.testing.assert_allclose([e.t for e in run.events[1:]], [math.pi / w, 2 * math.pi / w], rtol=1e-9)
+    np.testing.assert_allclose(run.signal("v_Rload"), V * np.abs(np.sin(w * run.t)), rtol=1e-7, atol=1e-9)
+
+
+def test_gmin_takes_a_parameter_name_and_refuses_what_is_no_conductance():
+    c = Circuit("half")
+    c.V("Vs", "in", "0", 5.0)
+    c.diode("D1", "in", "out")
+    c.R("Rload", "out", "0", 1e3)
+    model = c.build(gmin="g_leak", parameters={"g_leak": 1e-9})
+    assert {s.name: v for s, v in model.parameter_values.items()}["g_leak"] == 1e-9 and "D1_gmin" in model.graph.elements
+    for bad in (-1e-12, 0.0, float("nan"), True, [1e-12]):
+        with pytest.raises(InvalidGraphError, match="gmin"):
+            c.build(gmin=bad)
+    c.R("D1_gmin", "out", "0", 1.0)
+    with pytest.raises(DuplicateNameError, match="D1_gmin"):
+        c.build(gmin=1e-12)
+
+
+def test_a_floating_mode_met_during_a_run_is_refused_at_its_instant_with_the_run_so_far():
+    c = Circuit("bridge")
+    c.V("Vs", "a", "0", "Vm*sin(w*t)")
+    c.diode("D1", "a", "p", on=True)
+    c.diode("D2", "0", "p")
+    c.diode("D3", "n", "a")
+    c.diode("D4", "n", "0", on=True)
+    c.C("C1", "p", "n", 100e-6)
+    c.R("Rload", "p", "n", 100.0)
+    w = 2 * math.pi * 50
+    with pytest.raises(FloatingPartError) as info:
+        c.build(parameters={"Vm": 10.0, "w": w}).simulate(0.05, "RK45", **RUN)
+    t_off = (math.pi - math.atan(w * 100.0 * 100e-6)) / w    # D1 and D4 stop conducting: the load floats
+    assert f"at t = {t_off:.6g}" in str(info.value)[:20]
+    run = info.value.trajectory                                 # the run up to the instant is kept
+    assert run.t[0] == 0.0 and run.t[-1] == pytest.approx(t_off, rel=1e-9)
+    assert run.signal("v_C1")[-1] == pytest.approx(10.0 * math.sin(w * t_off), rel=1e-7)
+
+
+def test_closed_switches_in_parallel_leave_the_loop_current_free_and_say_so():
+    c = Circuit("parallel_switches")
+    c.V("V1", "a", "0", 5.0)
+    c.R("R1", "a", "b", 1.0)
+    c.switch("S1", "b", "c", closed_when="t >= 0")
+    c.switch("S2", "b", "c", closed_when="t >= 0")
+    c.R("R2", "c", "0", 10.0)
+    with pytest.raises(FloatingPartError) as info:
+        c.build().simulate(1e-3, "RK45")
+    assert info.value.kind == "flow" and set(info.value.elements) == {"S1", "S2"}
+    assert "under-determined" in str(info.value) and "mode S1=closed, S2=closed" in str(info.value)
