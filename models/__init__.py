@@ -7,7 +7,7 @@ Every model is a module ``models.<name>`` with
   signals it exposes;
 * ``DEFAULTS`` — parameter name → default value (a meaningful run);
 * ``build(**parameters) -> switching.HybridModel`` — unknown names are an error;
-* ``RUN`` — the default run: ``t_end`` and the method options;
+* ``RUN`` — the default run: ``t_end`` and the step options (and a ``method`` where the model needs one: ``hbg run`` takes ``auto`` otherwise);
 * ``SIGNALS`` — the named signals worth plotting.
 
 Also: :mod:`models.circuits` (electrical netlists: ``Circuit`` builds the hybrid

@@ -163,7 +163,7 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``): the impact at t = 0.1 s,
 #: then ball N moves away
-RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
+RUN = {"t_end": 0.5, "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("x1", "x2", "x3", "x4", "v1", "v2", "v3", "v4")
 
 

@@ -113,7 +113,7 @@ RANGES = {
     "D": Range("a duty cycle", 0.0, 1.0, low_open=True, high_open=True),
 }
 #: a meaningful default run (used by ``hbg run``): the start-up from v_C = Vin over 200 periods
-RUN = {"t_end": 0.02, "method": "RK45", "rtol": 1e-8, "max_step": 0.1 / DEFAULTS["f_sw"]}
+RUN = {"t_end": 0.02, "rtol": 1e-8, "max_step": 0.1 / DEFAULTS["f_sw"]}
 SIGNALS = ("i_L", "v_C", "v_in", "v_L", "i_D", "v_D", "v_sw", "i_sw", "i_load", "carrier")
 
 

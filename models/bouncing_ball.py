@@ -59,7 +59,7 @@ RANGES = {
     "v_rest": nonnegative("a resting threshold speed"),
 }
 #: a meaningful default run (used by ``hbg run``)
-RUN = {"t_end": 2.5, "method": "RK45", "rtol": 1e-8}
+RUN = {"t_end": 2.5, "rtol": 1e-8}
 SIGNALS = ("y", "v")
 
 

@@ -196,11 +196,13 @@ def _positive(option: str, value: float) -> None:
         raise _UsageError(f"{option} must be a finite positive number, got {value!r}")
 
 
-def _run_options(args, module) -> tuple[float, str, dict]:
+def _run_options(args, module, default_method: str = "RK45") -> tuple[float, str, dict]:
+    """``(t_end, method, options)`` of a run from the command line over the
+    model's ``RUN``; ``default_method`` where neither names a method."""
     run = dict(module.RUN)
     t_end = args.t_end if args.t_end is not None else run.pop("t_end")
     run.pop("t_end", None)
-    method = args.method or run.pop("method", "RK45")
+    method = args.method or run.pop("method", default_method)
     run.pop("method", None)
     from switching import METHODS
     from switching.simulate.methods import METHOD_CLASSES
@@ -421,6 +423,14 @@ class _Progress:
             sys.stderr.write("\r" + " " * 70 + "\r")
 
 
+def _auto_choice(model, t_end, options) -> str:
+    """The method ``auto`` will take for this run (the run's statistics say why)."""
+    from switching.library.jit_model import choose_method
+    from switching.simulate.driver import option_defaults
+
+    return choose_method(model, 0.0, t_end, options.get("rtol", option_defaults()["rtol"])).method
+
+
 def _compile_notice(method: str) -> None:
     """One line on stderr before a compiled method's first run on this
     installation, which compiles the kernel first (about half a minute, once)."""
@@ -447,7 +457,7 @@ def _cmd_run(args) -> int:
     module = _module(args.model)
     states: dict = {}
     parameters = _parse_sets(args.set or [], module.DEFAULTS, states)
-    t_end, method, options = _run_options(args, module)
+    t_end, method, options = _run_options(args, module, "auto")
     if args.samples < 0 or args.samples == 1:
         raise _UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
     _distinct_outputs((("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)))
@@ -477,7 +487,7 @@ def _cmd_run(args) -> int:
     _check_run(model, t_end, method, options)
     wants_files = bool(args.csv or args.npz or args.plot)
 
-    _compile_notice(method)
+    _compile_notice(_auto_choice(model, t_end, options) if method == "auto" else method)
     progress = _Progress(t_end)
     failure = None
     status = EXIT_OK
@@ -828,8 +838,9 @@ def _add_run(sub) -> None:
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_RUN_SET_HELP)
     p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of the run in s (default: the "
                    "model's)")
-    p.add_argument("--method", help="integration method (default: the model's, else RK45); 'auto': the compiled "
-                   "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45")
+    p.add_argument("--method", help="integration method (default: the model's, else auto); 'auto': the compiled "
+                   "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45 "
+                   "(the summary says which it chose and why)")
     _add_steps(p)
     p.add_argument("--plot", metavar="FILE.png", help="plot the signals (PNG, SVG or PDF by the extension)")
     p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")

@@ -92,7 +92,7 @@ RANGES = {
     "r2": nonnegative("a radius"),
 }
 #: a meaningful default run (used by ``hbg run``): one collision at t ≈ 0.533 s
-RUN = {"t_end": 1.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
+RUN = {"t_end": 1.5, "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("x1", "x2", "v1", "v2")
 
 

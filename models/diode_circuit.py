@@ -72,7 +72,7 @@ RANGES = {
     "V_th": nonnegative("the diode's threshold voltage"),
     "I_th": nonnegative("the diode's holding current"),
 }
-RUN = {"t_end": 1.0, "method": "RK45", "rtol": 1e-8}
+RUN = {"t_end": 1.0, "rtol": 1e-8}
 SIGNALS = ("i_L", "v_L", "i_D", "v_D")
 
 

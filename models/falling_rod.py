@@ -156,7 +156,7 @@ RANGES = {
     "v_th": nonnegative("a sticking threshold speed"),
     "y_lift": nonnegative("a lift-off height"),
 }
-RUN = {"t_end": 0.5, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
+RUN = {"t_end": 0.5, "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = (
     "theta",
     "omega",

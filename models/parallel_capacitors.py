@@ -86,7 +86,7 @@ RANGES = {
     "R": nonnegative("a resistance", required=True),
 }
 #: a meaningful default run (used by ``hbg run``): the switch closes at 10 ms
-RUN = {"t_end": 0.05, "method": "RK45", "rtol": 1e-9, "atol": 1e-12}
+RUN = {"t_end": 0.05, "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("v1", "v2", "q_total", "energy")
 
 

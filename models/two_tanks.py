@@ -110,7 +110,7 @@ RANGES = {
     "g": positive("gravity"),
 }
 #: a meaningful default run (used by ``hbg run``): several valve cycles
-RUN = {"t_end": 1000.0, "method": "RK45", "rtol": 1e-8}
+RUN = {"t_end": 1000.0, "rtol": 1e-8}
 SIGNALS = ("h1", "h2", "p1", "p2", "Q_pump", "Q_valve", "Q_out", "V_total")
 
 

@@ -251,7 +251,7 @@ class ModelFile:
         self.DEFAULTS = self._loaded.defaults
         run = dict(settings["run"])
         signals = run.pop("signals", None)
-        self.RUN = {"t_end": 1.0, "method": "RK45", **run}
+        self.RUN = {"t_end": 1.0, **run}  # (a method only if the file names one: hbg run chooses, else)
         self.SIGNALS = tuple(signals) if signals is not None else tuple(
             name for name in self._loaded.part.signals)
 

@@ -119,7 +119,8 @@ def test_a_run_failing_before_any_sample_writes_no_file_and_says_so(capsys, tmp_
 def test_ctrl_c_during_a_run_saves_the_partial_run_and_exits_130(tmp_path):
     data = tmp_path / "boost.csv"
     process = subprocess.Popen(
-        [sys.executable, "-m", "models.cli", "run", "boost-converter", "--t-end", "1", "--csv", str(data)],
+        [sys.executable, "-m", "models.cli", "run", "boost-converter", "--t-end", "1", "--csv", str(data),
+         "--method", "RK45"],  # (a Python run, interrupted inside its flow)
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
         env={**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": ROOT},
         # Ctrl-C as a terminal delivers it, also when the tests run in the background
@@ -269,10 +270,12 @@ def test_hbg_run_writes_the_rows_of_simulate_with_samples(capsys, tmp_path):
     from models import bouncing_ball
 
     both, times = tmp_path / "both.npz", tmp_path / "times.npz"
+    method = model_run_method()  # (named: hbg run's default, auto, chooses by what is cached)
     status, _, err = hbg(capsys, "run", "bouncing-ball", "--t-end", "2", "--samples", "40", "--with-instants",
-                         "--npz", both)
+                         "--npz", both, "--method", method)
     assert status == 0, err
-    status, _, err = hbg(capsys, "run", "bouncing-ball", "--t-end", "2", "--samples", "40", "--npz", times)
+    status, _, err = hbg(capsys, "run", "bouncing-ball", "--t-end", "2", "--samples", "40", "--npz", times,
+                         "--method", method)
     assert status == 0, err
     model = bouncing_ball.build()
     run = model.simulate(2.0, model_run_method(), samples=40, **model_run_options())

@@ -116,3 +116,14 @@ def test_bad_input_is_one_clear_line(args, message):
     assert out.returncode == 2
     assert message in out.stderr and "Traceback" not in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
+
+
+def test_run_takes_auto_by_default_and_says_what_it_chose_and_why(tmp_path):
+    """Issue 29, item 4: no --method and none in the model's RUN: ``auto``, whose choice and reason the
+    summary prints; a method given is taken as it is."""
+    chosen = hbg("run", "bouncing-ball", "--samples", "0")
+    assert chosen.returncode == 0, chosen.stderr
+    line = next(line for line in chosen.stdout.splitlines() if "method chosen by auto:" in line)
+    assert line.split("method chosen by auto:")[1].strip().split(":")[0] in ("RK45", "RK45-jit")
+    named = hbg("run", "bouncing-ball", "--samples", "0", "--method", "RK23")
+    assert named.returncode == 0 and "method: RK23" in named.stdout and "chosen by auto" not in named.stdout
