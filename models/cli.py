@@ -382,12 +382,12 @@ def _write_outputs(args, trajectory, signals, plotted=None) -> list[str]:
     if args.plot:
         def plot():
             from bondgraph.drawing import pyplot
-            from switching.simulate.plotting import plot_trajectory
+            from switching.simulate.plotting import DEFAULT_PANELS, plot_trajectory
 
             shown = trajectory if plotted is None else plotted
             if len(shown.t) == 0:
                 raise ValueError("no samples to plot")
-            fig = plot_trajectory(shown, signals)
+            fig = plot_trajectory(shown, signals if args.signals else signals[:DEFAULT_PANELS])  # (the files: all)
             try:
                 fig.savefig(args.plot, dpi=110)
             finally:
@@ -845,7 +845,8 @@ def _add_run(sub) -> None:
     p.add_argument("--plot", metavar="FILE.png", help="plot the signals (PNG, SVG or PDF by the extension)")
     p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")
     p.add_argument("--npz", metavar="FILE", help="write the run as numpy arrays (t, x, modes, signals, instants)")
-    p.add_argument("--signals", help="comma-separated signals to plot/save")
+    p.add_argument("--signals", help="comma-separated signals to plot and save (default: the model's; the plot "
+                   "draws the first six of them)")
     p.add_argument("--samples", type=int, default=500, metavar="N",
                    help="sample the run at this many equally spaced times from 0 to t_end, plus the two rows "
                         "(before, after) of every instant: simulate(..., samples=N) (default 500, at least 2; "

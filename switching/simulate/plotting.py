@@ -18,15 +18,95 @@ from collections import Counter
 import numpy as np
 
 from bondgraph.drawing import draw_bond_graph, pyplot
+from bondgraph.errors import HybridBondGraphError
 
-__all__ = ["plot_trajectory", "phase_portrait", "mode_graph", "draw_bond_graph", "mode_colors"]
+__all__ = ["DEFAULT_PANELS", "FLAT", "MAX_POINTS", "default_signals", "draw_bond_graph", "mode_colors", "mode_graph",
+           "phase_portrait", "plot_trajectory"]
 
 
-def mode_colors(modes) -> dict:
-    """A stable colour per mode (in order of first appearance)."""
+def mode_colors(modes, model=None) -> dict:
+    """A colour per mode that does not depend on the run: with the
+    ``model``, the mode's number ``Σ_a state_a·radix_a`` in its automata
+    (the initial mode of a two-automaton model is always the first colour,
+    whatever the run visited first); without, the modes in the order of
+    their labels."""
     plt = pyplot()
     cmap = plt.get_cmap("tab10")
-    return {mode: cmap(k % 10) for k, mode in enumerate(dict.fromkeys(modes))}
+    modes = list(dict.fromkeys(modes))
+    if model is not None:
+        automata = {a.name: list(a.states) for a in model.automata}
+
+        def number(mode):
+            code, radix = 0, 1
+            for name, state in zip(mode.automata, mode.states):
+                states = automata.get(name, [state])
+                code += (states.index(state) if state in states else 0) * radix
+                radix *= max(len(states), 1)
+            return code
+
+        try:
+            return {mode: cmap(number(mode) % 10) for mode in modes}
+        except (AttributeError, TypeError):
+            pass
+    order = sorted(modes, key=lambda m: getattr(m, "label", str(m)))
+    return {mode: cmap(order.index(mode) % 10) for mode in modes}
+
+
+#: panels drawn by default (the model's declared signals, else its states)
+DEFAULT_PANELS = 6
+#: a panel of more samples in its window is drawn as a min–max envelope per time bin (half this many bins)
+MAX_POINTS = 6000
+#: a signal whose range is below this fraction of its magnitude is drawn as constant (round-off is not a signal)
+FLAT = 1e-9
+
+
+def default_signals(trajectory) -> list:
+    """The panels of :func:`plot_trajectory` by default: the model's own
+    signals (those it declares, in order), then the states that none of them
+    merely renames (``x1 = pos1``), at most :data:`DEFAULT_PANELS`."""
+    model = trajectory.model
+    if model is None:
+        return list(trajectory.state_names)[:DEFAULT_PANELS]
+    names = list(model.signal_names)
+    declared = names[: len(names) - len(model.states)]
+    renamed = set()
+    for name in declared:
+        try:
+            renamed.add(model.signal_expression(name))
+        except HybridBondGraphError:  # a signal the model cannot express alone: it renames nothing
+            pass
+    states = [s.name for s in model.states if s not in renamed]
+    return (declared + states)[:DEFAULT_PANELS]
+
+
+def _envelope(t, values, bins):
+    """``(t, low, high)`` of ``values`` in ``bins`` equal time bins over ``t`` (empty bins left out)."""
+    edges = np.linspace(t[0], t[-1], bins + 1)
+    index = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
+    low = np.full(bins, np.inf)
+    high = np.full(bins, -np.inf)
+    np.minimum.at(low, index, values)
+    np.maximum.at(high, index, values)
+    kept = np.isfinite(low)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    return centres[kept], low[kept], high[kept]
+
+
+def _draw_signal(ax, t, values, label, color):
+    """One signal on ``ax``: the line, or its min–max envelope when it has
+    more than :data:`MAX_POINTS` samples; a signal flat to round-off is
+    drawn flat, with its value."""
+    if len(t) > MAX_POINTS:
+        centres, low, high = _envelope(t, values, MAX_POINTS // 2)
+        ax.fill_between(centres, low, high, color=color, lw=0.6, alpha=0.9, label=label, step="mid")
+    else:
+        ax.plot(t, values, color=color, lw=1.2, label=label)
+    finite = values[np.isfinite(values)]
+    if len(finite):
+        size = float(np.max(np.abs(finite)))
+        if np.ptp(finite) <= FLAT * size or size == 0.0:
+            return float(np.mean(finite))
+    return None
 
 
 def _intervals(trajectory):
@@ -55,40 +135,79 @@ def _instant_kind(instant) -> str:
     return "pinnacles" if instant.pinnacles else "mythical" if instant.mythical else "switch"
 
 
-def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instants=60):
-    """One axis per signal (default: every state), mode intervals shaded,
-    instants marked (when there are at most ``max_instants`` of them).
-    Returns the figure."""
+def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instants=60, t_range=None):
+    """Signals against time, one panel each, the flow in each mode shaded
+    (a colour per mode that stays with it from run to run), instants marked
+    (when there are at most ``max_instants`` of them), jumps upright where
+    the run kept each instant's rows.  Returns the figure.
+
+    ``signals``: names, a panel each; an entry that is itself a list of
+    names draws those in one panel, with a legend (``[["v1", "v2"], "x1"]``);
+    default :func:`default_signals` (the model's own signals, else its
+    states, at most :data:`DEFAULT_PANELS`).  ``t_range=(a, b)`` [s]: draw
+    only that window.  A panel of more than :data:`MAX_POINTS` samples in the
+    window is drawn as the min–max envelope of its samples in
+    ``MAX_POINTS/2`` equal time bins (a long switching run would alias as
+    lines); a signal constant to round-off (its range within
+    :data:`FLAT` of its magnitude) is drawn flat, its value in the label."""
     plt = pyplot()
-    signals = list(signals or trajectory.state_names)
+    panels = [list(entry) if isinstance(entry, (list, tuple)) else [entry]
+              for entry in (signals or default_signals(trajectory))]
     if axes is None:
-        fig, axes = plt.subplots(len(signals), 1, sharex=True, figsize=(8, 1.9 * len(signals) + 0.8), squeeze=False)
+        fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8), squeeze=False)
         axes = axes[:, 0]
     else:
         axes = np.atleast_1d(axes)
         fig = axes[0].figure
-    spans = _intervals(trajectory)
-    colors = mode_colors([m for *_, m in spans] or trajectory.modes)
-    for ax, name in zip(axes, signals):
-        values = trajectory.signal(name)
-        ax.plot(trajectory.t, values, color="black", lw=1.2)
+    t = np.asarray(trajectory.t)
+    if t_range is not None:
+        low, high = (float(v) for v in t_range)
+        if not low < high:
+            raise ValueError(f"t_range must be (start, end) with start < end, got {t_range!r}")
+        inside = (t >= low) & (t <= high)
+    else:
+        low, high = (float(t[0]), float(t[-1])) if len(t) else (0.0, 1.0)
+        inside = np.ones(len(t), dtype=bool)
+    spans = [(max(a, low), min(b, high), m) for a, b, m in _intervals(trajectory) if b >= low and a <= high]
+    colors = mode_colors([m for *_, m in spans] or trajectory.modes, trajectory.model)
+    instants = [i for i in trajectory.events if low <= i.t <= high]
+    cycle = plt.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+    for ax, names in zip(axes, panels):
+        flat = {}  # name → its value, for a signal constant to round-off
+        for k, name in enumerate(names):
+            color = "black" if len(names) == 1 else cycle[k % len(cycle)]
+            constant = _draw_signal(ax, t[inside], np.asarray(trajectory.signal(name))[inside], name, color)
+            if constant is not None:
+                flat[name] = constant
         for t0, t1, mode in spans:
             ax.axvspan(t0, t1, color=colors[mode], alpha=0.18, lw=0)
-        if len(trajectory.events) <= max_instants:
-            for instant in trajectory.events:
+        if len(instants) <= max_instants:
+            for instant in instants:
                 ax.axvline(instant.t, color="0.35", ls=_INSTANT_STYLES[_instant_kind(instant)][0], lw=0.8)
-        ax.set_ylabel(name)
+        if len(flat) == len(names):  # round-off is not a signal: a flat line around its value
+            value = next(iter(flat.values()))
+            pad = 0.5 * abs(value) if value else 1.0
+            ax.set_ylim(value - pad, value + pad)
+        shown = [f"{name} (constant: {flat[name]:.6g})" if name in flat else name for name in names]
+        if len(names) == 1:
+            ax.set_ylabel(shown[0], fontsize=8 if len(shown[0]) > 18 else None)
+        else:
+            ax.legend(shown, fontsize=7, loc="upper right")
         ax.grid(alpha=0.25)
+        ax.set_xlim(low, high)
     axes[-1].set_xlabel("t [s]")
-    from matplotlib.patches import Patch
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     handles = [Patch(color=c, alpha=0.35, label=m.describe()) for m, c in colors.items()]
-    drawn = {_instant_kind(i) for i in trajectory.events} if len(trajectory.events) <= max_instants else set()
+    drawn = {_instant_kind(i) for i in instants} if len(instants) <= max_instants else set()
     handles += [Line2D([], [], color="0.35", ls=style, lw=0.8, label=label)
                 for kind, (style, label) in _INSTANT_STYLES.items() if kind in drawn]  # only what occurred
+    if len(panels[0]) > 1:  # (that panel has its signals' legend)
+        axes[0].add_artist(axes[0].get_legend())
     axes[0].legend(handles=handles, fontsize=7, loc="best")
-    axes[0].set_title(title or f"{trajectory.model.name}: {len(trajectory.events)} instants")
+    name = trajectory.model.name if trajectory.model is not None else getattr(trajectory, "model_name", "run")
+    axes[0].set_title(title or f"{name}: {len(trajectory.events)} instants")
     fig.tight_layout()
     return fig
 
@@ -101,7 +220,7 @@ def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):
         _, ax = plt.subplots(figsize=(5, 4))
     xs, ys = trajectory.signal(x), trajectory.signal(y)
     spans = _intervals(trajectory)
-    colors = mode_colors([m for *_, m in spans])
+    colors = mode_colors([m for *_, m in spans], trajectory.model)
     for t0, t1, mode in spans:
         mask = (trajectory.t >= t0) & (trajectory.t <= t1) & np.array([m == mode for m in trajectory.modes])
         ax.plot(xs[mask], ys[mask], color=color or colors[mode], lw=1.4)

@@ -433,9 +433,11 @@ class Trajectory:
 
     def plot(self, signals=None, **options):
         """The run as a figure (:func:`switching.simulate.plotting.plot_trajectory`):
-        a panel per signal (default: every state), the flow in each mode shaded,
-        the instants marked, jumps upright where the run kept each instant's
-        before/after samples; ``options`` go to ``plot_trajectory`` (``axes``,
+        a panel per signal or per list of signals (default: the model's own
+        signals, then the states none renames, at most six), the flow in each
+        mode shaded in a colour that stays with the mode, the instants marked,
+        jumps upright where the run kept each instant's before/after samples;
+        ``options`` go to ``plot_trajectory`` (``t_range``, ``axes``,
         ``title``, ``max_instants``).  Returns the matplotlib figure."""
         return plot_trajectory(self, signals, **options)
 

@@ -84,4 +84,44 @@ def test_the_command_line_draws_jumps_upright(tmp_path, monkeypatch):
 def test_a_trajectory_plots_itself(ball_run):
     fig = ball_run.plot(["y", "v"], title="ball")
     assert [ax.get_ylabel() for ax in fig.axes] == ["y", "v"] and fig.axes[0].get_title() == "ball"
-    assert len(ball_run.plot().axes) == len(ball_run.state_names)  # default: every state
+    # default: the declared signals, then the states none of them renames (issue 29: the rod drew 12 panels)
+    assert [ax.get_ylabel() for ax in ball_run.plot().axes] == ["v", "p", "y"]
+
+
+def test_mode_colours_stay_with_their_modes_whatever_the_run_met_first():
+    """Issue 29: the colours swapped between near-identical runs (they followed the order of first appearance)."""
+    from switching.simulate.plotting import mode_colors
+
+    model = falling_rod.build()
+    modes = [model.mode("free|stuck"), model.mode("contact|stuck"), model.mode("contact|slide_pos")]
+    assert mode_colors(modes, model) == mode_colors(list(reversed(modes)), model)
+    assert len(set(mode_colors(modes, model).values())) == 3
+
+
+def test_signals_share_a_panel_a_window_is_drawn_and_round_off_is_drawn_flat(ball_run):
+    fig = plot_trajectory(ball_run, [["y", "v"], "p"], t_range=(0.5, 1.5))
+    assert len(fig.axes) == 2 and fig.axes[0].get_xlim() == (0.5, 1.5)
+    from matplotlib.legend import Legend
+
+    legends = [a for a in fig.axes[0].artists if isinstance(a, Legend)] + [fig.axes[0].get_legend()]
+    assert [[t.get_text() for t in legend.get_texts()] for legend in legends][0] == ["y", "v"]  # then the modes
+    drawn = [line for line in fig.axes[1].lines if len(set(line.get_xdata())) > 1]
+    assert drawn and drawn[0].get_xdata().min() >= 0.5 and drawn[0].get_xdata().max() <= 1.5
+    from models import ball_chain
+
+    chain = ball_chain.build(N=3, distance=0.5).simulate(0.2, "RK45")  # ball 3 at rest all along: v3 = 0
+    fig = plot_trajectory(chain, ["v3"])
+    assert fig.axes[0].get_ylabel() == "v3 (constant: 0)" and fig.axes[0].get_ylim() == (-1.0, 1.0)
+
+
+def test_a_long_switching_run_is_drawn_as_an_envelope_not_aliased_lines():
+    from models import boost_converter
+    from switching.simulate import plotting
+
+    run = boost_converter.build().simulate(0.004, "RK45", rtol=1e-6, samples=20_000)
+    assert len(run.t) > plotting.MAX_POINTS
+    fig = plot_trajectory(run, ["i_L"])
+    envelopes = fig.axes[0].collections
+    assert envelopes and not [line for line in fig.axes[0].lines if len(line.get_xdata()) > plotting.MAX_POINTS]
+    low, high = plotting._envelope(np.asarray(run.t), run.signal("i_L"), plotting.MAX_POINTS // 2)[1:]
+    assert low.min() == pytest.approx(run.signal("i_L").min()) and high.max() == pytest.approx(run.signal("i_L").max())
