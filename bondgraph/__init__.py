@@ -48,6 +48,7 @@ from .errors import UnknownParameterError as UnknownParameterError
 from .errors import ParameterValueError as ParameterValueError
 from .errors import PhysicalRangeWarning as PhysicalRangeWarning
 from .errors import EnergyGainWarning as EnergyGainWarning
+from .errors import CoarseStepWarning as CoarseStepWarning
 from .energy import energy_function as energy_function
 from .energy import storage_energy as storage_energy
 from .energy import stored_energy as stored_energy

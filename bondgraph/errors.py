@@ -26,6 +26,7 @@ __all__ = [
     "ParameterValueError",
     "PhysicalRangeWarning",
     "EnergyGainWarning",
+    "CoarseStepWarning",
 ]
 
 
@@ -200,6 +201,12 @@ class PhysicalRangeWarning(UserWarning):
     """A value the toolkit can compute with but that lies outside the physical
     range the model states (a negative capacitance, a restitution coefficient
     above 1): the run goes on, the result may not be physical."""
+
+
+class CoarseStepWarning(UserWarning):
+    """A fixed-step run whose own error estimate (step doubling on a sample
+    of its steps) is large: its instants and states may be far from the
+    model's.  The message gives the estimate and the step to take."""
 
 
 class EnergyGainWarning(UserWarning):

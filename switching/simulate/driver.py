@@ -48,6 +48,7 @@ from .methods import METHOD_CLASSES, METHODS
 from .option_groups import RunOptions
 from .energy_watch import warn_if_created
 from .preflight import nonfinite_at_start
+from .step_doubling import warn_if_coarse
 from .python_flow import flow_python
 from .real_values import ComplexValueError, complex_failure
 from .recorder import Recorder
@@ -366,12 +367,15 @@ class HybridRun:
             recorder.sample(self.t, self.x, self.mode, force=True)
         trajectory = recorder.trajectory(stopped=status.value, stats=stats, complete=status is Status.FINISHED,
                                          all_rows=all_rows)
-        # the energy balance of a fixed-step run's flows (adaptive methods control their error), on its steps:
-        # other rows would not close it
+        # a fixed-step run's energy balance and its error estimate (adaptive methods control their error), on
+        # its steps: other rows would not close the balance
         if self.method_class.fixed_step and self.output == "steps" and trajectory.sampling == "steps":
             created = warn_if_created(trajectory, self.method, self.options.stepping.dt)
             if created is not None:
                 trajectory.stats["energy created in flows [J]"] = created
+            estimate = warn_if_coarse(self.model, trajectory, self.method_class, self.options.stepping.dt)
+            if estimate is not None:
+                trajectory.stats["error estimate (step doubling)"] = estimate
         return trajectory
 
 

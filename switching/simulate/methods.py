@@ -81,6 +81,8 @@ class FixedStepMethod(Method):
 
     fixed_step = True
     integrator: ClassVar[type] = Euler
+    #: the method's order p: a step's error is O(dt^(p+1))
+    order: ClassVar[int] = 1
 
     @classmethod
     def stepper(cls, fun, t0, y0, t_bound, *, dt=None, rtol=1e-6, atol=1e-9, max_step=float("inf"),
@@ -108,6 +110,7 @@ class CompiledMethod(Method):
         super().__init_subclass__(**kwargs)
         if cls.python is not None:
             cls.fixed_step, cls.stiff = cls.python.fixed_step, cls.python.stiff
+            cls.order = getattr(cls.python, "order", None)
 
 
 def register(cls: type[Method]) -> type[Method]:
@@ -152,14 +155,14 @@ def method_class(method) -> type[Method]:
 class EulerMethod(FixedStepMethod):
     """Euler's method, order 1; its interpolant the step itself (the paper's Alg. 1)."""
 
-    name, integrator = "euler", Euler
+    name, integrator, order = "euler", Euler, 1
 
 
 @register
 class RK4Method(FixedStepMethod):
     """The classical Runge–Kutta method, order 4; a cubic Hermite interpolant from the end-point slopes."""
 
-    name, integrator = "rk4", RK4
+    name, integrator, order = "rk4", RK4, 4
 
 
 @register
