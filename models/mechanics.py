@@ -47,15 +47,16 @@ of ``x``/``v``/``F``):
   backlashes).  A spring's state ``q_<name>`` is its deflection
   ``∫(v(n1) − v(n2))dt`` (``F = k·q``), of the opposite sign when ``n1`` is
   the frame (the signals keep the convention);
-* forces: ``F_<f>`` the force on its node, ``v_<f>`` the node's velocity;
+* forces and prescribed velocities: ``F_<f>`` the force on its node,
+  ``v_<f>`` the node's velocity;
 * gears: ``T_<g>_in`` the torque the input shaft delivers, ``T_<g>_out``
   the torque on the output shaft, ``omega_<g>_in``, ``omega_<g>_out``;
 * motors: ``i_<M>`` the armature current, ``emf_<M> = k·ω`` the back-emf,
   ``T_<M> = k·i`` the torque on its shaft, ``omega_<M>`` the shaft's speed.
 
 Values: a number (it becomes a parameter named after the component, e.g.
-``m1``, overridable in :meth:`Mechanism.build`) or a parameter name.  Forces
-and motor voltages also take an expression of ``t`` as text (parsed without
+``m1``, overridable in :meth:`Mechanism.build`) or a parameter name.  Forces,
+prescribed velocities and motor voltages also take an expression of ``t`` as text (parsed without
 executing code) or a declared :class:`~models.circuits.Input`.
 
 Clutches (:meth:`Mechanism.clutch`, automaton states ``disengaged`` and
@@ -187,7 +188,7 @@ class Mechanism:
     signals ``x``, ``v``, ``F``) or ``"rotational"`` (nodes are shafts;
     signals ``theta``, ``omega``, ``T``).  Add components with :meth:`mass`
     (:meth:`inertia`), :meth:`spring`, :meth:`damper`, :meth:`force`
-    (:meth:`torque`), :meth:`gear`, :meth:`motor`, :meth:`clutch`,
+    (:meth:`torque`), :meth:`velocity`, :meth:`gear`, :meth:`motor`, :meth:`clutch`,
     :meth:`stop` and :meth:`backlash`; :meth:`build` returns the
     :class:`~switching.HybridModel`.  Component names are identifiers and
     unique; node names are letters, digits and ``_``.  See the module
@@ -252,6 +253,14 @@ class Mechanism:
     def torque(self, name: str, shaft, value) -> None:
         """A torque [N·m] on ``shaft``: :meth:`force`."""
         self.force(name, shaft, value)
+
+    def velocity(self, name: str, node, value) -> None:
+        """A prescribed velocity [m/s] (rotational: speed [rad/s]) of ``node``
+        (an ``Sf``: a drive stiff enough to impose its motion), a number, a
+        parameter name, an expression of ``t`` as text or an Input;
+        ``F_<name>`` is the force it applies to the node.  A mass on the same
+        node follows it (its momentum is then a dependent state)."""
+        self._add("S", name, (node,), value=_source_value(value, name))
 
     def gear(self, name: str, n_in, n_out, ratio) -> None:
         """An ideal gear (a ``TF``) of ratio ``n`` from shaft ``n_in`` to
@@ -337,7 +346,7 @@ class Mechanism:
         if len(nodes) == 2 and nodes[0] == nodes[1]:
             raise InvalidGraphError(f"component {name!r} has both ends on node {nodes[0]!r}: it would act on "
                                     "nothing; connect it between two different nodes", [name])
-        if kind in ("M", "F", "DC") and nodes[0] == FRAME:
+        if kind in ("M", "F", "S", "DC") and nodes[0] == FRAME:
             raise InvalidGraphError(f"component {name!r} is on the frame {FRAME!r}, which does not move; put it "
                                     "on a moving node", [name])
         if kind == "G" and FRAME in nodes:
@@ -358,7 +367,7 @@ class Mechanism:
                                         "lambda q: k1*q + k3*q**3", [name])
         if kind in ("M", "K", "B") and values.get("value") is None and values.get("law") is None:
             values["value"] = name
-        if isinstance(values.get("value"), str) and kind not in ("F",):
+        if isinstance(values.get("value"), str) and kind not in ("F", "S"):
             _parameter_name(values["value"], f"value of {name!r}")
         self._parts[name] = _Part(kind, name, nodes, values)
 
@@ -524,7 +533,7 @@ class _Builder:
     def source(self, part):
         name, (n,) = part.name, part.nodes
         value = self.source_value(part.values["value"], name, name)
-        self.note(n, self.graph.connect(Se(name, value), self.node(n)))
+        self.note(n, self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n)))
         self.signals[f"{self.F}_{name}"] = f"e_{name}"
         self.signals[f"{self.V}_{name}"] = f"f_{name}"
 
@@ -650,7 +659,7 @@ class _Builder:
         m = self.mechanism
         parts = sorted(m._parts.values(), key=lambda part: part.kind != "M")  # masses first: stops need them
         for part in parts:
-            {"M": self.mass, "K": self.passive, "B": self.passive, "F": self.source, "G": self.gear,
+            {"M": self.mass, "K": self.passive, "B": self.passive, "F": self.source, "S": self.source, "G": self.gear,
              "DC": self.motor, "CL": self.clutch, "ST": self.limit}[part.kind](part)
         for n, junction in self.junctions.items():
             self.graph.displacement(f"{self.X}_{n}", of=junction)

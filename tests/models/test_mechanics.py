@@ -319,3 +319,38 @@ def test_errors_name_the_component_and_say_what_to_do():
         parallel.build().simulate(1.0, "RK45")
     assert set(info.value.elements) == {"C1", "C2"}
     assert info.value.trajectory.t[-1] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("ends", [("a", "0"), ("0", "a")])
+def test_coulomb_friction_damper_stops_the_block_and_holds_it(ends):
+    import sympy
+
+    m, mu_N, v0, push = 2.0, 3.0, 1.5, 1.0          # the push stays below the friction: the block stays put
+    block = Mechanism("block")
+    block.mass("m1", "a", m, v0=v0)
+    block.force("push", "a", push)
+    block.damper("friction", *ends, effort_law=lambda v: mu_N * sympy.sign(v))
+    run = block.build().simulate(3.0, "RK45", **RUN)
+    t_stop = v0 / ((mu_N - push) / m)
+    assert run.event_times[-1] == pytest.approx(t_stop, rel=1e-9)
+    sliding = run.t < t_stop * (1 - 1e-9)
+    np.testing.assert_allclose(run.signal("v_m1")[sliding], v0 - (mu_N - push) / m * run.t[sliding], rtol=TOL)
+    sign = 1 if ends[0] == "a" else -1                     # F from the first end to the second
+    np.testing.assert_allclose(run.signal("F_friction")[sliding], sign * mu_N, rtol=1e-9)
+    stuck = run.t > t_stop * (1 + 1e-9)
+    np.testing.assert_allclose(run.signal("v_m1")[stuck], 0.0, atol=1e-12)
+    np.testing.assert_allclose(run.signal("F_friction")[stuck], sign * push, rtol=1e-9)   # static: the push
+
+
+def test_a_prescribed_speed_winds_up_a_torsion_spring():
+    W, k, J = 3.0, 400.0, 1.0
+    d = Mechanism("wind_up", "rotational")
+    d.velocity("drive", "a", "W")
+    d.spring("shaft", "a", "b", k)
+    d.inertia("J1", "b", J)
+    run = d.build(parameters={"W": W}).simulate(1.0, "RK45", **RUN)
+    w = math.sqrt(k / J)
+    np.testing.assert_allclose(run.signal("theta_J1"), W * run.t - W / w * np.sin(w * run.t), rtol=TOL, atol=1e-9)
+    np.testing.assert_allclose(run.signal("T_shaft"), k * W / w * np.sin(w * run.t), rtol=TOL, atol=1e-8)
+    np.testing.assert_allclose(run.signal("T_drive"), run.signal("T_shaft"), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(run.signal("omega_a"), W, rtol=1e-12)
