@@ -82,8 +82,11 @@ the relative position and ``w = v_<name>`` the relative velocity::
     upper_impact → upper         w <= 0 and w >= 0                (after a plastic jump)
     upper        → free          F_<name> < 0                     (a posteriori)
 
-and the mirror images at ``lower``.  An impact is a time-scale abstraction
-judged on the velocity before it (a priori); the impact state is a pinnacle:
+and the mirror images at ``lower`` (``d <= lower``, ``w < −v_th``, …, and
+``F_<name> > 0`` to let go).  An impact is a time-scale abstraction
+judged on the velocity before it (a priori).  Both guards out of the impact
+state are false on the state before the jump (``w > v_th >= 0``), so the
+impact state is real, a pinnacle, and not passed as mythical:
 after the jump ``w⁺ = −e·w`` it is left for ``free`` (a rebound) or, when
 nothing rebounds (``e = 0``), for the contact state, which holds the nodes
 together until the contact would have to pull (a posteriori, as a diode).

@@ -354,3 +354,14 @@ def test_a_prescribed_speed_winds_up_a_torsion_spring():
     np.testing.assert_allclose(run.signal("T_shaft"), k * W / w * np.sin(w * run.t), rtol=TOL, atol=1e-8)
     np.testing.assert_allclose(run.signal("T_drive"), run.signal("T_shaft"), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(run.signal("omega_a"), W, rtol=1e-12)
+
+
+def test_a_mass_between_two_elastic_stops_bounces_with_the_closed_form_period():
+    box = Mechanism("box")
+    box.mass("m1", "a", 1.0, v0=2.0)
+    box.stop("walls", "a", upper=0.5, lower=-0.5, e="e_w")
+    run = box.build(parameters={"e_w": 1.0}).simulate(2.2, "RK45", **RUN)
+    np.testing.assert_allclose(run.event_times, [0.25, 0.75, 1.25, 1.75], rtol=1e-9)
+    assert [e.steps[1].mode.label for e in run.events] == ["upper_impact", "lower_impact"] * 2
+    assert run.signal("v_m1")[-1] == pytest.approx(2.0, rel=1e-12)
+    assert run.signal("x_m1")[-1] == pytest.approx(-0.5 + 2.0 * (2.2 - 1.75), rel=1e-7)   # from the lower wall
