@@ -11,7 +11,9 @@ Every model is a module ``models.<name>`` with
 * ``SIGNALS`` — the named signals worth plotting.
 
 Also: :mod:`models.circuits` (electrical netlists: ``Circuit`` builds the hybrid
-model of components between named nodes), :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
+model of components between named nodes), :mod:`models.mechanics` (1-D machines,
+translational and rotational: ``Mechanism`` does the same with masses, springs,
+gears, motors, clutches, stops and backlash), :mod:`models.components` (sub-models with ports), :mod:`models.graphs`
 (plain bond graphs), :mod:`models.cli` (the ``hbg`` command), ``models/examples``
 (model files written by hand; see :mod:`switching.files.modelfile` for the format).
 

@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["bondgraph", "bondgraph.graph", "models.circuits", "models.components", "models.graphs", "switching.model.automaton", "switching.model.hybrid_model",
+MODULES = ["bondgraph", "bondgraph.graph", "models.circuits", "models.components", "models.mechanics", "models.graphs", "switching.model.automaton", "switching.model.hybrid_model",
            "switching.library.mode_library"]
 
 

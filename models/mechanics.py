@@ -1,0 +1,686 @@
+"""1-D mechanics, translational and rotational: components between named nodes.
+
+:class:`Mechanism` collects components between *nodes* — velocity points: the
+speed of a point of a translational machine, the angular speed of a shaft of a
+rotational one — and builds their bond graph in the mobility analogy, as
+:class:`models.circuits.Circuit` does for netlists:
+
+* every node other than the frame ``"0"`` is a 1-junction ``node_<node>`` (one
+  velocity, the forces on it balance) with an integrated displacement
+  ``x_<node>`` (``theta_<node>`` when rotational): its position;
+* the frame ``"0"`` does not move (velocity 0) and is eliminated: a component
+  between a node and the frame is bonded straight to the node;
+* a mass (inertia) is an ``I`` on its node; a force (torque) an ``Se`` on it;
+* a spring or damper between two nodes sits on a 0-junction ``branch_<name>``
+  (one force) between the two nodes' 1-junctions, so that its flow is the
+  relative velocity ``v(n1) − v(n2)``;
+* a gear is a ``TF`` from one shaft to another, a DC motor a ``GY`` from its
+  armature circuit to its shaft;
+* a clutch, a hard stop and a backlash are *controlled* 0-junctions named
+  after the component between its two nodes (on: the nodes move together;
+  off: no force between them), driven by an automaton of the same name.  The
+  jump into the locked configuration is derived by the toolkit from
+  conservation of momentum (DESIGN §5): a plastic engagement, or Newton's
+  ``−e`` rebound with the automaton's restitution.
+
+The result of :meth:`Mechanism.build` is an ordinary
+:class:`~switching.HybridModel`: simulate it, save it to a model file, draw
+its graph with :func:`bondgraph.draw_bond_graph`.
+
+Units: SI.  Translational: m, m/s, N, kg, N/m, N·s/m.  Rotational: rad,
+rad/s, N·m, kg·m², N·m/rad, N·m·s/rad.  A motor's armature: V, A, Ω, H, and
+its constant ``k`` [V·s/rad = N·m/A].
+
+Signals (translational letters; rotational ``theta``/``omega``/``T`` in place
+of ``x``/``v``/``F``):
+
+* nodes: ``v_<node>`` the velocity, ``x_<node>`` the position (a state,
+  from ``x0`` given with :meth:`~Mechanism.mass` or
+  :meth:`~Mechanism.position`, else 0);
+* masses: ``v_<m>``, ``x_<m>`` those of their node, ``p_<m>`` the momentum
+  (a state, ``p = m·v``);
+* springs, dampers, clutches, stops, backlashes between ``n1`` and ``n2``:
+  ``F_<name>`` the force it transmits from ``n1`` to ``n2`` (it pushes ``n2``
+  forward and ``n1`` back: a compressed spring, ``n1`` behind ``n2``, has
+  ``F > 0``), ``v_<name> = v(n1) − v(n2)`` the relative velocity (a clutch's
+  slip speed), ``x_<name> = x(n1) − x(n2)`` the relative position (stops,
+  backlashes).  A spring's state ``q_<name>`` is its deflection
+  ``∫(v(n1) − v(n2))dt`` (``F = k·q``), of the opposite sign when ``n1`` is
+  the frame (the signals keep the convention);
+* forces and prescribed velocities: ``F_<f>`` the force on its node,
+  ``v_<f>`` the node's velocity;
+* gears: ``T_<g>_in`` the torque the input shaft delivers, ``T_<g>_out``
+  the torque on the output shaft, ``omega_<g>_in``, ``omega_<g>_out``;
+* motors: ``i_<M>`` the armature current, ``emf_<M> = k·ω`` the back-emf,
+  ``T_<M> = k·i`` the torque on its shaft, ``omega_<M>`` the shaft's speed.
+
+Values: a number (it becomes a parameter named after the component, e.g.
+``m1``, overridable in :meth:`Mechanism.build`) or a parameter name.  Forces,
+prescribed velocities and motor voltages also take an expression of ``t`` as text (parsed without
+executing code) or a declared :class:`~models.circuits.Input`.
+
+Clutches (:meth:`Mechanism.clutch`, automaton states ``disengaged`` and
+``engaged``) follow a command: a condition on time, parameters or signals
+(``engaged_when="t >= 0.5"``, or a threshold ``"omega_a >= 100"``), a priori
+(an external command, not a consequence of the switch).  Without ``T_max``
+an engaged clutch locks its shafts together (the engagement is a plastic
+impact: momentum ``J₁ω₁ + J₂ω₂`` is conserved and the energy
+``J₁J₂/(J₁+J₂)·Δω²/2`` is lost).  With ``T_max`` it is a friction clutch: it
+transmits the Coulomb torque ``T_max·sign(ω₁ − ω₂)`` while it slips and
+sticks when the speeds meet, as long as the torque it must carry stays below
+``T_max`` (the toolkit's law switches: sticking is the sliding mode of the
+law's automaton ``<name>_law``).
+
+Hard stops and backlash (:meth:`Mechanism.stop`, :meth:`Mechanism.backlash`;
+automaton states ``free``, ``upper_impact``/``lower_impact`` with
+restitution ``e``, ``upper``/``lower`` in contact).  With ``d = x_<name>``
+the relative position and ``w = v_<name>`` the relative velocity::
+
+    free         → upper_impact  d >= upper and w > v_th          (a priori)
+    free         → upper         d >= upper and w > 0 and w <= v_th
+    upper_impact → free          w < 0                            (a priori, after the jump)
+    upper_impact → upper         w <= 0 and w >= 0                (after a plastic jump)
+    upper        → free          F_<name> < 0                     (a posteriori)
+
+and the mirror images at ``lower`` (``d <= lower``, ``w < −v_th``, …, and
+``F_<name> > 0`` to let go).  An impact is a time-scale abstraction
+judged on the velocity before it (a priori).  Both guards out of the impact
+state are false on the state before the jump (``w > v_th >= 0``), so the
+impact state is real, a pinnacle, and not passed as mythical:
+after the jump ``w⁺ = −e·w`` it is left for ``free`` (a rebound) or, when
+nothing rebounds (``e = 0``), for the contact state, which holds the nodes
+together until the contact would have to pull (a posteriori, as a diode).
+The comparisons are strict where the band must be excluded: ``w > v_th`` is
+not met by the state after a plastic jump (``w⁺ = 0`` within the band), so
+a contact is never re-entered at its own instant.  An approach slower than
+``v_th`` (0 by default) lands in contact without a rebound (a
+time-scale abstraction of a soft landing; with ``e > 0`` and ``v_th = 0``
+a node pressed against a stop bounces ever lower, a Zeno accumulation, as
+the bouncing ball with ``v_rest = 0``).
+
+Example — a mass falling 1 m onto a stop, rebounding at half its speed::
+
+    >>> from models.mechanics import Mechanism
+    >>> drop = Mechanism("drop")
+    >>> drop.mass("m1", "a", 2.0, x0=1.0)
+    >>> drop.force("gravity", "a", -2.0 * 9.81)
+    >>> drop.stop("floor", "a", lower=0.0, e=0.5)
+    >>> run = drop.build().simulate(0.5, "RK45", rtol=1e-10, atol=1e-12)
+    >>> round(float(run.event_times[0]), 6)        # sqrt(2·1/9.81)
+    0.451524
+
+Limitations: two ideal clutches (or stops) that lock the same two nodes at
+once leave the torque split between them undefined: such a mode is refused
+when it is reached with a :class:`~bondgraph.errors.FloatingPartError` that
+names the mode and the elements (give one of them ``T_max``, or merge
+them).  Stops and backlashes need a mass (inertia) on each of their moving
+nodes: their guards judge the velocities before an impact from the masses'
+momenta.  A spring's ``q0`` needs a linear spring.  Friction clutches start
+their law automaton ``<name>_law`` at t = 0 like any law switch (an instant
+at the start, or just after it, when the shafts turn together).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
+from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
+from bondgraph.symbols import t as TIME
+from switching import Automaton, HybridModel
+from switching.errors import GuardSyntaxError
+from switching.language.parsing import parse_condition, parse_expression
+
+from .circuits import Input
+
+__all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
+
+#: the fixed frame (velocity 0)
+FRAME = "0"
+#: the two kinds of machine and their signal letters (position, velocity, force)
+KINDS = {"translational": ("x", "v", "F"), "rotational": ("theta", "omega", "T")}
+
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_NODE = re.compile(r"[A-Za-z0-9_]+")
+
+
+@dataclass
+class _Part:
+    kind: str
+    name: str
+    nodes: tuple
+    values: dict = field(default_factory=dict)
+
+
+def _checked_name(name, what):
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise InvalidGraphError(f"invalid {what} {name!r}: use letters, digits and '_', not starting with "
+                                "a digit (e.g. 'm1', 'clutch_A')")
+    return name
+
+
+def _checked_node(node, owner):
+    if isinstance(node, int) and not isinstance(node, bool) and node >= 0:
+        node = str(node)
+    if not isinstance(node, str) or not _NODE.fullmatch(node):
+        raise InvalidGraphError(f"component {owner!r}: invalid node name {node!r}: use letters, digits and "
+                                f"'_' (the frame is {FRAME!r})", [str(owner)])
+    return node
+
+
+def _holds_at_start(condition: str, parameters: Mapping) -> bool:
+    """The condition at t = 0 when it depends on time and parameters only, else ``False``."""
+    names = {"t": TIME, **{k: sp.Symbol(k) for k in parameters if _NAME.fullmatch(k)}}
+    try:
+        expr = parse_condition(condition, names)
+    except Exception:  # a signal name: decided by the first instant's resolution
+        return False
+    value = expr.subs({TIME: 0, **{sp.Symbol(k): v for k, v in parameters.items()}})
+    return bool(value) if value in (sp.true, sp.false) else False
+
+
+class Mechanism:
+    """A 1-D machine: components between named nodes; the frame is node ``"0"``.
+
+    ``kind`` is ``"translational"`` (nodes are points moving along a line;
+    signals ``x``, ``v``, ``F``) or ``"rotational"`` (nodes are shafts;
+    signals ``theta``, ``omega``, ``T``).  Add components with :meth:`mass`
+    (:meth:`inertia`), :meth:`spring`, :meth:`damper`, :meth:`force`
+    (:meth:`torque`), :meth:`velocity`, :meth:`gear`, :meth:`motor`, :meth:`clutch`,
+    :meth:`stop` and :meth:`backlash`; :meth:`build` returns the
+    :class:`~switching.HybridModel`.  Component names are identifiers and
+    unique; node names are letters, digits and ``_``.  See the module
+    documentation for the conventions.
+    """
+
+    def __init__(self, name: str = "mechanism", kind: str = "translational"):
+        self.name = _checked_name(name, "mechanism name")
+        if kind not in KINDS:
+            raise InvalidGraphError(f"mechanism {name!r}: kind must be 'translational' or 'rotational', "
+                                    f"got {kind!r}")
+        self.kind = kind
+        self._parts: dict[str, _Part] = {}
+        self._positions: dict[str, float] = {}
+
+    # ------------------------------------------------------------ components
+
+    def mass(self, name: str, node, m=None, *, v0: float = 0.0, x0: float | None = None) -> None:
+        """A mass ``m`` [kg] (rotational: an inertia [kg·m²]) moving with
+        ``node``: ``dp/dt`` is the sum of the forces on the node, ``v = p/m``;
+        ``v0`` its velocity and ``x0`` (if given) its node's position at t = 0.
+        One mass per node: two masses moving together are one, ``m₁ + m₂``."""
+        self._add("M", name, (node,), value=m, v0=float(v0))
+        if x0 is not None:
+            self.position(node, x0)
+
+    def inertia(self, name: str, shaft, J=None, *, omega0: float = 0.0, theta0: float | None = None) -> None:
+        """A rotational inertia ``J`` [kg·m²] on ``shaft``: :meth:`mass` with
+        ``omega0`` [rad/s] and ``theta0`` [rad]."""
+        self.mass(name, shaft, J, v0=omega0, x0=theta0)
+
+    def position(self, node, x0: float) -> None:
+        """The position (rotational: angle) of ``node`` at t = 0 (default 0)."""
+        node = _checked_node(node, "position")
+        if node == FRAME:
+            raise InvalidGraphError(f"the frame {FRAME!r} does not move: its position is 0")
+        x0 = float(x0)
+        if not math.isfinite(x0):
+            raise InvalidGraphError(f"the position of node {node!r} at t = 0 must be finite, got {x0}")
+        self._positions[node] = x0
+
+    def spring(self, name: str, n1, n2, k=None, *, q0: float = 0.0, effort_law=None) -> None:
+        """A spring between ``n1`` and ``n2``: ``F = k·q`` [N, N/m] with the
+        deflection ``q = ∫(v(n1) − v(n2))dt`` (compression when ``n1`` is
+        behind ``n2``), ``q = q0`` at t = 0.  ``effort_law``: a nonlinear
+        ``F = φ(q)`` instead of ``k`` (a function of one argument)."""
+        self._add("K", name, (n1, n2), value=k, law=effort_law, q0=float(q0))
+
+    def damper(self, name: str, n1, n2, b=None, *, effort_law=None) -> None:
+        """A damper between ``n1`` and ``n2``: ``F = b·(v(n1) − v(n2))``
+        [N, N·s/m]; ``effort_law``: a nonlinear ``F = φ(v)`` instead (e.g.
+        Coulomb friction ``lambda v: Fc*sympy.sign(v)``, whose stick/slip the
+        toolkit's law switches resolve)."""
+        self._add("B", name, (n1, n2), value=b, law=effort_law)
+
+    def force(self, name: str, node, value) -> None:
+        """A force [N] (rotational: a torque [N·m]) on ``node`` in its positive
+        direction: a number, a parameter name, an expression of ``t`` as
+        text, or an :class:`~models.circuits.Input`."""
+        self._add("F", name, (node,), value=_source_value(value, name))
+
+    def torque(self, name: str, shaft, value) -> None:
+        """A torque [N·m] on ``shaft``: :meth:`force`."""
+        self.force(name, shaft, value)
+
+    def velocity(self, name: str, node, value) -> None:
+        """A prescribed velocity [m/s] (rotational: speed [rad/s]) of ``node``
+        (an ``Sf``: a drive stiff enough to impose its motion), a number, a
+        parameter name, an expression of ``t`` as text or an Input;
+        ``F_<name>`` is the force it applies to the node.  A mass on the same
+        node follows it (its momentum is then a dependent state)."""
+        self._add("S", name, (node,), value=_source_value(value, name))
+
+    def gear(self, name: str, n_in, n_out, ratio) -> None:
+        """An ideal gear (a ``TF``) of ratio ``n`` from shaft ``n_in`` to
+        ``n_out``: ``ω_out = ω_in/n`` and ``T_out = n·T_in`` (power is
+        conserved).  A translational machine reads it as a lever."""
+        self._add("G", name, (n_in, n_out), value=ratio)
+
+    def motor(self, name: str, shaft, k, *, V, R, L=None, i0: float = 0.0) -> None:
+        """A DC motor (a ``GY`` of constant ``k`` [V·s/rad = N·m/A]) driving
+        ``shaft``, fed by a voltage ``V`` [V] (a number, parameter name,
+        expression of ``t`` as text or Input) through its armature
+        resistance ``R`` [Ω] and, if given, inductance ``L`` [H] (current
+        ``i0`` at t = 0): ``V = R·i + L di/dt + k·ω`` and ``T = k·i``.  Its
+        parameters are ``<name>_k``, ``<name>_V``, ``<name>_R``, ``<name>_L``
+        (when numbers).  Without a load the shaft reaches the no-load speed
+        ``V/k``."""
+        self._add("DC", name, (shaft,), k=k, V=_source_value(V, name), R=R, L=L, i0=float(i0))
+
+    def clutch(self, name: str, n1, n2, engaged_when: str, *, disengaged_when: str | None = None,
+               engaged: bool | None = None, T_max=None) -> None:
+        """A clutch between shafts ``n1`` and ``n2`` (``n2 = "0"``: a brake),
+        automaton ``name`` with states ``disengaged`` and ``engaged``.
+
+        ``engaged_when``: a condition as text on time, parameters and signals
+        (``"t >= t_on"``, a threshold ``"omega_a >= 100"``); it disengages when
+        the condition stops holding or, with ``disengaged_when``, when that
+        holds.  ``engaged``: its state at t = 0 (default: ``engaged_when`` at
+        t = 0 when it depends on time and parameters only, else disengaged).
+        Without ``T_max`` an engaged clutch locks the shafts (a plastic
+        impact at engagement); with ``T_max`` [N·m] it slips with the
+        Coulomb torque ``T_max·sign(ω₁ − ω₂)`` and sticks when the speeds
+        meet while the torque it must carry stays below ``T_max``."""
+        for label, condition in (("engaged_when", engaged_when), ("disengaged_when", disengaged_when)):
+            if condition is not None and not isinstance(condition, str):
+                raise InvalidGraphError(f"clutch {name!r}: {label} must be a condition as text (e.g. "
+                                        f"'t >= 0.5'), got {condition!r}", [str(name)])
+        self._add("CL", name, (n1, n2), engaged_when=engaged_when, disengaged_when=disengaged_when,
+                  engaged=engaged, T_max=T_max)
+
+    def stop(self, name: str, node, *, upper=None, lower=None, e=0.0, v_th=0.0) -> None:
+        """A hard stop on ``node``: its position stays ``<= upper`` and/or
+        ``>= lower`` [m or rad]; an impact rebounds with the restitution
+        ``e`` (0 ≤ e ≤ 1: ``v⁺ = −e·v``), an approach slower than ``v_th``
+        lands in contact.  Guards: see the module documentation."""
+        if upper is None and lower is None:
+            raise InvalidGraphError(f"stop {name!r}: give its position as upper= (the node stays below it) "
+                                    "and/or lower= (above it)", [str(name)])
+        self._add("ST", name, (node, FRAME), upper=upper, lower=lower, e=e, v_th=v_th)
+
+    def backlash(self, name: str, n1, n2, delta, *, e=0.0, v_th=0.0) -> None:
+        """A backlash (play) of total width ``2·delta`` between ``n1`` and
+        ``n2``: the relative position ``x(n1) − x(n2)`` stays within
+        ``[−delta, delta]``, with impacts of restitution ``e`` at both ends
+        (a hard stop between two nodes; guards: see the module
+        documentation).  ``delta``: a number (the parameter
+        ``<name>_delta``) or a parameter name."""
+        self._add("ST", name, (n1, n2), upper=delta, lower=("-", delta), e=e, v_th=v_th)
+
+    # ------------------------------------------------------------ queries
+
+    @property
+    def nodes(self) -> tuple:
+        """The nodes named so far, the frame included if used, in order of appearance."""
+        seen = {}
+        for part in self._parts.values():
+            for n in part.nodes:
+                seen.setdefault(n, None)
+        return tuple(seen)
+
+    @property
+    def components(self) -> tuple:
+        return tuple(self._parts)
+
+    # ------------------------------------------------------------ input checks
+
+    def _add(self, kind, name, nodes, **values):
+        name = _checked_name(name, "component name")
+        if name in self._parts:
+            old = self._parts[name]
+            raise DuplicateNameError(f"mechanism {self.name!r}: component {name!r} is already defined "
+                                     f"(on {', '.join(old.nodes)}); give each component its own name", name)
+        nodes = tuple(_checked_node(n, name) for n in nodes)
+        if len(nodes) == 2 and nodes[0] == nodes[1]:
+            raise InvalidGraphError(f"component {name!r} has both ends on node {nodes[0]!r}: it would act on "
+                                    "nothing; connect it between two different nodes", [name])
+        if kind in ("M", "F", "S", "DC") and nodes[0] == FRAME:
+            raise InvalidGraphError(f"component {name!r} is on the frame {FRAME!r}, which does not move; put it "
+                                    "on a moving node", [name])
+        if kind == "G" and FRAME in nodes:
+            raise InvalidGraphError(f"gear {name!r} has a shaft on the frame {FRAME!r}: connect it between two "
+                                    "moving shafts", [name])
+        if kind == "M":
+            for other in self._parts.values():
+                if other.kind == "M" and other.nodes == nodes:
+                    raise InvalidGraphError(f"mass {name!r}: node {nodes[0]!r} already carries the mass "
+                                            f"{other.name!r}; masses moving together are one: add them",
+                                            [name, other.name])
+        if kind in ("K", "B"):
+            law = values.get("law")
+            if law is not None and values.get("value") is not None:
+                raise InvalidGraphError(f"{name!r}: give either a value or a law", [name])
+            if law is not None and not callable(law):
+                raise InvalidGraphError(f"{name!r}: give the law as a function of one argument, e.g. "
+                                        "lambda q: k1*q + k3*q**3", [name])
+        if kind in ("M", "K", "B") and values.get("value") is None and values.get("law") is None:
+            values["value"] = name
+        if isinstance(values.get("value"), str) and kind not in ("F", "S"):
+            _parameter_name(values["value"], f"value of {name!r}")
+        self._parts[name] = _Part(kind, name, nodes, values)
+
+    def _check(self):
+        if not self._parts:
+            raise InvalidGraphError(f"mechanism {self.name!r} has no components")
+        names = set(self._parts)
+        for n in self.nodes:
+            if n in names:
+                raise DuplicateNameError(f"node {n!r} has the name of a component: the signals of both would "
+                                         "clash; rename the node or the component", n)
+        for n in self._positions:
+            if n not in self.nodes:
+                raise UnknownNameError(f"mechanism {self.name!r}: a position is given for node {n!r}, which no "
+                                       "component uses; check the node's name", n)
+
+    # ------------------------------------------------------------ building
+
+    def build(self, parameters: Mapping | None = None, name: str | None = None,
+              inputs: Mapping[str, Callable] | None = None, **options) -> HybridModel:
+        """The :class:`~switching.HybridModel` of the machine.
+
+        ``parameters`` gives values to the parameter names used and overrides
+        the numbers given with the components (``{"m1": 2.0}``); ``inputs``
+        the functions of ``t`` of declared inputs; ``name`` names the model
+        (default: the mechanism's name); other ``options`` go to
+        :class:`~switching.HybridModel` (``tolerance``, …)."""
+        self._check()
+        return _Builder(self, dict(parameters or {}), dict(inputs or {})).model(name or self.name, options)
+
+
+def _parameter_name(text: str, what: str) -> str:
+    if not isinstance(text, str) or not _NAME.fullmatch(text):
+        raise InvalidGraphError(f"{what}: {text!r} is not a parameter name (letters, digits and '_', "
+                                "not starting with a digit)")
+    return text
+
+
+def _source_value(value, name):
+    if isinstance(value, (bool, type(None))) or not isinstance(value, (int, float, str, Input, sp.Expr)):
+        raise InvalidGraphError(f"{name!r}: its value must be a number, a parameter name, an expression of t "
+                                f"as text, or an Input, got {value!r}", [str(name)])
+    return value
+
+
+class _Builder:
+    """One build of a :class:`Mechanism` (graph, automata, parameters, signals)."""
+
+    def __init__(self, mechanism: Mechanism, parameters: dict, inputs: dict):
+        self.mechanism = mechanism
+        self.given = parameters
+        self.inputs = inputs
+        self.X, self.V, self.F = KINDS[mechanism.kind]
+        self.graph = BondGraph(mechanism.name)
+        self.defaults: dict[str, float] = {}
+        self.signals: dict[str, str] = {}
+        self.initial: dict[str, float] = {}
+        self.automata: list[Automaton] = []
+        self.node_bond: dict[str, str] = {}
+        self.velocity: dict[str, str] = {}  # node → its velocity from its mass's momentum
+        self.junctions = {n: self.graph.add(One(f"node_{n}")) for n in mechanism.nodes if n != FRAME}
+
+    # -- names and values
+
+    def number_or_parameter(self, value, default_name, what) -> sp.Expr:
+        if isinstance(value, tuple) and value[0] == "-":
+            return -self.number_or_parameter(value[1], default_name, what)
+        if isinstance(value, str):
+            return sp.Symbol(_parameter_name(value, what))
+        if isinstance(value, sp.Expr):
+            return value
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise InvalidGraphError(f"{what}: give a number or a parameter name, got {value!r}") from None
+        if not math.isfinite(number):
+            raise InvalidGraphError(f"{what}: {number} is not a finite number")
+        self.defaults.setdefault(default_name, number)
+        return sp.Symbol(default_name)
+
+    def source_value(self, value, name, default_name) -> sp.Expr:
+        if isinstance(value, Input):
+            return self.graph.inputs.get(value.name) or self.graph.input(value.name)
+        if isinstance(value, str) and (value == "t" or not _NAME.fullmatch(value)):
+            names = {"t": TIME, **self.graph.inputs}
+            try:
+                return parse_expression(value, names)
+            except GuardSyntaxError as error:
+                first_line = str(error).splitlines()[0]
+                raise GuardSyntaxError(f"the value of {name!r} is not an expression of t: {first_line}",
+                                       value, error.position) from None
+        return self.number_or_parameter(value, default_name, f"value of {name!r}")
+
+    # -- graph pieces
+
+    def node(self, n):
+        return self.junctions[n]
+
+    def note(self, n, bond):
+        if n != FRAME:
+            self.node_bond.setdefault(n, bond.name)
+
+    def branch(self, part, element):
+        """Bond ``element`` between the part's two nodes; returns the sign
+        ``s`` with ``F = s·e`` and ``v(n1) − v(n2) = s·f`` of its bond."""
+        a, b = part.nodes
+        if a != FRAME and b != FRAME:
+            junction = self.graph.add(Zero(f"branch_{part.name}"))
+            self.note(a, self.graph.connect(self.node(a), junction))
+            self.note(b, self.graph.connect(junction, self.node(b)))
+            self.graph.connect(junction, element(1))
+            return 1
+        if b == FRAME:
+            self.note(a, self.graph.connect(self.node(a), element(1)))
+            return 1
+        self.note(b, self.graph.connect(self.node(b), element(-1)))
+        return -1
+
+    def relative(self, part):
+        """The signals of the relative position and velocity of a two-node part."""
+        a, b = part.nodes
+        x = " - ".join(f"{self.X}_{n}" for n in (a, b) if n != FRAME)
+        v = " - ".join(f"{self.V}_{n}" for n in (a, b) if n != FRAME)
+        if a == FRAME:
+            x, v = f"-{x}", f"-{v}"
+        return x, v
+
+    def mass(self, part):
+        name, (n,) = part.name, part.nodes
+        value = self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
+        storage = I(name, value, state=f"p_{name}")
+        self.note(n, self.graph.connect(self.node(n), storage))
+        # from the state, not the bond's flow: in a locked mode a dependent mass's flow is the constraint's,
+        # and the guards of an impact must see the velocities before the jump
+        self.velocity[n] = f"p_{name}/({value})"
+        self.signals[f"{self.V}_{name}"] = self.velocity[n]
+        self.signals[f"{self.X}_{name}"] = f"{self.X}_{n}"
+        if part.values["v0"]:
+            self.initial[f"p_{name}"] = (value, part.values["v0"])
+
+    def passive(self, part):
+        name, law = part.name, part.values.get("law")
+        value = None if law else self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
+        spring = part.kind == "K"
+
+        def element(sign):
+            if law:
+                wrapped = law if sign == 1 else (lambda x, f=law: -f(-x))
+                return C(name, effort_law=wrapped) if spring else R(name, effort_law=wrapped)
+            return C(name, 1 / value) if spring else R(name, value)
+
+        sign = self.branch(part, element)
+        minus = "-" if sign < 0 else ""
+        self.signals[f"{self.F}_{name}"] = f"{minus}e_{name}"
+        self.signals[f"{self.V}_{name}"] = f"{minus}f_{name}"
+        if spring and part.values["q0"]:
+            storage = self.graph.elements[name]
+            if law:
+                raise InvalidGraphError(f"spring {name!r}: q0 with a law is not supported; give the initial "
+                                        "deflection of a linear spring, or start the law's spring relaxed", [name])
+            self.initial[storage.state.name] = (None, sign * part.values["q0"])
+
+    def source(self, part):
+        name, (n,) = part.name, part.nodes
+        value = self.source_value(part.values["value"], name, name)
+        self.note(n, self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n)))
+        self.signals[f"{self.F}_{name}"] = f"e_{name}"
+        self.signals[f"{self.V}_{name}"] = f"f_{name}"
+
+    def gear(self, part):
+        name, (a, b) = part.name, part.nodes
+        ratio = self.number_or_parameter(part.values["value"], name, f"ratio of {name!r}")
+        gear = TF(name, 1 / ratio)
+        self.note(a, self.graph.connect(self.node(a), gear, name=f"{name}_in"))
+        self.note(b, self.graph.connect(gear, self.node(b), name=f"{name}_out"))
+        for end in ("in", "out"):
+            self.signals[f"{self.F}_{name}_{end}"] = f"e_{name}_{end}"
+            self.signals[f"{self.V}_{name}_{end}"] = f"f_{name}_{end}"
+
+    def motor(self, part):
+        name, (n,), values = part.name, part.nodes, part.values
+        k = self.number_or_parameter(values["k"], f"{name}_k", f"constant k of {name!r}")
+        voltage = self.source_value(values["V"], name, f"{name}_V")
+        armature = self.graph.add(One(f"{name}_armature"))
+        self.graph.connect(Se(f"{name}_V", voltage), armature)
+        resistance = self.number_or_parameter(values["R"], f"{name}_R", f"resistance R of {name!r}")
+        self.graph.connect(armature, R(f"{name}_R", resistance))
+        if values["L"] is not None:
+            inductance = self.number_or_parameter(values["L"], f"{name}_L", f"inductance L of {name!r}")
+            self.graph.connect(armature, I(f"{name}_L", inductance, state=f"p_{name}_L"))
+            if values["i0"]:
+                self.initial[f"p_{name}_L"] = (inductance, values["i0"])
+        elif values["i0"]:
+            raise InvalidGraphError(f"motor {name!r}: i0 needs an inductance L (without one the current "
+                                    "follows the voltage at once)", [name])
+        gyrator = GY(name, k)
+        self.graph.connect(armature, gyrator, name=f"{name}_e")
+        self.note(n, self.graph.connect(gyrator, self.node(n), name=f"{name}_m"))
+        self.signals[f"i_{name}"] = f"f_{name}_e"
+        self.signals[f"emf_{name}"] = f"e_{name}_e"
+        self.signals[f"T_{name}"] = f"e_{name}_m"
+        self.signals[f"omega_{name}"] = f"f_{name}_m"
+
+    def locking(self, part):
+        """A controlled 0-junction ``name`` between the part's nodes (off: no
+        force; on: the nodes move together); its force and relative motion signals."""
+        name, (a, b) = part.name, part.nodes
+        junction = self.graph.add(Zero(name, controlled=True))
+        if a == FRAME:
+            self.graph.connect(Sf(f"{name}_frame", 0), junction, name=f"{name}_in")
+        else:
+            self.note(a, self.graph.connect(self.node(a), junction, name=f"{name}_in"))
+        if b == FRAME:
+            self.graph.connect(junction, Sf(f"{name}_frame", 0), name=f"{name}_out")
+        else:
+            self.note(b, self.graph.connect(junction, self.node(b), name=f"{name}_out"))
+        self.signals[f"{self.F}_{name}"] = f"e_{name}_in"
+        x, v = self.relative(part)
+        self.signals[f"{self.V}_{name}"] = v
+        return x
+
+    def clutch(self, part):
+        name, values = part.name, part.values
+        engaging = values["engaged_when"]
+        releasing = values["disengaged_when"] or f"not ({engaging})"
+        initial = values["engaged"]
+        if initial is None:
+            initial = _holds_at_start(engaging, {**self.defaults, **self.given})
+        if values["T_max"] is None:
+            self.locking(part)
+            states, extra = {"disengaged": {name: False}, "engaged": {name: True}}, {}
+        else:
+            t_max = self.number_or_parameter(values["T_max"], f"{name}_T_max", f"T_max of {name!r}")
+            gate = sp.Symbol(f"engaged_{name}")
+
+            def element(sign):
+                return R(name, effort_law=lambda w: gate * t_max * sp.sign(w))  # odd: the same either way
+
+            sign = self.branch(part, element)
+            minus = "-" if sign < 0 else ""
+            self.signals[f"{self.F}_{name}"] = f"{minus}e_{name}"
+            self.signals[f"{self.V}_{name}"] = f"{minus}f_{name}"
+            states = {"disengaged": {}, "engaged": {}}
+            extra = {"values": {"disengaged": {gate.name: 0}, "engaged": {gate.name: 1}}}
+        automaton = Automaton(name, states, initial="engaged" if initial else "disengaged", **extra)
+        automaton.add_transition("disengaged", "engaged", engaging, "a priori")
+        automaton.add_transition("engaged", "disengaged", releasing, "a priori")
+        self.automata.append(automaton)
+
+    def limit(self, part):
+        name, values = part.name, part.values
+        massless = [n for n in part.nodes if n != FRAME and n not in self.velocity]
+        if massless:
+            raise InvalidGraphError(f"{name!r} acts on node(s) {', '.join(map(repr, massless))} without a mass: an "
+                                    "impact needs the velocities before it; put a mass (inertia) on each node of a "
+                                    "stop or backlash", [name])
+        x = self.locking(part)
+        self.signals[f"{self.X}_{name}"] = x
+        d, w, force = f"{self.X}_{name}", f"{self.V}_{name}", f"{self.F}_{name}"
+        backlash = isinstance(values["lower"], tuple)
+        default = f"{name}_delta" if backlash else None
+        e = self.number_or_parameter(values["e"], f"{name}_e", f"restitution e of {name!r}")
+        v_th = self.number_or_parameter(values["v_th"], f"{name}_v_th", f"v_th of {name!r}")
+        states, restitution, transitions = {"free": {name: False}}, {}, []
+        for side, sense in (("upper", ""), ("lower", "-")):
+            if values[side] is None:
+                continue
+            bound = self.number_or_parameter(values[side], default or f"{name}_{side}", f"{side} of {name!r}")
+            states[f"{side}_impact"] = {name: True}
+            states[side] = {name: True}
+            restitution[f"{side}_impact"] = e
+            reached = f"{sense}({d} - ({bound})) >= 0"
+            approach = f"{sense}{w}"
+            transitions += [
+                ("free", f"{side}_impact", f"{reached} and {approach} > {v_th}", "a priori"),
+                ("free", side, f"{reached} and {approach} > 0 and {approach} <= {v_th}", "a priori"),
+                (f"{side}_impact", "free", f"{approach} < 0", "a priori"),
+                (f"{side}_impact", side, f"{approach} <= 0 and {approach} >= 0", "a priori"),
+                (side, "free", f"{sense}{force} < 0", "a posteriori"),
+            ]
+        automaton = Automaton(name, states, initial="free", restitution=restitution)
+        for transition in transitions:
+            automaton.add_transition(*transition)
+        self.automata.append(automaton)
+
+    # -- the model
+
+    def model(self, name: str, options: dict) -> HybridModel:
+        m = self.mechanism
+        parts = sorted(m._parts.values(), key=lambda part: part.kind != "M")  # masses first: stops need them
+        for part in parts:
+            {"M": self.mass, "K": self.passive, "B": self.passive, "F": self.source, "S": self.source, "G": self.gear,
+             "DC": self.motor, "CL": self.clutch, "ST": self.limit}[part.kind](part)
+        for n, junction in self.junctions.items():
+            self.graph.displacement(f"{self.X}_{n}", of=junction)
+        signals = {f"{self.V}_{n}": self.velocity.get(n, f"f_{bond}") for n, bond in self.node_bond.items()}
+        signals.update(self.signals)
+        parameters = {**self.defaults, **self.given}
+        initial_state = {f"{self.X}_{n}": x0 for n, x0 in m._positions.items()}
+        values = {sp.Symbol(k): v for k, v in parameters.items()}
+        for state, (scale, value) in self.initial.items():
+            if scale is not None:
+                scale = scale.subs(values)
+                if scale.free_symbols:
+                    raise MissingParameterError(sorted(s.name for s in scale.free_symbols))
+                value = float(scale) * value
+            initial_state[state] = value
+        missing = sorted(set(self.graph.inputs) - set(self.inputs))
+        if missing:
+            raise InvalidGraphError(f"mechanism {m.name!r}: input(s) {', '.join(missing)} have no function: give "
+                                    "build(inputs={name: function of t})", missing)
+        return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state, signals=signals,
+                           inputs=self.inputs or None, name=name, **options)
