@@ -1,0 +1,166 @@
+"""Periodic orbits through jumps (issue 31, item 1), against exact answers.
+
+Boost converter (models/boost_converter.py) in continuous conduction with a
+fixed duty D, period T = 1/f_sw, states x = (p_L, q_C), i_L = p_L/L, v_C = q_C/C.
+Both phases are affine, ẋ = A x + b with b = (Vin, 0):
+
+* switch on, diode off (v_A = 0):  ṗ_L = Vin − R_L p_L/L,  q̇_C = −q_C/(C R);
+  ``A_on = [[−R_L/L, 0], [0, −1/(C R)]]``;
+* switch off, diode on (v_A = v_C): ṗ_L = Vin − R_L p_L/L − q_C/C,
+  q̇_C = p_L/L − q_C/(C R); ``A_off = [[−R_L/L, −1/C], [1/L, −1/(C R)]]``.
+
+Over a phase of length τ, ``x(τ) = E x(0) + c`` with ``E = e^{Aτ}`` and
+``c = ∫₀^τ e^{As} ds b``, both read off the exponential of the augmented
+matrix ``[[A, b], [0, 0]]·τ`` (its top-left block and last column).  The
+period map from t = 0 (start of the on phase) is ``x ↦ Φ x + c`` with
+``Φ = E_off E_on`` (τ_on = D T, τ_off = (1 − D) T) and ``c = E_off c_on + c_off``;
+the orbit starts at ``x* = (I − Φ)^{-1} c`` and its monodromy is Φ (no
+saltation: the switching instants are clock events and both modes keep all
+states independent, so the jumps are the identity), the multipliers its
+eigenvalues.  The parameters below keep i_L > 0 all period (continuous
+conduction; checked).
+
+Relay (models/examples/relay.toml, one state q_C): on, v relaxes to
+``v∞ = V R_load/(R + R_load)`` with ``τ_on = C R R_load/(R + R_load)``; off, to 0
+with ``τ_off = C R_load``; the relay opens at v_hi and closes at v_lo, so the
+autonomous period is ``τ_on ln((v∞ − v_lo)/(v∞ − v_hi)) + τ_off ln(v_hi/v_lo)``
+and the orbit starts (just after the relay opens) at ``q_C = C v_hi``.  With one
+state the monodromy is the trivial multiplier 1 alone.
+
+Two tanks (models/two_tanks.py, defaults): just after the transfer valve opens
+(the section) tank 1 holds ``A1 h1_high`` and tank 2 ``A2 h2_low`` (the drain
+closed at h2_low and nothing flowed in since, the valve being closed): the
+return map is constant, so the nontrivial multiplier is 0 and the trivial one 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+import models
+import switching
+from models import boost_converter, two_tanks
+from switching import GrazingError, ModeSequenceChangedError, OrbitConvergenceError, periodic_orbit
+
+BOOST = dict(Vin=12.0, L=1e-3, R_L=0.1, C=100e-6, R_load=20.0, f_sw=10e3, D=0.4)
+T = 1.0 / BOOST["f_sw"]
+
+
+def phase(A, b, tau):
+    """``(E, c)`` of ``x(τ) = E x(0) + c`` for ``ẋ = A x + b``."""
+    n = len(b)
+    Z = np.zeros((n + 1, n + 1))
+    Z[:n, :n], Z[:n, n] = A, b
+    E = expm(Z * tau)
+    return E[:n, :n], E[:n, n]
+
+
+def boost_exact():
+    L, C, R, R_L, V, D = (BOOST[k] for k in ("L", "C", "R_load", "R_L", "Vin", "D"))
+    A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
+    A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])
+    b = np.array([V, 0.0])
+    E_on, c_on = phase(A_on, b, D * T)
+    E_off, c_off = phase(A_off, b, (1 - D) * T)
+    Phi = E_off @ E_on
+    x_star = np.linalg.solve(np.eye(2) - Phi, E_off @ c_on + c_off)
+    return x_star, Phi
+
+
+@pytest.fixture(scope="module")
+def boost_orbit():
+    model = boost_converter.build(**BOOST)
+    return model.periodic_orbit(T, max_step=0.3 * T)
+
+
+def test_boost_orbit_start_and_monodromy_match_the_matrix_exponentials(boost_orbit):
+    x_star, Phi = boost_exact()
+    # rtol = 1e-10 on every run: the fixed point of the numerical map is that close
+    assert np.allclose(boost_orbit.x0, x_star, rtol=1e-8, atol=0.0)
+    assert np.allclose(boost_orbit.monodromy, Phi, rtol=0.0, atol=1e-8 * np.abs(Phi).max())
+    exact = np.linalg.eigvals(Phi)
+    got = boost_orbit.multipliers
+    assert len(got) == 2 and boost_orbit.trivial_multiplier is None
+    assert min(abs(got[0] - exact[0]) + abs(got[1] - exact[1]),
+               abs(got[0] - exact[1]) + abs(got[1] - exact[0])) < 1e-8
+    assert boost_orbit.stable and np.abs(exact).max() < 1
+    assert boost_orbit.residual <= 1e-8 and boost_orbit.residuals[0] > 1e-3  # the guess was not the orbit
+
+
+def test_boost_orbit_is_in_continuous_conduction_over_one_period(boost_orbit):
+    tr = boost_orbit.trajectory
+    assert boost_orbit.period == T and tr.t[0] == 0.0 and tr.t[-1] == pytest.approx(T, rel=1e-12)
+    assert boost_orbit.mode_names == ["pwm=on, diode=off", "pwm=off, diode=on", "pwm=on, diode=off"]
+    assert tr.signal("i_L").min() > 0.1
+    assert np.allclose(tr.x[-1], tr.x[0], rtol=1e-8, atol=0.0)
+
+
+def test_boost_newton_out_of_iterations_names_the_iterate_and_what_to_try():
+    model = boost_converter.build(**BOOST)
+    with pytest.raises(OrbitConvergenceError) as info:
+        model.periodic_orbit(T, x0=[0.0, BOOST["C"] * 12.0], max_step=0.3 * T, max_iterations=0)
+    error = info.value
+    assert error.iterate == 0 and error.residual > 1e-3 and len(error.history) == 1
+    assert "iterate 0" in str(error) and "warmup=" in str(error) and "max_iterations=" in str(error)
+
+
+def test_boost_from_discontinuous_conduction_reports_the_changed_mode_sequence():
+    # from i_L = 0 and v_C = 40 V the first period ends in discontinuous conduction
+    # (the current dies in ~17 µs of the 60 µs off phase); Newton's step lands in continuous conduction
+    model = boost_converter.build(**BOOST)
+    with pytest.raises(ModeSequenceChangedError) as info:
+        model.periodic_orbit(T, x0=[0.0, BOOST["C"] * 40.0], max_step=0.3 * T)
+    error = info.value
+    assert error.iterate == 1
+    assert "pwm=off, diode=off" in " ".join(m.describe() for m in error.before)
+    assert "pwm=off, diode=off" not in " ".join(m.describe() for m in error.after)
+    assert "iterate 1" in str(error) and "warmup=" in str(error)
+
+
+def test_relay_autonomous_period_and_trivial_multiplier():
+    model = models.load("models/examples/relay.toml")
+    orbit = periodic_orbit(model, section="relay: on -> off", period=0.01)
+    V, R, C, R_load, v_hi, v_lo = 10.0, 1.0, 1e-3, 20.0, 8.0, 6.0
+    v_inf = V * R_load / (R + R_load)
+    period = C * R * R_load / (R + R_load) * np.log((v_inf - v_lo) / (v_inf - v_hi)) + C * R_load * np.log(v_hi / v_lo)
+    assert orbit.period == pytest.approx(period, rel=1e-8)
+    assert orbit.x0 == pytest.approx([C * v_hi], rel=1e-9)
+    assert abs(orbit.trivial_multiplier - 1.0) < 1e-6 and len(orbit.multipliers) == 0 and orbit.stable
+    assert orbit.mode_names == ["relay=off", "relay=on", "relay=off"]
+    assert orbit.trajectory.t[-1] == pytest.approx(period, rel=1e-8)
+
+
+def test_two_tanks_autonomous_orbit_forgets_its_start():
+    p = two_tanks.DEFAULTS
+    model = two_tanks.build()
+    orbit = model.periodic_orbit(section=("valve", "closed", "open"), period=300.0, warmup=3)
+    assert np.allclose(orbit.x0, [p["A1"] * p["h1_high"], p["A2"] * p["h2_low"]], rtol=1e-9, atol=0.0)
+    assert abs(orbit.trivial_multiplier - 1.0) < 1e-6
+    assert len(orbit.multipliers) == 1 and abs(orbit.multipliers[0]) < 1e-8 and orbit.stable
+    # the period against the spacing of the valve's openings in a long plain run
+    run = model.simulate(3000.0, "RK45", rtol=1e-10, atol=1e-12)
+    openings = [e.t for e in run.events if any((f.automaton, f.source, f.target) == ("valve", "closed", "open")
+                                               for s in e.steps for f in s.fired)]
+    assert orbit.period == pytest.approx(openings[-1] - openings[-2], rel=1e-7)
+
+
+def test_grazing_limit_names_the_event_and_the_iterate():
+    # the relay's closing event moves by O(1) periods per relative change of q_C: a limit of 1e-3 flags it
+    model = models.load("models/examples/relay.toml")
+    with pytest.raises(GrazingError) as info:
+        periodic_orbit(model, section="relay: on -> off", period=0.01, grazing_limit=1e-3)
+    error = info.value
+    assert error.iterate == 0 and error.ratio > 1e-3 and 0 < error.t < 0.01
+    assert "iterate 0" in str(error) and "transversally" in str(error)
+
+
+def test_bad_section_and_missing_period_are_refused():
+    model = models.load("models/examples/relay.toml")
+    with pytest.raises(switching.OrbitError, match="no transition off → off"):
+        periodic_orbit(model, section="relay: off -> off", period=0.01)
+    with pytest.raises(switching.OrbitError, match="max_period="):
+        periodic_orbit(model, section="relay: on -> off")
+    with pytest.raises(switching.OrbitError, match="positive period"):
+        periodic_orbit(model)
