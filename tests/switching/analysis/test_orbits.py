@@ -20,6 +20,18 @@ states independent, so the jumps are the identity), the multipliers its
 eigenvalues.  The parameters below keep i_L > 0 all period (continuous
 conduction; checked).
 
+The same converter in discontinuous conduction (L = 0.1 mH, R_load = 200 Ω:
+K = 2 L f_sw/R_load = 0.01 < D(1 − D)²): over a period the on phase maps x by
+``(E_on, c_on)``; in the off phase the diode conducts until p_L reaches 0 at
+``s_z`` (a *state* event, found by brentq on the exact affine solution), then
+``pwm=off, diode=off`` holds p_L = 0 (dependent) while q_C decays as
+``e^{−t/(C R)}`` for the rest of the period.  So ``φ(x0) = (0, q_end(x0))``, the
+orbit is ``(0, q*)`` with ``q_end(0, q*) = q*`` (brentq), and the monodromy is
+``[[0, 0], [∂q_end/∂p0, ∂q_end/∂q0]]`` — its multipliers 0 and ``∂q_end/∂q0`` —
+which central differences of the exact map give to ~1e-10 (step 1e-6
+relative: truncation ~1e-12, round-off ~1e-10).  Shooting gets it from the
+saltation matrix at the diode's turn-off.
+
 Relay (models/examples/relay.toml, one state q_C): on, v relaxes to
 ``v∞ = V R_load/(R + R_load)`` with ``τ_on = C R R_load/(R + R_load)``; off, to 0
 with ``τ_off = C R_load``; the relay opens at v_hi and closes at v_lo, so the
@@ -31,6 +43,17 @@ Two tanks (models/two_tanks.py, defaults): just after the transfer valve opens
 (the section) tank 1 holds ``A1 h1_high`` and tank 2 ``A2 h2_low`` (the drain
 closed at h2_low and nothing flowed in since, the valve being closed): the
 return map is constant, so the nontrivial multiplier is 0 and the trivial one 1.
+
+Two tanks whose drain, once open, never closes (``h2_low = −1`` m, below any
+level; ``h2_high = 0.05`` m, ``A2 = 5`` m²): just after the valve opens,
+``V1 = A1 h1_high`` and ``V2 = v`` is free.  With the valve open the volumes
+follow ``V̇ = A V + (Q_in, 0)``, ``A = ρg [[−1/(A1 R_v), 1/(A2 R_v)],
+[1/(A1 R_v), −1/(A2 R_v) − 1/(A2 R_out)]]`` (``p_i = ρg V_i/A_i``), until
+``V1 = A1 h1_low`` at ``s_open`` (brentq on the exact solution); closed, tank 1
+fills for ``t_c = A1 (h1_high − h1_low)/Q_in`` while tank 2 decays by
+``e^{−t_c ρg/(A2 R_out)}``.  That return map ``v ↦ P(v)`` has the fixed point
+``v*`` (brentq), the period ``s_open(v*) + t_c`` and the nontrivial multiplier
+``P'(v*)`` (central differences).
 """
 
 from __future__ import annotations
@@ -119,6 +142,45 @@ def test_boost_from_discontinuous_conduction_reports_the_changed_mode_sequence()
     assert "iterate 1" in str(error) and "warmup=" in str(error)
 
 
+DCM = dict(Vin=12.0, L=1e-4, R_L=0.1, C=100e-6, R_load=200.0, f_sw=10e3, D=0.4)
+
+
+def dcm_map(x0):
+    """The exact period map of the converter in discontinuous conduction (see the module docstring)."""
+    from scipy.optimize import brentq
+
+    L, C, R, R_L, V, D = (DCM[k] for k in ("L", "C", "R_load", "R_L", "Vin", "D"))
+    A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
+    A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])
+    b = np.array([V, 0.0])
+    E, c = phase(A_on, b, D * T)
+    x1 = E @ np.asarray(x0, dtype=float) + c
+
+    def off(s):
+        E, c = phase(A_off, b, s)
+        return E @ x1 + c
+
+    s_z = brentq(lambda s: off(s)[0], 0.0, (1 - D) * T, xtol=1e-22, rtol=1e-15)
+    return np.array([0.0, off(s_z)[1] * np.exp(-((1 - D) * T - s_z) / (C * R))])
+
+
+def test_boost_in_discontinuous_conduction_crosses_the_diode_turn_off_with_its_saltation():
+    from scipy.optimize import brentq
+
+    C = DCM["C"]
+    q_star = brentq(lambda q: dcm_map([0.0, q])[1] - q, 20 * C, 100 * C, xtol=1e-22, rtol=1e-15)
+    h_q, h_p = 1e-6 * q_star, 1e-6 * DCM["Vin"] * DCM["D"] * T
+    a = (dcm_map([h_p, q_star])[1] - dcm_map([-h_p, q_star])[1]) / (2 * h_p)
+    b = (dcm_map([0.0, q_star + h_q])[1] - dcm_map([0.0, q_star - h_q])[1]) / (2 * h_q)
+    model = boost_converter.build(**DCM)
+    orbit = model.periodic_orbit(T, x0=[0.0, 50.0 * C], max_step=0.3 * T)
+    assert orbit.mode_names == ["pwm=on, diode=off", "pwm=off, diode=on", "pwm=off, diode=off", "pwm=on, diode=off"]
+    assert abs(orbit.x0[0]) < 1e-8 * DCM["Vin"] * DCM["D"] * T and orbit.x0[1] == pytest.approx(q_star, rel=1e-8)
+    assert np.allclose(orbit.monodromy, [[0.0, 0.0], [a, b]], rtol=0.0, atol=1e-8)
+    assert orbit.multipliers[0] == pytest.approx(b, abs=1e-8) and abs(orbit.multipliers[1]) < 1e-8
+    assert orbit.iterations >= 2 and orbit.residuals[-1] <= 1e-8 < orbit.residuals[0]
+
+
 def test_relay_autonomous_period_and_trivial_multiplier():
     model = models.load("models/examples/relay.toml")
     orbit = periodic_orbit(model, section="relay: on -> off", period=0.01)
@@ -144,6 +206,56 @@ def test_two_tanks_autonomous_orbit_forgets_its_start():
     openings = [e.t for e in run.events if any((f.automaton, f.source, f.target) == ("valve", "closed", "open")
                                                for s in e.steps for f in s.fired)]
     assert orbit.period == pytest.approx(openings[-1] - openings[-2], rel=1e-7)
+
+
+FREE_DRAIN = dict(h2_low=-1.0, h2_high=0.05, A2=5.0)
+
+
+def free_drain_map(v):
+    """``(P(v), s_open)``: the exact return map of the tanks with the drain always open (module docstring)."""
+    from scipy.optimize import brentq
+
+    p = {**two_tanks.DEFAULTS, **FREE_DRAIN}
+    rg = p["rho"] * p["g"]
+    A1, A2, R_v, R_out = p["A1"], p["A2"], p["R_v"], p["R_out"]
+    A = rg * np.array([[-1 / (A1 * R_v), 1 / (A2 * R_v)], [1 / (A1 * R_v), -1 / (A2 * R_v) - 1 / (A2 * R_out)]])
+    b = np.array([p["Q_in"], 0.0])
+    start = np.array([A1 * p["h1_high"], v])
+
+    def open_phase(s):
+        E, c = phase(A, b, s)
+        return E @ start + c
+
+    s_open = brentq(lambda s: open_phase(s)[0] - A1 * p["h1_low"], 1e-3, 1e4, xtol=1e-13, rtol=1e-15)
+    t_closed = A1 * (p["h1_high"] - p["h1_low"]) / p["Q_in"]
+    return open_phase(s_open)[1] * np.exp(-t_closed * rg / (A2 * R_out)), s_open + t_closed
+
+
+def test_two_tanks_autonomous_newton_with_a_free_drain():
+    from scipy.optimize import brentq
+
+    p = {**two_tanks.DEFAULTS, **FREE_DRAIN}
+    v_star = brentq(lambda v: free_drain_map(v)[0] - v, 0.01, 5.0, xtol=1e-15, rtol=1e-15)
+    period = free_drain_map(v_star)[1]
+    h = 1e-6 * v_star
+    multiplier = (free_drain_map(v_star + h)[0] - free_drain_map(v_star - h)[0]) / (2 * h)
+    model = two_tanks.build(**FREE_DRAIN)
+    orbit = model.periodic_orbit(section="valve: closed -> open", period=300.0, warmup=1)
+    assert orbit.mode_names == ["valve=open, drain=open", "valve=closed, drain=open", "valve=open, drain=open"]
+    assert np.allclose(orbit.x0, [p["A1"] * p["h1_high"], v_star], rtol=1e-8, atol=0.0)
+    assert orbit.period == pytest.approx(period, rel=1e-8)
+    assert abs(orbit.trivial_multiplier - 1.0) < 1e-6
+    assert len(orbit.multipliers) == 1 and orbit.multipliers[0] == pytest.approx(multiplier, abs=1e-7)
+    assert orbit.iterations >= 2 and orbit.residuals[0] > 1e-3 and orbit.residual <= 1e-8
+
+
+def test_two_tanks_without_warmup_changes_its_mode_sequence():
+    # the first return still passes the drain's opening (drain closed at the start): iterate 0 flows through
+    # one more mode than the orbit
+    model = two_tanks.build(**FREE_DRAIN)
+    with pytest.raises(ModeSequenceChangedError) as info:
+        model.periodic_orbit(section="valve: closed -> open", period=300.0)
+    assert info.value.iterate == 1 and len(info.value.before) == len(info.value.after) + 1
 
 
 def test_grazing_limit_names_the_event_and_the_iterate():
