@@ -54,6 +54,17 @@ fills for ``t_c = A1 (h1_high − h1_low)/Q_in`` while tank 2 decays by
 ``e^{−t_c ρg/(A2 R_out)}``.  That return map ``v ↦ P(v)`` has the fixed point
 ``v*`` (brentq), the period ``s_open(v*) + t_c`` and the nontrivial multiplier
 ``P'(v*)`` (central differences).
+
+A comparator that watches an RC low-pass (R C = 10 s, C = 1 F) driven by
+``u = sqrt(1 + (R C)²) sin t`` (T = 2π s): the orbit is ``v = sin(t − φ)``,
+``tan φ = R C``, amplitude 1; the comparator (which drives a separate loop, so
+v does not feel it) switches high at ``v >= 1 − δ`` and low at ``v <= 0``.  A
+perturbation ``dq`` of the start decays as ``dq e^{−t/RC}``, and the crossing
+of ``1 − δ`` is at ``t_c = φ + π/2 − Δ``, ``cos Δ = 1 − δ``, where ``v̇ = sin Δ``:
+so ``∂t_c/∂q0 = −e^{−t_c/RC}/sin Δ`` and the grazing ratio is
+``s e^{−t_c/RC}/(2π sin Δ)`` (s the largest |q_C| sampled), growing as
+``δ^{−1/2}``: 0.84 at δ = 1e-2, 83 at 1e-6, 2.6e3 at 1e-9 (over the default
+limit 1e3).
 """
 
 from __future__ import annotations
@@ -258,8 +269,57 @@ def test_two_tanks_without_warmup_changes_its_mode_sequence():
     assert info.value.iterate == 1 and len(info.value.before) == len(info.value.after) + 1
 
 
+def comparator(delta, RC=10.0):
+    """The RC low-pass with a comparator at ``1 − delta`` (module docstring)."""
+    import sympy as sp
+
+    from bondgraph import BondGraph, C, One, R, Se
+    from switching import Automaton, ExpressionInput, HybridModel
+
+    g = BondGraph("comparator")
+    loop = g.add(One("loop"))
+    g.connect(Se("u", sp.Symbol("u")), loop)
+    g.input("u")
+    g.connect(loop, R("R", "R"))
+    g.connect(loop, C("C", "C"))
+    k = g.add(One("k", controlled=True))
+    g.connect(Se("W", "W"), k)
+    g.connect(k, R("R2", "R2"))
+    watch = Automaton("comparator", {"low": {"k": False}, "high": {"k": True}}, "low")
+    watch.add_transition("low", "high", "q_C/C >= v_th")
+    watch.add_transition("high", "low", "q_C/C <= 0")
+    return HybridModel(g, [watch], dict(R=RC, C=1.0, W=1.0, R2=1.0, v_th=1.0 - delta),
+                       inputs={"u": ExpressionInput("V*sin(t)", {"V": float(np.sqrt(1 + RC**2))})})
+
+
+def comparator_ratio(delta, scale, RC=10.0):
+    phi, D = np.arctan(RC), np.arccos(1.0 - delta)
+    return scale * np.exp(-(phi + np.pi / 2 - D) / RC) / (2 * np.pi * np.sin(D))
+
+
+@pytest.mark.parametrize("delta, rel", [(1e-2, 1e-6), (1e-6, 1e-4)])
+def test_grazing_ratio_of_a_transversal_crossing_matches_its_closed_form(delta, rel):
+    phi = np.arctan(10.0)
+    orbit = comparator(delta).periodic_orbit(2 * np.pi)
+    assert orbit.x0 == pytest.approx([-np.sin(phi)], rel=1e-8)
+    assert orbit.mode_names == ["comparator=low", "comparator=high", "comparator=low"]
+    scale = np.abs(orbit.trajectory.x).max()
+    assert orbit.grazing_ratio == pytest.approx(comparator_ratio(delta, scale), rel=rel)
+
+
+def test_nearly_tangential_crossing_is_a_grazing_error():
+    phi = np.arctan(10.0)
+    with pytest.raises(GrazingError) as info:
+        comparator(1e-9).periodic_orbit(2 * np.pi, x0=[-np.sin(phi)])
+    error = info.value
+    t_c = phi + np.pi / 2 - np.arccos(1.0 - 1e-9)
+    assert error.iterate == 0 and error.t == pytest.approx(t_c, abs=1e-6)
+    assert error.ratio == pytest.approx(comparator_ratio(1e-9, 1.0), rel=2e-2) and error.ratio > 1e3
+    assert "iterate 0" in str(error) and "grazing_limit = 1000" in str(error) and "transversally" in str(error)
+
+
 def test_grazing_limit_names_the_event_and_the_iterate():
-    # the relay's closing event moves by O(1) periods per relative change of q_C: a limit of 1e-3 flags it
+    # the relay's closing event moves by about 3 periods per relative change of q_C: a limit of 1e-3 flags it
     model = models.load("models/examples/relay.toml")
     with pytest.raises(GrazingError) as info:
         periodic_orbit(model, section="relay: on -> off", period=0.01, grazing_limit=1e-3)
