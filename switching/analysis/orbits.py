@@ -8,12 +8,15 @@ Newton's step uses ``J = M − I`` with the *monodromy*
 ``M = ∂x(t0 + T)/∂x0`` (n × n), the forward sensitivities of the run with
 respect to every initial state (``sensitivities=["x0:<state>", ...]``,
 :mod:`switching.analysis.sensitivity`): they cross every instant with its
-saltation matrix ``D = G_x (I + f⁻ τ_x) − f⁺ τ_x``, where ``τ_x = −h_x S⁻ /
-ḣ`` is the gradient of the event time, zero at a clock event (a guard on
-``t`` alone), so a clock event contributes only its jump Jacobian ``G_x``.
-A state the start mode holds dependent (on a constraint) has a zero column
-in ``M`` (the start projects it), so ``J`` is ``−1`` there, not singular;
-the step is solved in least squares all the same.
+saltation matrix, ``S⁺ = Ξ S⁻``, ``Ξ = G_x + (f⁺ − G_x f⁻) h_x / ḣ`` (``G_x``
+the jump's Jacobian, ``f∓`` the rates before and after, ``h`` the guard
+comparison that located the instant, ``ḣ = h_x f⁻ + h_t`` its rate); at a
+clock event (a guard on ``t`` alone) ``h_x = 0`` and ``Ξ = G_x``.
+In a start mode that holds some states dependent (on a constraint), the
+run first projects x0 onto the constraint (the mode's jump map), so ``M``
+maps the directions that projection removes to 0 and ``J = M − I`` is
+``−I`` on them, not singular; the step is solved in least squares all the
+same, and the iterates land on the constraint after one step.
 
 **Autonomous orbits** (``section=(automaton, source, target)``): the period
 is the time of the ``crossings``-th instant at which ``automaton`` takes

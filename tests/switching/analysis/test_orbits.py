@@ -192,6 +192,23 @@ def test_boost_in_discontinuous_conduction_crosses_the_diode_turn_off_with_its_s
     assert orbit.iterations >= 2 and orbit.residuals[-1] <= 1e-8 < orbit.residuals[0]
 
 
+def test_boost_orbit_from_a_start_with_a_dependent_inductor():
+    # from t0 = 0.9 T, inside the phase pwm=off, diode=off (p_L dependent, held at 0), the orbit is the same
+    # one shifted: q_C(0.9 T) = q* e^{0.1 T/(C R_load)} (it decays until the switch closes at T); the guess
+    # p_L = 1e-4 V·s is off the constraint (its start resolution passes diode=on: one warm-up period)
+    from scipy.optimize import brentq
+
+    C = DCM["C"]
+    q_star = brentq(lambda q: dcm_map([0.0, q])[1] - q, 20 * C, 100 * C, xtol=1e-22, rtol=1e-15)
+    model = boost_converter.build(**DCM)
+    start = switching.Mode(("off", "off"), ("pwm", "diode"))
+    orbit = model.periodic_orbit(T, t0=0.9 * T, mode=start, x0=[1e-4, 50.0 * C], max_step=0.3 * T, warmup=1)
+    assert orbit.modes[0] == start and orbit.x0[0] == 0.0
+    assert orbit.x0[1] == pytest.approx(q_star * np.exp(0.1 * T / (C * DCM["R_load"])), rel=1e-8)
+    reference = model.periodic_orbit(T, x0=[0.0, 50.0 * C], max_step=0.3 * T)
+    assert np.allclose(np.sort(orbit.multipliers), np.sort(reference.multipliers), rtol=0.0, atol=1e-8)
+
+
 def test_relay_autonomous_period_and_trivial_multiplier():
     model = models.load("models/examples/relay.toml")
     orbit = periodic_orbit(model, section="relay: on -> off", period=0.01)
