@@ -60,6 +60,12 @@ from .analysis.fitting import FitError as FitError
 from .analysis.fitting import FitResult as FitResult
 from .analysis.fitting import fit as fit
 from .analysis.fitting import sample_indices as sample_indices
+from .analysis.orbits import PeriodicOrbit as PeriodicOrbit
+from .analysis.orbits import periodic_orbit as periodic_orbit
+from .errors import OrbitError as OrbitError
+from .errors import OrbitConvergenceError as OrbitConvergenceError
+from .errors import ModeSequenceChangedError as ModeSequenceChangedError
+from .errors import GrazingError as GrazingError
 
 # the model's methods reach the floors above it through these (switching.model.services)
 from .model.services import provide as _provide  # noqa: E402
@@ -83,4 +89,5 @@ def _verify(*args, **kwargs):  # (scipy.optimize, 0.27 s, imported when a model 
 
 _provide(library=_ModeLibrary, simulate=_simulate, check_option_names=_check_option_names,
          check_sensitivity_options=_check_sensitivity_options, resolve_instant=_resolve_instant,
-         simulate_with_sensitivities=_simulate_with_sensitivities, verify=_verify, save=save_model)
+         simulate_with_sensitivities=_simulate_with_sensitivities, verify=_verify, save=save_model,
+         periodic_orbit=periodic_orbit)

@@ -25,6 +25,10 @@ __all__ = [
     "OptionTypeError",
     "WorkLimitError",
     "StepLimitError",
+    "OrbitError",
+    "OrbitConvergenceError",
+    "ModeSequenceChangedError",
+    "GrazingError",
 ]
 
 
@@ -191,3 +195,47 @@ class StepLimitError(SimulationError):
     def __init__(self, message: str, trajectory=None, t=None, mode=None, max_steps=None):
         super().__init__(message, trajectory, t, mode)
         self.max_steps = max_steps
+
+
+class OrbitError(HybridBondGraphError):
+    """A periodic orbit (:func:`switching.periodic_orbit`) that could not be
+    found.  ``iterate`` is the Newton iterate (0: the initial guess) where it
+    failed, ``x`` its initial state, ``residual`` its scaled residual
+    ``‖φ(x) − x‖∞ / ‖x‖∞`` (``nan`` when not computed), ``history`` the
+    residuals of all iterates so far; the message says what to try."""
+
+    def __init__(self, message: str, iterate: int | None = None, x=None, residual: float | None = None,
+                 history=()):
+        super().__init__(message)
+        self.iterate = iterate
+        self.x = x
+        self.residual = residual
+        self.history = tuple(history)
+
+
+class OrbitConvergenceError(OrbitError):
+    """Newton's iteration on the period map did not bring the residual under
+    the tolerance within the allowed iterations (or it grew)."""
+
+
+class ModeSequenceChangedError(OrbitError):
+    """Two successive Newton iterates flowed through different sequences of
+    modes over one period: the period map is not smooth between them.
+    ``before`` and ``after`` are the two sequences (mode descriptions)."""
+
+    def __init__(self, message: str, iterate=None, x=None, residual=None, history=(), before=(), after=()):
+        super().__init__(message, iterate, x, residual, history)
+        self.before = tuple(before)
+        self.after = tuple(after)
+
+
+class GrazingError(OrbitError):
+    """An iterate's orbit touches a guard tangentially (or nearly so): the
+    event time, hence the period map, is not differentiable there.
+    ``t`` is the time of the event within the period, ``ratio`` the relative
+    sensitivity of its time that exceeded the limit."""
+
+    def __init__(self, message: str, iterate=None, x=None, residual=None, history=(), t=None, ratio=None):
+        super().__init__(message, iterate, x, residual, history)
+        self.t = t
+        self.ratio = ratio

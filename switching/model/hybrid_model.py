@@ -508,6 +508,12 @@ class HybridModel:
         reachable mode's guard boundaries; see :func:`switching.analysis.verify.verify`."""
         return SERVICES.verify(self, samples=samples, seed=seed, max_modes=max_modes, scale=scale)
 
+    def periodic_orbit(self, period: float | None = None, **options):
+        """A periodic orbit by Newton shooting on the period map (fixed
+        ``period`` [s], or autonomous with ``section=(automaton, source,
+        target)``); see :func:`switching.analysis.orbits.periodic_orbit`."""
+        return SERVICES.periodic_orbit(self, period, **options)
+
     def save(self, path, *, run: dict | None = None, description: str | None = None) -> None:
         """Write the model to the model file ``path``, checked to read back to
         the same model; see :func:`switching.files.modelfile.save_model`."""

@@ -43,6 +43,8 @@ class Services:
     resolve_instant: Callable = _missing("resolve_instant")
     #: ``verify(model, samples=, seed=, max_modes=, scale=)`` (:mod:`switching.analysis.verify`)
     verify: Callable = _missing("verify")
+    #: ``periodic_orbit(model, period, **options) -> PeriodicOrbit`` (:mod:`switching.analysis.orbits`)
+    periodic_orbit: Callable = _missing("periodic_orbit")
     #: ``save(model, path, **options)`` (:mod:`switching.files.modelfile`)
     save: Callable = _missing("save")
 
