@@ -104,9 +104,8 @@ from __future__ import annotations
 
 import difflib
 import math
-import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
@@ -117,15 +116,15 @@ from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParam
 from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
 from switching.errors import GuardSyntaxError
-from switching.language.parsing import parse_condition, parse_expression
+from switching.language.parsing import parse_expression
+
+from .netlist import NAME, Netlist, Part, checked_name, checked_node, holds_at_start, parameter_name, source_value
 
 __all__ = ["Circuit", "Input", "PWM", "GROUND"]
 
 #: the ground node (0 V)
 GROUND = "0"
 
-_COMPONENT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_NODE_NAME = re.compile(r"[A-Za-z0-9_]+")
 
 
 @dataclass(frozen=True)
@@ -153,22 +152,7 @@ class PWM:
     delay: float = 0.0
 
 
-@dataclass
-class _Part:
-    kind: str
-    name: str
-    nodes: tuple
-    values: dict = field(default_factory=dict)
-
-
-def _parameter_name(text: str, what: str) -> str:
-    if not isinstance(text, str) or not _COMPONENT_NAME.fullmatch(text):
-        raise InvalidGraphError(f"{what}: {text!r} is not a parameter name (letters, digits and '_', "
-                                "not starting with a digit)")
-    return text
-
-
-class Circuit:
+class Circuit(Netlist):
     """A netlist: components between named nodes; ground is node ``"0"``.
 
     Add components with :meth:`R`, :meth:`C`, :meth:`L`, :meth:`V`,
@@ -180,8 +164,7 @@ class Circuit:
     """
 
     def __init__(self, name: str = "circuit"):
-        self.name = _checked_component(name, "circuit name")
-        self._parts: dict[str, _Part] = {}
+        super().__init__(name, "circuit name", "'buck', 'bridge_1'")
 
     # ------------------------------------------------------------ components
 
@@ -202,12 +185,12 @@ class Circuit:
     def V(self, name: str, n_plus, n_minus, value) -> None:
         """A voltage source: ``v(n_plus) − v(n_minus) = value`` [V] (a number,
         a parameter name, an expression of ``t`` as text, or an :class:`Input`)."""
-        self._add("V", name, (n_plus, n_minus), value=_source_value(value, name))
+        self._add("V", name, (n_plus, n_minus), value=source_value(value, name, (Input,)))
 
     def I(self, name: str, n_from, n_to, value) -> None:  # noqa: E743 - the netlist letter
         """A current source: ``value`` [A] flows through it from ``n_from`` to
         ``n_to`` (it leaves node ``n_from`` and enters ``n_to``)."""
-        self._add("I", name, (n_from, n_to), value=_source_value(value, name))
+        self._add("I", name, (n_from, n_to), value=source_value(value, name, (Input,)))
 
     def diode(self, name: str, anode, cathode, r_on=None, v_f=None, *, on: bool = False) -> None:
         """An ideal diode from ``anode`` to ``cathode``, automaton ``name``
@@ -267,28 +250,15 @@ class Circuit:
 
     # ------------------------------------------------------------ queries
 
-    @property
-    def nodes(self) -> tuple:
-        """The nodes named so far, ground included, in order of appearance."""
-        seen = {}
-        for part in self._parts.values():
-            for n in part.nodes:
-                seen.setdefault(n, None)
-        return tuple(seen)
-
-    @property
-    def components(self) -> tuple:
-        return tuple(self._parts)
-
     # ------------------------------------------------------------ input checks
 
     def _add(self, kind, name, nodes, **values):
-        name = _checked_component(name, "component name")
+        name = checked_name(name, "component name", "'R1', 'D_out'")
         if name in self._parts:
             raise DuplicateNameError(f"circuit {self.name!r}: component {name!r} is already defined "
                                      f"({self._parts[name].kind} between {', '.join(self._parts[name].nodes)}); "
                                      "give each component its own name", name)
-        nodes = tuple(_checked_node(n, name) for n in nodes)
+        nodes = tuple(checked_node(n, name, "ground") for n in nodes)
         for a, b in zip(nodes[::2], nodes[1::2]):
             if a == b:
                 raise InvalidGraphError(f"component {name!r} has both terminals on node {a!r}: it would be "
@@ -304,8 +274,8 @@ class Circuit:
             if values.get("value") is None and not laws:
                 values["value"] = name
         if "value" in values and isinstance(values["value"], str) and kind not in ("V", "I"):
-            _parameter_name(values["value"], f"value of {name!r}")
-        self._parts[name] = _Part(kind, name, nodes, values)
+            parameter_name(values["value"], f"value of {name!r}")
+        self._parts[name] = Part(kind, name, nodes, values)
 
     def _check_topology(self):
         parts = list(self._parts.values())
@@ -388,34 +358,6 @@ class Circuit:
         return builder.model(name or self.name, options)
 
 
-def _checked_component(name, what):
-    if not isinstance(name, str) or not _COMPONENT_NAME.fullmatch(name):
-        raise InvalidGraphError(f"invalid {what} {name!r}: use letters, digits and '_', not starting with "
-                                "a digit (e.g. 'R1', 'D_out')")
-    return name
-
-
-def _checked_node(node, owner):
-    if isinstance(node, int) and not isinstance(node, bool) and node >= 0:
-        node = str(node)
-    if not isinstance(node, str) or not _NODE_NAME.fullmatch(node):
-        raise InvalidGraphError(f"component {owner!r}: invalid node name {node!r}: use letters, digits and "
-                                "'_' (ground is '0')", [str(owner)])
-    return node
-
-
-def _source_value(value, name):
-    if isinstance(value, bool) or value is None:
-        raise InvalidGraphError(f"source {name!r}: its value must be a number, a parameter name, an "
-                                f"expression of t as text, or an Input, got {value!r}", [str(name)])
-    if isinstance(value, (int, float, Input, sp.Expr)):
-        return value
-    if isinstance(value, str):
-        return value
-    raise InvalidGraphError(f"source {name!r}: its value must be a number, a parameter name, an expression "
-                            f"of t as text, or an Input, got {value!r}", [str(name)])
-
-
 def _components(nodes, edges) -> dict:
     parent = {n: n for n in nodes}
 
@@ -483,7 +425,7 @@ class _Builder:
 
     def number_or_parameter(self, value, default_name, what) -> sp.Expr:
         if isinstance(value, str):
-            return sp.Symbol(_parameter_name(value, what))
+            return sp.Symbol(parameter_name(value, what))
         if isinstance(value, sp.Expr):
             return value
         try:
@@ -500,7 +442,7 @@ class _Builder:
         if isinstance(value, Input):
             symbol = self.graph.inputs.get(value.name) or self.graph.input(value.name)
             return symbol
-        if isinstance(value, str) and (value == "t" or not _COMPONENT_NAME.fullmatch(value)):
+        if isinstance(value, str) and (value == "t" or not NAME.fullmatch(value)):
             # an expression of t: other names are parameters (or declared inputs), checked by the model
             names = {"t": TIME, **self.graph.inputs}
             try:
@@ -648,7 +590,7 @@ class _Builder:
             opening = part.values["open_when"] or f"not ({rule})"
             initial = part.values["closed"]
             if initial is None:
-                initial = _holds_at_start(closing, {**self.defaults, **self.given})
+                initial = holds_at_start(closing, {**self.defaults, **self.given})
         automaton = Automaton(name, {"open": {name: False}, "closed": {name: True}},
                               initial="closed" if initial else "open")
         automaton.add_transition("open", "closed", closing, "a priori")
@@ -695,7 +637,7 @@ class _Builder:
             if leak in self.circuit._parts:
                 raise DuplicateNameError(f"circuit {self.circuit.name!r}: gmin puts a leak named {leak!r} across "
                                          f"{part.name!r}, and a component has that name; rename it", leak)
-            self.passive(_Part("R", leak, part.nodes[:2], {"value": 1 / conductance}))
+            self.passive(Part("R", leak, part.nodes[:2], {"value": 1 / conductance}))
 
     # -- the model
 
@@ -749,14 +691,3 @@ def _initial_state(storage, output: float, parameters: Mapping) -> float:
 
 def _node_signal(n):
     return "0" if n == GROUND else f"v_{n}"
-
-
-def _holds_at_start(condition: str, parameters: Mapping) -> bool:
-    """The condition at t = 0 when it depends on time and parameters only, else ``False``."""
-    names = {"t": TIME, **{k: sp.Symbol(k) for k in parameters if _COMPONENT_NAME.fullmatch(k)}}
-    try:
-        expr = parse_condition(condition, names)
-    except Exception:  # a signal name: decided by the first instant's resolution
-        return False
-    value = expr.subs({TIME: 0, **{sp.Symbol(k): v for k, v in parameters.items()}})
-    return bool(value) if value in (sp.true, sp.false) else False

@@ -123,9 +123,7 @@ at the start, or just after it, when the shafts turn together).
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -134,9 +132,10 @@ from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParam
 from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
 from switching.errors import GuardSyntaxError
-from switching.language.parsing import parse_condition, parse_expression
+from switching.language.parsing import parse_expression
 
 from .circuits import Input
+from .netlist import NAME, Netlist, Part, checked_name, checked_node, holds_at_start, parameter_name, source_value
 
 __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 
@@ -145,46 +144,9 @@ FRAME = "0"
 #: the two kinds of machine and their signal letters (position, velocity, force)
 KINDS = {"translational": ("x", "v", "F"), "rotational": ("theta", "omega", "T")}
 
-_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_NODE = re.compile(r"[A-Za-z0-9_]+")
 
 
-@dataclass
-class _Part:
-    kind: str
-    name: str
-    nodes: tuple
-    values: dict = field(default_factory=dict)
-
-
-def _checked_name(name, what):
-    if not isinstance(name, str) or not _NAME.fullmatch(name):
-        raise InvalidGraphError(f"invalid {what} {name!r}: use letters, digits and '_', not starting with "
-                                "a digit (e.g. 'm1', 'clutch_A')")
-    return name
-
-
-def _checked_node(node, owner):
-    if isinstance(node, int) and not isinstance(node, bool) and node >= 0:
-        node = str(node)
-    if not isinstance(node, str) or not _NODE.fullmatch(node):
-        raise InvalidGraphError(f"component {owner!r}: invalid node name {node!r}: use letters, digits and "
-                                f"'_' (the frame is {FRAME!r})", [str(owner)])
-    return node
-
-
-def _holds_at_start(condition: str, parameters: Mapping) -> bool:
-    """The condition at t = 0 when it depends on time and parameters only, else ``False``."""
-    names = {"t": TIME, **{k: sp.Symbol(k) for k in parameters if _NAME.fullmatch(k)}}
-    try:
-        expr = parse_condition(condition, names)
-    except Exception:  # a signal name: decided by the first instant's resolution
-        return False
-    value = expr.subs({TIME: 0, **{sp.Symbol(k): v for k, v in parameters.items()}})
-    return bool(value) if value in (sp.true, sp.false) else False
-
-
-class Mechanism:
+class Mechanism(Netlist):
     """A 1-D machine: components between named nodes; the frame is node ``"0"``.
 
     ``kind`` is ``"translational"`` (nodes are points moving along a line;
@@ -199,12 +161,11 @@ class Mechanism:
     """
 
     def __init__(self, name: str = "mechanism", kind: str = "translational"):
-        self.name = _checked_name(name, "mechanism name")
+        super().__init__(name, "mechanism name", "'drivetrain', 'press_1'")
         if kind not in KINDS:
             raise InvalidGraphError(f"mechanism {name!r}: kind must be 'translational' or 'rotational', "
                                     f"got {kind!r}")
         self.kind = kind
-        self._parts: dict[str, _Part] = {}
         self._positions: dict[str, float] = {}
 
     # ------------------------------------------------------------ components
@@ -225,7 +186,7 @@ class Mechanism:
 
     def position(self, node, x0: float) -> None:
         """The position (rotational: angle) of ``node`` at t = 0 (default 0)."""
-        node = _checked_node(node, "position")
+        node = checked_node(node, "position", "the frame")
         if node == FRAME:
             raise InvalidGraphError(f"the frame {FRAME!r} does not move: its position is 0")
         x0 = float(x0)
@@ -251,7 +212,7 @@ class Mechanism:
         """A force [N] (rotational: a torque [N·m]) on ``node`` in its positive
         direction: a number, a parameter name, an expression of ``t`` as
         text, or an :class:`~models.circuits.Input`."""
-        self._add("F", name, (node,), value=_source_value(value, name))
+        self._add("F", name, (node,), value=source_value(value, name, (Input,)))
 
     def torque(self, name: str, shaft, value) -> None:
         """A torque [N·m] on ``shaft``: :meth:`force`."""
@@ -263,7 +224,7 @@ class Mechanism:
         parameter name, an expression of ``t`` as text or an Input;
         ``F_<name>`` is the force it applies to the node.  A mass on the same
         node follows it (its momentum is then a dependent state)."""
-        self._add("S", name, (node,), value=_source_value(value, name))
+        self._add("S", name, (node,), value=source_value(value, name, (Input,)))
 
     def gear(self, name: str, n_in, n_out, ratio) -> None:
         """An ideal gear (a ``TF``) of ratio ``n`` from shaft ``n_in`` to
@@ -280,7 +241,7 @@ class Mechanism:
         parameters are ``<name>_k``, ``<name>_V``, ``<name>_R``, ``<name>_L``
         (when numbers).  Without a load the shaft reaches the no-load speed
         ``V/k``."""
-        self._add("DC", name, (shaft,), k=k, V=_source_value(V, name), R=R, L=L, i0=float(i0))
+        self._add("DC", name, (shaft,), k=k, V=source_value(V, name, (Input,)), R=R, L=L, i0=float(i0))
 
     def clutch(self, name: str, n1, n2, engaged_when: str, *, disengaged_when: str | None = None,
                engaged: bool | None = None, T_max=None) -> None:
@@ -324,28 +285,15 @@ class Mechanism:
 
     # ------------------------------------------------------------ queries
 
-    @property
-    def nodes(self) -> tuple:
-        """The nodes named so far, the frame included if used, in order of appearance."""
-        seen = {}
-        for part in self._parts.values():
-            for n in part.nodes:
-                seen.setdefault(n, None)
-        return tuple(seen)
-
-    @property
-    def components(self) -> tuple:
-        return tuple(self._parts)
-
     # ------------------------------------------------------------ input checks
 
     def _add(self, kind, name, nodes, **values):
-        name = _checked_name(name, "component name")
+        name = checked_name(name, "component name", "'m1', 'clutch_A'")
         if name in self._parts:
             old = self._parts[name]
             raise DuplicateNameError(f"mechanism {self.name!r}: component {name!r} is already defined "
                                      f"(on {', '.join(old.nodes)}); give each component its own name", name)
-        nodes = tuple(_checked_node(n, name) for n in nodes)
+        nodes = tuple(checked_node(n, name, "the frame") for n in nodes)
         if len(nodes) == 2 and nodes[0] == nodes[1]:
             raise InvalidGraphError(f"component {name!r} has both ends on node {nodes[0]!r}: it would act on "
                                     "nothing; connect it between two different nodes", [name])
@@ -371,8 +319,8 @@ class Mechanism:
         if kind in ("M", "K", "B") and values.get("value") is None and values.get("law") is None:
             values["value"] = name
         if isinstance(values.get("value"), str) and kind not in ("F", "S"):
-            _parameter_name(values["value"], f"value of {name!r}")
-        self._parts[name] = _Part(kind, name, nodes, values)
+            parameter_name(values["value"], f"value of {name!r}")
+        self._parts[name] = Part(kind, name, nodes, values)
 
     def _check(self):
         if not self._parts:
@@ -402,20 +350,6 @@ class Mechanism:
         return _Builder(self, dict(parameters or {}), dict(inputs or {})).model(name or self.name, options)
 
 
-def _parameter_name(text: str, what: str) -> str:
-    if not isinstance(text, str) or not _NAME.fullmatch(text):
-        raise InvalidGraphError(f"{what}: {text!r} is not a parameter name (letters, digits and '_', "
-                                "not starting with a digit)")
-    return text
-
-
-def _source_value(value, name):
-    if isinstance(value, (bool, type(None))) or not isinstance(value, (int, float, str, Input, sp.Expr)):
-        raise InvalidGraphError(f"{name!r}: its value must be a number, a parameter name, an expression of t "
-                                f"as text, or an Input, got {value!r}", [str(name)])
-    return value
-
-
 class _Builder:
     """One build of a :class:`Mechanism` (graph, automata, parameters, signals)."""
 
@@ -439,7 +373,7 @@ class _Builder:
         if isinstance(value, tuple) and value[0] == "-":
             return -self.number_or_parameter(value[1], default_name, what)
         if isinstance(value, str):
-            return sp.Symbol(_parameter_name(value, what))
+            return sp.Symbol(parameter_name(value, what))
         if isinstance(value, sp.Expr):
             return value
         try:
@@ -454,7 +388,7 @@ class _Builder:
     def source_value(self, value, name, default_name) -> sp.Expr:
         if isinstance(value, Input):
             return self.graph.inputs.get(value.name) or self.graph.input(value.name)
-        if isinstance(value, str) and (value == "t" or not _NAME.fullmatch(value)):
+        if isinstance(value, str) and (value == "t" or not NAME.fullmatch(value)):
             names = {"t": TIME, **self.graph.inputs}
             try:
                 return parse_expression(value, names)
@@ -598,7 +532,7 @@ class _Builder:
         releasing = values["disengaged_when"] or f"not ({engaging})"
         initial = values["engaged"]
         if initial is None:
-            initial = _holds_at_start(engaging, {**self.defaults, **self.given})
+            initial = holds_at_start(engaging, {**self.defaults, **self.given})
         if values["T_max"] is None:
             self.locking(part)
             states, extra = {"disengaged": {name: False}, "engaged": {name: True}}, {}
