@@ -111,19 +111,17 @@ import numpy as np
 import sympy as sp
 from scipy.optimize import brentq
 
-from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
+from bondgraph import GY, TF, C, I, One, R, Se, Sf, Zero
 from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
-from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
-from switching.errors import GuardSyntaxError
-from switching.language.parsing import parse_expression
 
-from .netlist import NAME, Netlist, Part, checked_name, checked_node, holds_at_start, parameter_name, source_value
+from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
+                      parameter_name, source_value)
 
 __all__ = ["Circuit", "Input", "PWM", "GROUND"]
 
 #: the ground node (0 V)
-GROUND = "0"
+GROUND = REFERENCE
 
 
 
@@ -405,78 +403,22 @@ def _path(adjacency, start, goal) -> list:
     return []
 
 
-class _Builder:
-    """One build of a :class:`Circuit` (graph, automata, parameters, signals)."""
+class _Builder(NetlistBuilder):
+    """One build of a :class:`Circuit` (graph, automata, parameters, signals):
+    each node a 0-junction, each series branch a 1-junction."""
 
     def __init__(self, circuit: Circuit, parameters: dict, inputs: Mapping):
+        super().__init__(circuit, parameters, inputs, Zero, One, Input)
         self.circuit = circuit
-        self.given = parameters
-        self.inputs = dict(inputs)
-        self.graph = BondGraph(circuit.name)
-        self.defaults: dict[str, float] = {}
-        self.signals: dict[str, str] = {}
         self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
-        self.automata: list[Automaton] = []
         self.gmin = None  # leak conductance across ideal diodes and switches (Circuit.build)
-        self.node_bond: dict[str, str] = {}
-        self.junctions = {n: self.graph.add(Zero(f"node_{n}")) for n in circuit.nodes if n != GROUND}
 
     # -- names and values
 
-    def number_or_parameter(self, value, default_name, what) -> sp.Expr:
-        if isinstance(value, str):
-            return sp.Symbol(parameter_name(value, what))
-        if isinstance(value, sp.Expr):
-            return value
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            raise InvalidGraphError(f"{what}: give a number or a parameter name, got {value!r}") from None
-        if not math.isfinite(number):
-            raise InvalidGraphError(f"{what}: {number} is not a finite number")
-        self.defaults.setdefault(default_name, number)
-        return sp.Symbol(default_name)
-
     def source_value(self, part) -> sp.Expr:
-        value = part.values["value"]
-        if isinstance(value, Input):
-            symbol = self.graph.inputs.get(value.name) or self.graph.input(value.name)
-            return symbol
-        if isinstance(value, str) and (value == "t" or not NAME.fullmatch(value)):
-            # an expression of t: other names are parameters (or declared inputs), checked by the model
-            names = {"t": TIME, **self.graph.inputs}
-            try:
-                return parse_expression(value, names)
-            except GuardSyntaxError as error:
-                first_line = str(error).splitlines()[0]
-                raise GuardSyntaxError(f"the value of source {part.name!r} is not an expression of t: {first_line}",
-                                       value, error.position) from None
-        return self.number_or_parameter(value, part.name, f"value of {part.name!r}")
+        return self.expression_value(part.values["value"], f"source {part.name!r}", part.name)
 
     # -- graph pieces
-
-    def node(self, n):
-        return None if n == GROUND else self.junctions[n]
-
-    def note_node(self, n, bond):
-        if n != GROUND:
-            self.node_bond.setdefault(n, bond.name)
-
-    def branch(self, part, element):
-        """Bond ``element`` between the part's two nodes; returns the sign
-        ``s`` with ``v = s·e``, ``i = s·f`` of the element's bond."""
-        a, b = part.nodes[:2]
-        if a != GROUND and b != GROUND:
-            junction = self.graph.add(One(f"branch_{part.name}"))
-            self.note_node(a, self.graph.connect(self.node(a), junction))
-            self.note_node(b, self.graph.connect(junction, self.node(b)))
-            self.graph.connect(junction, element(1))
-            return 1
-        if b == GROUND:
-            self.note_node(a, self.graph.connect(self.node(a), element(1)))
-            return 1
-        self.note_node(b, self.graph.connect(self.node(b), element(-1)))
-        return -1
 
     def passive(self, part):
         kind, name = part.kind, part.name
@@ -503,14 +445,14 @@ class _Builder:
         if plus != GROUND and minus != GROUND:
             junction = self.graph.add(One(f"branch_{name}"))
             self.graph.connect(Se(name, value), junction)
-            self.note_node(plus, self.graph.connect(junction, self.node(plus)))
-            self.note_node(minus, self.graph.connect(self.node(minus), junction))
+            self.note(plus, self.graph.connect(junction, self.node(plus)))
+            self.note(minus, self.graph.connect(self.node(minus), junction))
             sign = 1
         elif minus == GROUND:
-            self.note_node(plus, self.graph.connect(Se(name, value), self.node(plus)))
+            self.note(plus, self.graph.connect(Se(name, value), self.node(plus)))
             sign = 1
         else:
-            self.note_node(minus, self.graph.connect(Se(name, -value), self.node(minus)))
+            self.note(minus, self.graph.connect(Se(name, -value), self.node(minus)))
             sign = -1
         self.signals[f"v_{name}"] = f"{'-' if sign < 0 else ''}e_{name}"
         self.signals[f"i_{name}"] = f"{'' if sign < 0 else '-'}f_{name}"
@@ -521,14 +463,14 @@ class _Builder:
         if source != GROUND and target != GROUND:
             junction = self.graph.add(One(f"branch_{name}"))
             self.graph.connect(Sf(name, value), junction)
-            self.note_node(target, self.graph.connect(junction, self.node(target)))
-            self.note_node(source, self.graph.connect(self.node(source), junction))
+            self.note(target, self.graph.connect(junction, self.node(target)))
+            self.note(source, self.graph.connect(self.node(source), junction))
             sign = 1
         elif source == GROUND:
-            self.note_node(target, self.graph.connect(Sf(name, value), self.node(target)))
+            self.note(target, self.graph.connect(Sf(name, value), self.node(target)))
             sign = 1
         else:
-            self.note_node(source, self.graph.connect(Sf(name, -value), self.node(source)))
+            self.note(source, self.graph.connect(Sf(name, -value), self.node(source)))
             sign = -1
         self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
         self.later.append((name, part.nodes))
@@ -541,11 +483,11 @@ class _Builder:
         current = None
         if a != GROUND:
             bond = self.graph.connect(self.node(a), junction, name=f"{name}_in")
-            self.note_node(a, bond)
+            self.note(a, bond)
             current = f"f_{bond.name}"
         if b != GROUND:
             bond = self.graph.connect(junction, self.node(b), name=f"{name}_out")
-            self.note_node(b, bond)
+            self.note(b, bond)
             current = current or f"f_{bond.name}"
         for element in extra:
             self.graph.connect(junction, element)
@@ -605,15 +547,15 @@ class _Builder:
         primary = self.graph.add(One(f"{name}_primary"))
         secondary = self.graph.add(One(f"{name}_secondary"))
         if p1 != GROUND:
-            self.note_node(p1, self.graph.connect(self.node(p1), primary))
+            self.note(p1, self.graph.connect(self.node(p1), primary))
         if p2 != GROUND:
-            self.note_node(p2, self.graph.connect(primary, self.node(p2)))
+            self.note(p2, self.graph.connect(primary, self.node(p2)))
         self.graph.connect(primary, element, name=f"{name}_p")
         self.graph.connect(element, secondary, name=f"{name}_s")
         if s1 != GROUND:
-            self.note_node(s1, self.graph.connect(secondary, self.node(s1)))
+            self.note(s1, self.graph.connect(secondary, self.node(s1)))
         if s2 != GROUND:
-            self.note_node(s2, self.graph.connect(self.node(s2), secondary))
+            self.note(s2, self.graph.connect(self.node(s2), secondary))
         self.signals[f"v_{name}_p"] = f"e_{name}_p"
         self.signals[f"i_{name}_p"] = f"f_{name}_p"
         self.signals[f"v_{name}_s"] = f"e_{name}_s"

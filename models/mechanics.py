@@ -127,20 +127,18 @@ from collections.abc import Callable, Mapping
 
 import sympy as sp
 
-from bondgraph import GY, TF, BondGraph, C, I, One, R, Se, Sf, Zero
+from bondgraph import GY, TF, C, I, One, R, Se, Sf, Zero
 from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
-from bondgraph.symbols import t as TIME
 from switching import Automaton, HybridModel
-from switching.errors import GuardSyntaxError
-from switching.language.parsing import parse_expression
 
 from .circuits import Input
-from .netlist import NAME, Netlist, Part, checked_name, checked_node, holds_at_start, parameter_name, source_value
+from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
+                      parameter_name, source_value)
 
 __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 
 #: the fixed frame (velocity 0)
-FRAME = "0"
+FRAME = REFERENCE
 #: the two kinds of machine and their signal letters (position, velocity, force)
 KINDS = {"translational": ("x", "v", "F"), "rotational": ("theta", "omega", "T")}
 
@@ -350,78 +348,19 @@ class Mechanism(Netlist):
         return _Builder(self, dict(parameters or {}), dict(inputs or {})).model(name or self.name, options)
 
 
-class _Builder:
-    """One build of a :class:`Mechanism` (graph, automata, parameters, signals)."""
+class _Builder(NetlistBuilder):
+    """One build of a :class:`Mechanism` (graph, automata, parameters, signals):
+    each node a 1-junction (a common velocity), each two-node component on a
+    0-junction (a common force)."""
 
     def __init__(self, mechanism: Mechanism, parameters: dict, inputs: dict):
+        super().__init__(mechanism, parameters, inputs, One, Zero, Input)
         self.mechanism = mechanism
-        self.given = parameters
-        self.inputs = inputs
         self.X, self.V, self.F = KINDS[mechanism.kind]
-        self.graph = BondGraph(mechanism.name)
-        self.defaults: dict[str, float] = {}
-        self.signals: dict[str, str] = {}
         self.initial: dict[str, float] = {}
-        self.automata: list[Automaton] = []
-        self.node_bond: dict[str, str] = {}
         self.velocity: dict[str, str] = {}  # node → its velocity from its mass's momentum
-        self.junctions = {n: self.graph.add(One(f"node_{n}")) for n in mechanism.nodes if n != FRAME}
 
     # -- names and values
-
-    def number_or_parameter(self, value, default_name, what) -> sp.Expr:
-        if isinstance(value, tuple) and value[0] == "-":
-            return -self.number_or_parameter(value[1], default_name, what)
-        if isinstance(value, str):
-            return sp.Symbol(parameter_name(value, what))
-        if isinstance(value, sp.Expr):
-            return value
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            raise InvalidGraphError(f"{what}: give a number or a parameter name, got {value!r}") from None
-        if not math.isfinite(number):
-            raise InvalidGraphError(f"{what}: {number} is not a finite number")
-        self.defaults.setdefault(default_name, number)
-        return sp.Symbol(default_name)
-
-    def source_value(self, value, name, default_name) -> sp.Expr:
-        if isinstance(value, Input):
-            return self.graph.inputs.get(value.name) or self.graph.input(value.name)
-        if isinstance(value, str) and (value == "t" or not NAME.fullmatch(value)):
-            names = {"t": TIME, **self.graph.inputs}
-            try:
-                return parse_expression(value, names)
-            except GuardSyntaxError as error:
-                first_line = str(error).splitlines()[0]
-                raise GuardSyntaxError(f"the value of {name!r} is not an expression of t: {first_line}",
-                                       value, error.position) from None
-        return self.number_or_parameter(value, default_name, f"value of {name!r}")
-
-    # -- graph pieces
-
-    def node(self, n):
-        return self.junctions[n]
-
-    def note(self, n, bond):
-        if n != FRAME:
-            self.node_bond.setdefault(n, bond.name)
-
-    def branch(self, part, element):
-        """Bond ``element`` between the part's two nodes; returns the sign
-        ``s`` with ``F = s·e`` and ``v(n1) − v(n2) = s·f`` of its bond."""
-        a, b = part.nodes
-        if a != FRAME and b != FRAME:
-            junction = self.graph.add(Zero(f"branch_{part.name}"))
-            self.note(a, self.graph.connect(self.node(a), junction))
-            self.note(b, self.graph.connect(junction, self.node(b)))
-            self.graph.connect(junction, element(1))
-            return 1
-        if b == FRAME:
-            self.note(a, self.graph.connect(self.node(a), element(1)))
-            return 1
-        self.note(b, self.graph.connect(self.node(b), element(-1)))
-        return -1
 
     def relative(self, part):
         """The signals of the relative position and velocity of a two-node part."""
@@ -469,7 +408,7 @@ class _Builder:
 
     def source(self, part):
         name, (n,) = part.name, part.nodes
-        value = self.source_value(part.values["value"], name, name)
+        value = self.expression_value(part.values["value"], repr(name), name)
         self.note(n, self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n)))
         self.signals[f"{self.F}_{name}"] = f"e_{name}"
         self.signals[f"{self.V}_{name}"] = f"f_{name}"
@@ -487,7 +426,7 @@ class _Builder:
     def motor(self, part):
         name, (n,), values = part.name, part.nodes, part.values
         k = self.number_or_parameter(values["k"], f"{name}_k", f"constant k of {name!r}")
-        voltage = self.source_value(values["V"], name, f"{name}_V")
+        voltage = self.expression_value(values["V"], repr(name), f"{name}_V")
         armature = self.graph.add(One(f"{name}_armature"))
         self.graph.connect(Se(f"{name}_V", voltage), armature)
         resistance = self.number_or_parameter(values["R"], f"{name}_R", f"resistance R of {name!r}")

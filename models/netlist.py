@@ -11,23 +11,28 @@ expression of ``t`` as text (parsed, never evaluated), or a declared input.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import sympy as sp
 
+from bondgraph import BondGraph
 from bondgraph.errors import InvalidGraphError
 from bondgraph.symbols import t as TIME
-from switching.language.parsing import parse_condition
+from switching.errors import GuardSyntaxError
+from switching.language.parsing import parse_condition, parse_expression
 
-__all__ = ["NAME", "NODE", "Netlist", "Part", "checked_name", "checked_node", "holds_at_start", "parameter_name",
+__all__ = ["NAME", "NODE", "REFERENCE", "Netlist", "NetlistBuilder", "Part", "checked_name", "checked_node", "holds_at_start", "parameter_name",
            "source_value"]
 
 #: a component's (and a parameter's) name
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 #: a node's name
 NODE = re.compile(r"[A-Za-z0-9_]+")
+#: the reference node: ground, the fixed frame
+REFERENCE = "0"
 
 
 @dataclass
@@ -107,3 +112,94 @@ class Netlist:
     def components(self) -> tuple:
         """The components' names, in the order added."""
         return tuple(self._parts)
+
+
+class NetlistBuilder:
+    """One build of a netlist: its bond graph, each node ``n`` a junction
+    ``node_<n>`` of kind ``node_junction`` (``"0"``, the reference, none),
+    each two-node component on a junction ``branch_<name>`` of the other
+    kind; the parameters' defaults, the signals, the initial values and the
+    automata collected as the components are built.
+
+    ``number_or_parameter`` and ``expression_value`` turn a component's
+    value into a symbol: a number becomes a parameter (named after the
+    component, its value the default), a parameter name its symbol, an
+    expression of ``t`` as text is parsed (other names in it are parameters
+    or declared inputs, which the model checks), an input its symbol."""
+
+    def __init__(self, netlist: Netlist, parameters: dict, inputs: Mapping, node_junction, branch_junction,
+                 input_class):
+        self.given = parameters
+        self.inputs = dict(inputs)
+        self.graph = BondGraph(netlist.name)
+        self.defaults: dict[str, float] = {}
+        self.signals: dict[str, str] = {}
+        self.automata: list = []
+        self.node_bond: dict[str, str] = {}
+        self.junctions = {n: self.graph.add(node_junction(f"node_{n}")) for n in netlist.nodes if n != REFERENCE}
+        self._branch_junction, self._input_class = branch_junction, input_class
+
+    # -- names and values
+
+    def number_or_parameter(self, value, default_name, what) -> sp.Expr:
+        """The symbol of ``value`` (a number: the parameter ``default_name`` with that default; a
+        parameter name; a sympy expression; ``("-", value)`` its negative); ``what`` names it in errors."""
+        if isinstance(value, tuple) and value[0] == "-":
+            return -self.number_or_parameter(value[1], default_name, what)
+        if isinstance(value, str):
+            return sp.Symbol(parameter_name(value, what))
+        if isinstance(value, sp.Expr):
+            return value
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise InvalidGraphError(f"{what}: give a number or a parameter name, got {value!r}") from None
+        if not math.isfinite(number):
+            raise InvalidGraphError(f"{what}: {number} is not a finite number")
+        self.defaults.setdefault(default_name, number)
+        return sp.Symbol(default_name)
+
+    def expression_value(self, value, what: str, default_name) -> sp.Expr:
+        """A source's value: an input's symbol, an expression of ``t`` parsed, else :meth:`number_or_parameter`;
+        ``what`` names the source in errors (``"source 'V1'"``)."""
+        if isinstance(value, self._input_class):
+            return self.graph.inputs.get(value.name) or self.graph.input(value.name)
+        if isinstance(value, str) and (value == "t" or not NAME.fullmatch(value)):
+            names = {"t": TIME, **self.graph.inputs}
+            try:
+                return parse_expression(value, names)
+            except GuardSyntaxError as error:
+                first_line = str(error).splitlines()[0]
+                raise GuardSyntaxError(f"the value of {what} is not an expression of t: {first_line}",
+                                       value, error.position) from None
+        return self.number_or_parameter(value, default_name, f"value of {what}")
+
+    # -- graph pieces
+
+    def node(self, n):
+        """The junction of node ``n`` (``None`` for the reference)."""
+        return None if n == REFERENCE else self.junctions[n]
+
+    def note(self, n, bond):
+        """Remember ``bond`` as the first bond on node ``n`` (its signals read that bond's variables)."""
+        if n != REFERENCE:
+            self.node_bond.setdefault(n, bond.name)
+
+    def branch(self, part, element):
+        """Bond ``element(sign)`` between the part's first two nodes (on a
+        branch junction when neither is the reference); returns the sign ``s``
+        with which the element's bond variables give the part's across and
+        through variables (``v = s·e``, ``i = s·f`` of a circuit; ``F = s·e``,
+        ``v(n1) − v(n2) = s·f`` of a mechanism)."""
+        a, b = part.nodes[:2]
+        if a != REFERENCE and b != REFERENCE:
+            junction = self.graph.add(self._branch_junction(f"branch_{part.name}"))
+            self.note(a, self.graph.connect(self.node(a), junction))
+            self.note(b, self.graph.connect(junction, self.node(b)))
+            self.graph.connect(junction, element(1))
+            return 1
+        if b == REFERENCE:
+            self.note(a, self.graph.connect(self.node(a), element(1)))
+            return 1
+        self.note(b, self.graph.connect(self.node(b), element(-1)))
+        return -1
