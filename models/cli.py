@@ -79,6 +79,7 @@ import warnings
 
 from bondgraph import HybridBondGraphError
 from bondgraph.errors import did_you_mean
+from switching.simulate.progress import ProgressBar
 
 from . import MODELS, load
 from .graphs import GRAPHS
@@ -397,32 +398,6 @@ def _write_outputs(args, trajectory, signals, plotted=None) -> list[str]:
     return failures
 
 
-class _Progress:
-    """A progress bar on stderr for runs longer than a couple of seconds (terminals only)."""
-
-    def __init__(self, t_end):
-        self.t_end = t_end
-        self.start = time.perf_counter()
-        self.active = sys.stderr.isatty()
-        self.last = 0.0
-
-    def __call__(self, t):
-        if not self.active:
-            return
-        now = time.perf_counter()
-        if now - self.start < 2.0 or now - self.last < 0.2:
-            return
-        self.last = now
-        done = min(1.0, t / self.t_end)
-        bar = "#" * int(30 * done)
-        sys.stderr.write(f"\r[{bar:<30}] {100 * done:5.1f}%  t = {t:.6g} s")
-        sys.stderr.flush()
-
-    def close(self):
-        if self.active and self.last:
-            sys.stderr.write("\r" + " " * 70 + "\r")
-
-
 def _auto_choice(model, t_end, options) -> str:
     """The method ``auto`` will take for this run (the run's statistics say why)."""
     from switching.library.jit_model import choose_method
@@ -488,7 +463,7 @@ def _cmd_run(args) -> int:
     wants_files = bool(args.csv or args.npz or args.plot)
 
     _compile_notice(_auto_choice(model, t_end, options) if method == "auto" else method)
-    progress = _Progress(t_end)
+    progress = ProgressBar(0.0, t_end, terminal_only=True)  # (a file or a pipe gets no bar)
     failure = None
     status = EXIT_OK
     try:

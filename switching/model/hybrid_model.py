@@ -453,7 +453,8 @@ class HybridModel:
           --samples N`` their ``N`` times (``t_eval=linspace(0, t_end, N)``).
 
         ``on_zeno="raise"`` (default) or ``"stop"``.
-        ``progress``: a callable receiving the time after every step.
+        ``progress``: a callable receiving the time after every step, or
+        ``True`` for a progress bar on stderr once the run takes over 2 s.
         ``keep_instants=False`` keeps neither the instants' records nor their
         samples (only their count, ``trajectory.instant_count``, and the time
         spent in each mode, ``time_in_modes()``): with ``t_eval`` or

@@ -48,6 +48,7 @@ from .methods import METHOD_CLASSES, METHODS
 from .option_groups import RunOptions
 from .energy_watch import warn_if_created
 from .preflight import nonfinite_at_start
+from .progress import ProgressBar
 from .step_doubling import warn_if_coarse
 from .python_flow import flow_python
 from .real_values import ComplexValueError, complex_failure
@@ -130,7 +131,15 @@ def simulate(
                     samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
-    return HybridRun(model, checked_options(model, t_end, method, keywords)).execute()
+    options = checked_options(model, t_end, method, keywords)
+    if progress is not True:
+        return HybridRun(model, options).execute()
+    bar = ProgressBar(t0, t_end)
+    try:
+        return HybridRun(model, dataclasses.replace(
+            options, output=dataclasses.replace(options.output, progress=bar))).execute()
+    finally:
+        bar.close()
 
 
 class Status(enum.Enum):

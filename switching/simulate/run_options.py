@@ -51,7 +51,7 @@ option                  unit       kind and bounds
 ``output``              —          ``"steps"`` or ``"events"``
 ``keep_instants``       —          ``True`` or ``False`` (numpy's too)
 ``stiffness_check``     —          ``True`` or ``False`` (numpy's too)
-``progress``            —          ``None`` or a callable, called with the time [s]
+``progress``            —          ``None``, ``True`` (a bar) or a callable of the time [s]
 ``sensitivity_rtol``    1          number, finite, > 0; only with ``sensitivities``
 ``sensitivity_atol``    state      number, finite, > 0; only with ``sensitivities``
 ======================  =========  ==========================================================
@@ -223,7 +223,8 @@ def check_output(o: dict) -> None:
     choice("output", o["output"], ("steps", "events"), " (give t_eval=… for chosen times)")
     flag("keep_instants", o["keep_instants"])
     flag("stiffness_check", o["stiffness_check"])
-    function_or_none("progress", o["progress"])
+    if o["progress"] is not True:  # (True: a progress bar, switching.simulate.progress)
+        function_or_none("progress", o["progress"])
 
 
 def check_ends(t0, t_end) -> None:
