@@ -174,14 +174,6 @@ def choice(option: str, value, choices: tuple, advice: str = ""):
     return value
 
 
-def function_or_none(option: str, value):
-    """``value`` if it is ``None`` or callable."""
-    if value is not None and not callable(value):
-        raise OptionTypeError(f"{option} must be None or a function of the time [s] (called as {option}(t)), "
-                              f"got {_show(value)}", option, value)
-    return value
-
-
 # ------------------------------------------------------------------ one concern each
 
 
@@ -223,8 +215,10 @@ def check_output(o: dict) -> None:
     choice("output", o["output"], ("steps", "events"), " (give t_eval=… for chosen times)")
     flag("keep_instants", o["keep_instants"])
     flag("stiffness_check", o["stiffness_check"])
-    if o["progress"] is not True:  # (True: a progress bar, switching.simulate.progress)
-        function_or_none("progress", o["progress"])
+    progress = o["progress"]
+    if progress is not True and progress is not None and not callable(progress):  # True: switching.simulate.progress
+        raise OptionTypeError("progress must be None, True (a progress bar on stderr) or a function of the time "
+                              f"[s] (called as progress(t)), got {_show(progress)}", "progress", progress)
 
 
 def check_ends(t0, t_end) -> None:

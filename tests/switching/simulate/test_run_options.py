@@ -238,9 +238,11 @@ WRONG = [
     ("RK45", "max_events", 10.5, OptionTypeError, "max_events must be a whole number of instants ≥ 1, got 10.5"),
     ("RK45", "max_steps", 0, OptionValueError, "max_steps must be a whole number of steps ≥ 1, got 0"),
     ("RK45", "max_steps", 1e7, OptionTypeError, "max_steps must be a whole number of steps ≥ 1, got 10000000.0"),
-    ("RK45", "progress", "yes", OptionTypeError, "progress must be None or a function of the time [s]"),
-    ("RK45", "progress", True, OptionTypeError,
-     "progress must be None or a function of the time [s] (called as progress(t)), got True"),
+    ("RK45", "progress", "yes", OptionTypeError, "progress must be None, True (a progress bar on stderr) or a "
+     "function of the time [s]"),
+    ("RK45", "progress", 1, OptionTypeError,
+     "progress must be None, True (a progress bar on stderr) or a function of the time [s] (called as progress(t)), "
+     "got 1"),
     ("RK45", "on_zeno", "ignore", OptionValueError, "on_zeno must be 'raise' or 'stop', got 'ignore'"),
     ("RK45", "output", 3, OptionTypeError, "output must be 'steps' or 'events', got 3"),
 ]
