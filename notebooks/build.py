@@ -87,8 +87,9 @@ NOTEBOOKS = {
            "buck.R('Rload', 'out', '0', R)\n"
            "converter = buck.build()\n"
            "draw_bond_graph(converter.graph, converter.configuration_of(converter.initial_mode));"),
-        md("Start-up from rest (the LC filter rings at 1/(2π√(LC)) ≈ 500 Hz and settles in a few 2RC = 2 ms), "
-           "then the periodic steady state, 400 switching instants in all:"),
+        md("Start-up from rest (the LC filter rings at 1/(2π√(LC)) ≈ 500 Hz and settles in a few 2RC = 2 ms; "
+           "where the first ring brings the current down to zero, a few periods end in discontinuous conduction, "
+           "S open and D off), then the periodic steady state: some 400 switching instants in all."),
         py("run = converter.simulate(20e-3, 'RK45', rtol=1e-8, atol=1e-12)\n"
            "print(run.summary())\n"
            "run.plot(['i_L', 'v_C'], max_instants=0);"),
