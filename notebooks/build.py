@@ -2,6 +2,7 @@
 
     python notebooks/build.py            # write and execute all notebooks in place
     python notebooks/build.py --no-run   # only write them
+    python notebooks/build.py circuits   # only the notebooks named
 
 The test suite executes every notebook again (tests/test_notebooks.py), so a
 notebook that stops working fails the build.
@@ -61,6 +62,79 @@ NOTEBOOKS = {
         py("from models import boost_converter\nconverter = boost_converter.build()\n"
         "out = converter.simulate(**boost_converter.RUN)\nprint(out.summary())\n"
         "plot_trajectory(out, ['i_L', 'v_C']);"),
+    ],
+    "power_and_drives": [
+        md("# Power electronics and a drivetrain from netlists\n\n"
+           "`models.circuits.Circuit` and `models.mechanics.Mechanism` turn a list of parts into a hybrid bond graph: "
+           "nodes become junctions, switches, diodes, clutches and stops become controlled junctions with their own "
+           "automata.  Here a PWM buck converter against its closed forms, then a motor driving a load through a "
+           "clutch and a gear backlash, with the energy the clutch's engagement dissipates."),
+        py(SETUP),
+        md("## A buck converter\n\n"
+           "An ideal switch S driven by PWM (period T = 1/f, duty D), a freewheeling diode, an LC filter and a "
+           "resistive load.  The diode gets a small on-resistance: with both ideal, the mode *S closed, D on* would "
+           "short the source, an over-determined bond graph.  (A rectifier bridge whose diodes may all block would "
+           "instead need `build(gmin=...)`: a tiny leak conductance across each diode so that the load nodes never "
+           "float, SPICE's GMIN.)"),
+        py("from models.circuits import PWM, Circuit\n"
+           "Vin, D, f, L, C, R = 12.0, 0.4, 10e3, 1e-3, 100e-6, 10.0\n"
+           "buck = Circuit('buck')\n"
+           "buck.V('Vin', 'in', '0', Vin)\n"
+           "buck.switch('S', 'in', 'sw', closed_when=PWM(period=1 / f, duty=D))\n"
+           "buck.diode('D', '0', 'sw', r_on=1e-3)          # freewheels when S opens\n"
+           "buck.L('L', 'sw', 'out', L)\n"
+           "buck.C('C', 'out', '0', C)\n"
+           "buck.R('Rload', 'out', '0', R)\n"
+           "converter = buck.build()\n"
+           "draw_bond_graph(converter.graph, converter.configuration_of(converter.initial_mode));"),
+        md("Start-up from rest (the LC filter rings at 1/(2π√(LC)) ≈ 500 Hz and settles in a few 2RC = 2 ms; "
+           "where the first ring brings the current down to zero, a few periods end in discontinuous conduction, "
+           "S open and D off), then the periodic steady state: some 400 switching instants in all."),
+        py("run = converter.simulate(20e-3, 'RK45', rtol=1e-8, atol=1e-12)\n"
+           "print(run.summary())\n"
+           "run.plot(['i_L', 'v_C'], max_instants=0);"),
+        md("The last two periods, each instant marked:"),
+        py("run.plot(['i_L', 'v_C'], t_range=(18e-3, 20e-3));"),
+        md("In continuous conduction the inductor's mean voltage over a period is zero, so the mean output is the "
+           "switch node's, Vin·D; the current rises by (Vin − Vout)·D·T/L while S is closed: "
+           "ΔI = (Vin − Vout)·D/(L·f), and the capacitor takes that triangle: ΔV = ΔI/(8·C·f)."),
+        py("from scipy.integrate import simpson\n"
+           "T = 1 / f\n"
+           "last = converter.simulate(20e-3, 'RK45', rtol=1e-8, atol=1e-12, t_eval=np.linspace(20e-3 - T, 20e-3, 201))\n"
+           "v_mean = simpson(last.signal('v_C'), x=last.t) / T\n"
+           "dI = (Vin - Vin * D) * D / (L * f)\n"
+           "print(f'mean output     {v_mean:.5f} V    Vin·D = {Vin * D:.5f} V')\n"
+           "print(f'current ripple  {np.ptp(last.signal(\"i_L\")):.5f} A    (Vin − Vout)·D/(L·f) = {dI:.5f} A')\n"
+           "print(f'voltage ripple  {np.ptp(last.signal(\"v_C\")):.5f} V    ΔI/(8·C·f) = {dI / (8 * C * f):.5f} V')"),
+        md("## A drivetrain\n\n"
+           "A DC motor (k = 0.1 N·m/A, 12 V through 2 Ω: no-load speed V/k = 120 rad/s) spins its rotor J₁ alone; at "
+           "t = 0.1 s a clutch locks it to the shaft J₂, which drives the load J₃ (with viscous drag) through a "
+           "backlash of ±0.05 rad with restitution 0.5."),
+        py("from models.mechanics import Mechanism\n"
+           "J1, J2, J3 = 1e-3, 4e-3, 5e-3\n"
+           "drive = Mechanism('drivetrain', 'rotational')\n"
+           "drive.motor('M', 'm', 0.1, V=12.0, R=2.0)\n"
+           "drive.inertia('J1', 'm', J1)                           # the rotor\n"
+           "drive.clutch('K', 'm', 's', engaged_when='t >= 0.1')    # locks the shafts\n"
+           "drive.inertia('J2', 's', J2)\n"
+           "drive.backlash('B', 's', 'l', 0.05, e=0.5)\n"
+           "drive.inertia('J3', 'l', J3)\n"
+           "drive.damper('drag', 'l', '0', 2e-4)\n"
+           "drivetrain = drive.build()\n"
+           "draw_bond_graph(drivetrain.graph, drivetrain.configuration_of(drivetrain.initial_mode));"),
+        py("spin = drivetrain.simulate(0.5, 'RK45', rtol=1e-9, atol=1e-12, max_step=2e-3)\n"
+           "print(spin.summary())\n"
+           "spin.plot([['omega_J1', 'omega_J2', 'omega_J3'], 'theta_B', 'T_M']);"),
+        md("The engagement is a plastic impact between J₁ and J₂ (the motor's torque is finite, so it takes no part "
+           "in the instant): momentum J₁ω₁ + J₂ω₂ is kept and the kinetic energy J₁J₂/(J₁+J₂)·Δω²/2 is lost."),
+        py("(at,) = np.nonzero(spin.t == spin.events[0].t)\n"
+           "before, after = at[0], at[-1]\n"
+           "def kinetic(k):\n"
+           "    return sum(0.5 * J * spin.signal(f'omega_{n}')[k] ** 2 for n, J in (('J1', J1), ('J2', J2), ('J3', J3)))\n"
+           "dw = spin.signal('omega_J1')[before] - spin.signal('omega_J2')[before]\n"
+           "print(f'engagement at t = {spin.events[0].t:.6g} s, Δω = ω₁ − ω₂ = {dw:.6f} rad/s')\n"
+           "print(f'energy lost     {kinetic(before) - kinetic(after):.12f} J')\n"
+           "print(f'J1·J2/(J1+J2)·Δω²/2 = {J1 * J2 / (J1 + J2) * dw ** 2 / 2:.12f} J')"),
     ],
     "impacts": [
         md("# Impacts\n\nCollisions as pinnacles with Newton's restitution: a bouncing ball (exact bounce times, "
@@ -181,9 +255,15 @@ NOTEBOOKS = {
 }
 
 
-def build(run: bool = True) -> list[Path]:
+def build(run: bool = True, names=None) -> list[Path]:
+    """Write (and, with ``run``, execute) the notebooks ``names`` (default: all)."""
+    unknown = set(names or ()) - set(NOTEBOOKS)
+    if unknown:
+        raise SystemExit(f"no notebook named {', '.join(sorted(unknown))}; there are {', '.join(NOTEBOOKS)}")
     paths = []
     for name, cells in NOTEBOOKS.items():
+        if names and name not in names:
+            continue
         nb = new_notebook()
         nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
         for kind, text in cells:
@@ -199,5 +279,6 @@ def build(run: bool = True) -> list[Path]:
 
 
 if __name__ == "__main__":
-    for p in build(run="--no-run" not in sys.argv):
+    chosen = [a for a in sys.argv[1:] if not a.startswith("--")]   # e.g. power_and_drives: only that one
+    for p in build(run="--no-run" not in sys.argv, names=chosen):
         print("wrote", p)

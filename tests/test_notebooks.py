@@ -11,7 +11,7 @@ NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 def test_there_is_a_notebook_per_model_family():
-    assert {p.stem for p in NOTEBOOKS} >= {"circuits", "impacts", "falling_rod", "hydraulics"}
+    assert {p.stem for p in NOTEBOOKS} >= {"circuits", "impacts", "falling_rod", "hydraulics", "power_and_drives"}
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])

@@ -1,9 +1,11 @@
 """Netlists built with models.circuits.Circuit against exact answers."""
 
 import math
+import time
 
 import numpy as np
 import pytest
+from scipy.integrate import simpson
 from scipy.optimize import brentq
 
 from bondgraph.errors import (CausalityConflictError, DuplicateNameError, FloatingPartError, HybridBondGraphError,
@@ -140,6 +142,42 @@ def test_pwm_switch_edges_fall_on_the_schedule():
     assert [s.mode.label for s in run.events[0].steps][-1] == "open|on"   # the diode takes the current
 
 
+def test_buck_converter_in_continuous_conduction_meets_its_mean_output_and_ripple_closed_forms():
+    """Periodic steady state of an ideal buck (switch S by PWM, freewheeling diode D with r_on):
+
+    * the inductor's mean voltage over a period is zero, so the mean output equals the switch node's
+      mean: Vin·D − r_on·(1 − D)·I (the diode's drop while it carries the load current I = Vout/R);
+    * while S is closed the current rises at (Vin − Vout)/L for D·T: ΔI = (Vin − Vout)·D/(L·f);
+    * the capacitor takes the triangle's ripple: ΔV = ΔI/(8·C·f)."""
+    Vin, D, f, L, C, R, r_on, periods = 12.0, 0.4, 1e4, 1e-3, 1e-4, 10.0, 1e-3, 40
+    T, Vout = 1 / f, Vin * D
+    dI = (Vin - Vout) * D / (L * f)
+    dV = dI / (8 * C * f)
+    c = Circuit("buck")
+    c.V("Vin", "in", "0", Vin)
+    c.switch("S", "in", "sw", closed_when=PWM(period=T, duty=D))
+    c.diode("D", "0", "sw", r_on=r_on)
+    c.L("L", "sw", "out", L, i0=Vout / R - dI / 2)     # start on the averaged steady state, at the valley
+    c.C("C", "out", "0", C, v0=Vout)
+    c.R("Rl", "out", "0", R)
+    last = np.linspace((periods - 1) * T, periods * T, 201)   # the edges k·T and (k + D)·T are samples
+    run = c.build().simulate(periods * T, "RK45", t_eval=last, rtol=1e-8, atol=1e-12)
+    t, index = np.unique(run.t, return_index=True)            # one sample per time
+    v, i = run.signal("v_C")[index], run.signal("i_L")[index]
+    last_period = run.events[-3:-1]                           # S closes at (periods − 1)·T, opens D·T later
+    assert [e.steps[-1].mode.label for e in last_period] == ["closed|off", "open|on"]
+    np.testing.assert_allclose([e.t for e in last_period], [(periods - 1) * T, (periods - 1 + D) * T], rtol=1e-12)
+    assert np.min(i) > 0                                                      # continuous conduction
+    mean = simpson(v, x=t) / T
+    assert abs(mean - Vout) < dV / 2                                          # within the ripple band
+    # the start's mismatch with the periodic orbit is of the ripple's order and decays as exp(−t/(2RC))
+    assert mean == pytest.approx(Vout - r_on * (1 - D) * Vout / R, abs=dV * math.exp(-periods * T / (2 * R * C)))
+    # ΔI assumes v_out constant: it moves by ΔV, so the slope (Vin − v_out)/L is off by ΔV/(Vin − Vout) at most
+    assert np.ptp(i) == pytest.approx(dI, rel=dV / (Vin - Vout))
+    assert np.argmax(i) == round(200 * D) and np.argmin(i) in (0, 200)          # peak as S opens, valleys as it closes
+    assert np.ptp(v) == pytest.approx(dV, rel=0.01)                            # the triangle's charge ΔI·T/8
+
+
 def test_relay_with_hysteresis_switches_at_its_two_thresholds():
     c = Circuit("relay")
     c.V("V", "s", "0", 10.0)
@@ -191,6 +229,35 @@ def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
         v = 1 / np.sqrt(0.25 + run.t)                         # dv/dt = −v³/2 from v = 2
         np.testing.assert_allclose(run.signal("v_C1"), v, rtol=1e-7)
         np.testing.assert_allclose(run.signal("i_Rn"), sign * 0.5 * v**3, rtol=1e-7)
+
+
+@pytest.mark.timeout(60)
+def test_the_readme_diode_law_in_numbers_builds_simulates_and_settles_on_the_newton_solution():
+    """Issue 28: ``R("D", flow_law=lambda e: Is*(sp.exp(e/VT) - 1))`` with Is, VT = 1e-12, 0.025 A, V.
+
+    Fed by V through R with a capacitor across it (the source alone in series with the law is an algebraic
+    loop whose solution is a Lambert W, which the code generator does not compute), the capacitor's voltage
+    settles where its current vanishes: V = R·i + VT·ln(1 + i/Is), the diode's current solved here by
+    Newton's method.  The fast time constant is C times the diode's small-signal resistance VT/i ≈ 6 Ω:
+    stiff, so Radau; 10 ms is over a thousand time constants, what is left is the integration's rtol."""
+    import sympy as sp
+
+    Is, VT, V, R = 1e-12, 0.025, 5.0, 1e3
+    start = time.perf_counter()
+    c = Circuit("shockley")
+    c.V("V1", "a", "0", V)
+    c.R("R1", "a", "k", R)
+    c.C("C1", "k", "0", 1e-6)
+    c.R("D", "k", "0", flow_law=lambda e: Is * (sp.exp(e / VT) - 1))
+    run = c.build().simulate(0.01, "Radau", **RUN)
+    assert time.perf_counter() - start < 30                      # it took minutes inside sympy.solve once
+    i = (V - 0.6) / R                                            # Newton on g(i) = R·i + VT·ln(1 + i/Is) − V
+    for _ in range(50):
+        i -= (R * i + VT * math.log1p(i / Is) - V) / (R + VT / (Is + i))
+    assert abs(R * i + VT * math.log1p(i / Is) - V) < 1e-12
+    assert run.signal("i_D")[-1] == pytest.approx(i, rel=1e-9)
+    assert run.signal("v_D")[-1] == pytest.approx(V - R * i, rel=1e-9)
+    assert run.signal("i_R1")[-1] == pytest.approx(i, rel=1e-9)
 
 
 def test_initial_values_are_the_laws_outputs():
@@ -346,6 +413,12 @@ def test_capacitor_filtered_bridge_with_gmin_switches_at_the_exact_instants_and_
     np.testing.assert_allclose(run.signal("v_C1")[conducting], V * np.abs(np.sin(w * run.t[conducting])), rtol=1e-7)
     # the leaks carry gmin·v: picoamperes against the load's 0.1 A
     assert np.max(np.abs(run.signal("i_D1_gmin"))) < 2 * V * 1e-12
+    # no charge sharing: a diode turns on where |v_s| has come up to v_C, so the capacitor's voltage (and its
+    # energy) is continuous through every instant: a step ΔV onto the source would lose C·ΔV²/2 (C₁C₂ΔV²/(2(C₁ + C₂))
+    # with C₂ → ∞), here ΔV is what v_D may pass before the guard holds, a band of round-off's order (~1e-12·|v|)
+    for event in run.events[1:]:
+        (at,) = np.nonzero(run.t == event.t)
+        assert len(at) == 2 and run.signal("v_C1")[at[1]] == pytest.approx(run.signal("v_C1")[at[0]], rel=1e-10)
 
 
 def test_resistive_bridge_with_gmin_commutates_at_the_zero_crossings():
