@@ -1,0 +1,190 @@
+"""Continuation of periodic orbits in one parameter (issue 31, item 2), against exact answers.
+
+Boost converter in continuous conduction (the parameters of test_orbits.py): at
+every point of a continuation along the duty D (the model's own parameter) or
+the load R_load (a build argument), the orbit's start and multipliers are those
+of the exact period map ``x ↦ Φ x + c``, ``Φ = e^{A_off (1−D) T} e^{A_on D T}``
+(test_orbits.py's ``phase``: the exponential of the augmented matrix).
+
+Period doubling in closed form: a current-mode controlled converter with an
+ideal inductor L between a source Vin and an output held at Vout (a source).
+A clock turns the switch on at ``t = kT + 0.2 T`` (a guard true during
+``[kT + 0.2T, kT + 0.3T]``, left at its start); the switch turns off when
+``i_L = p_L/L`` reaches ``i_ref``.  The current rises at ``m1 = Vin/L`` while on,
+falls at ``m2 = (Vout − Vin)/L`` while off, so over a period from one turn-on
+``i ↦ i_ref − m2 (T − (i_ref − i)/m1)``: an affine map of slope ``−m2/m1``.
+The one multiplier is ``μ = −(Vout − Vin)/Vin`` (the saltation of the turn-off
+is all of it: both flows have constant rates), and passes through −1 at
+``Vout = 2 Vin`` exactly — the classical sub-harmonic instability of peak
+current-mode control at duty 1/2.  The orbit's current at the turn-on is
+``i* = i_ref − T m1 m2/(m1 + m2)``, at ``t = 0`` (while off) ``i* + 0.2 T m2``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bondgraph import BondGraph, I, One, Se, Zero
+from models import boost_converter
+from switching import Automaton, ContinuationError, HybridModel, continue_orbit
+
+from scipy.linalg import expm
+
+BOOST = dict(Vin=12.0, L=1e-3, R_L=0.1, C=100e-6, R_load=20.0, f_sw=10e3, D=0.4)  # as in test_orbits.py
+T = 1.0 / BOOST["f_sw"]
+
+
+def phase(A, b, tau):
+    """``(E, c)`` of ``x(τ) = E x(0) + c`` for ``ẋ = A x + b`` (as in test_orbits.py)."""
+    n = len(b)
+    Z = np.zeros((n + 1, n + 1))
+    Z[:n, :n], Z[:n, n] = A, b
+    E = expm(Z * tau)
+    return E[:n, :n], E[:n, n]
+
+
+def boost_exact(D=BOOST["D"], R=BOOST["R_load"]):
+    L, C, R_L, V = (BOOST[k] for k in ("L", "C", "R_L", "Vin"))
+    A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
+    A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])
+    b = np.array([V, 0.0])
+    E_on, c_on = phase(A_on, b, D * T)
+    E_off, c_off = phase(A_off, b, (1 - D) * T)
+    Phi = E_off @ E_on
+    return np.linalg.solve(np.eye(2) - Phi, E_off @ c_on + c_off), Phi
+
+
+def same_multipliers(got, exact) -> float:
+    """The smaller sum of distances over the two pairings of two multipliers."""
+    return min(abs(got[0] - exact[0]) + abs(got[1] - exact[1]), abs(got[0] - exact[1]) + abs(got[1] - exact[0]))
+
+
+def test_boost_continuation_in_the_duty_matches_the_matrix_exponentials_at_every_point():
+    model = boost_converter.build(**BOOST)
+    duties = [0.3, 0.35, 0.4, 0.45, 0.5]
+    result = continue_orbit(model, "D", duties, period=T, max_step=0.2 * T)
+    assert [p.value for p in result.points] == duties
+    for point in result.points:
+        x_star, Phi = boost_exact(D=point.value)
+        assert np.allclose(point.x0, x_star, rtol=1e-8, atol=0.0)
+        assert same_multipliers(point.multipliers, np.linalg.eigvals(Phi)) < 1e-8
+        assert point.stable and point.orbit.mode_names[1] == "pwm=off, diode=on"
+    # the secant predictor: from the third point on Newton starts nearer than the previous orbit
+    assert all(p.orbit.residuals[0] < 0.2 for p in result.points[2:])
+    assert result.bifurcations == []
+    # the model's own value of D is back
+    assert {s.name: v for s, v in model.parameter_values.items()}["D"] == BOOST["D"]
+    assert model.parameter_array[[s.name for s in model.parameter_symbols].index("D")] == BOOST["D"]
+
+
+def test_boost_continuation_in_a_build_argument_and_its_table():
+    pandas = pytest.importorskip("pandas")
+    fixed = {k: v for k, v in BOOST.items() if k != "R_load"}
+    loads = [10.0, 15.0, 20.0]
+    result = continue_orbit(boost_converter.build, "R_load", loads, period=lambda value: T, fixed=fixed,
+                            max_step=0.2 * T, signals=["v_C"])
+    table = result.table()
+    assert isinstance(table, pandas.DataFrame) and list(table["R_load"]) == loads
+    for row, R in zip(table.itertuples(index=False), loads):
+        x_star, Phi = boost_exact(R=R)
+        assert np.allclose([getattr(row, "_2"), getattr(row, "_3")], x_star, rtol=1e-8, atol=0.0)
+        assert same_multipliers([row.multiplier_1, row.multiplier_2], np.linalg.eigvals(Phi)) < 1e-8
+    # the recorded range of v_C is the range of q_C / C
+    for point in result.points:
+        low, high = point.ranges["q_C"]
+        assert point.ranges["v_C"] == pytest.approx((low / BOOST["C"], high / BOOST["C"]), rel=1e-12)
+    assert list(table.columns[:4]) == ["R_load", "period", "x0:p_L", "x0:q_C"]
+    assert "min:v_C" in table.columns and table["stable"].all()
+
+
+def current_mode(Vin=12.0, L=1e-3, i_ref=1.0, f_sw=10e3, Vout=18.0):
+    """The current-mode controlled converter of the module docstring."""
+    g = BondGraph("current_mode")
+    loop = g.add(One("iL"))
+    a = g.add(Zero("A"))
+    switch, diode = g.add(One("S", controlled=True)), g.add(One("D", controlled=True))
+    g.connect(Se("Vin", "Vin"), loop)
+    g.connect(loop, I("L", "L"))
+    g.connect(loop, a, name="node")
+    g.connect(a, switch, name="switch")
+    g.connect(switch, Se("ground", 0))
+    g.connect(a, diode, name="diode")
+    g.connect(diode, Se("Vout", "Vout"))
+    pwm = Automaton("pwm", {"on": {"S": True, "D": False}, "off": {"S": False, "D": True}}, initial="off")
+    pwm.add_transition("on", "off", "p_L/L > i_ref", "a priori")
+    pwm.add_transition("off", "on", "cos(2*pi*(f_sw*t - 0.25)) > cos(2*pi*0.05)", "a priori")
+    return HybridModel(g, [pwm], dict(Vin=Vin, L=L, i_ref=i_ref, f_sw=f_sw, Vout=Vout), initial_state={"p_L": 0.0})
+
+
+CM_T = 1e-4
+
+
+def current_mode_x0(Vout, Vin=12.0, L=1e-3, i_ref=1.0):
+    m1, m2 = Vin / L, (Vout - Vin) / L
+    return L * (i_ref - CM_T * m1 * m2 / (m1 + m2) + 0.2 * CM_T * m2)
+
+
+def test_period_doubling_of_current_mode_control_is_located_at_twice_the_input_voltage():
+    model = current_mode()
+    values = np.linspace(15.0, 29.0, 6)  # 15, 17.8, ..., 29: 24 V falls between 23.4 and 26.2
+    result = continue_orbit(model, "Vout", values, period=CM_T, x0=[0.8e-3], max_step=0.02 * CM_T)
+    for point in result.points:
+        assert point.multipliers == pytest.approx([-(point.value - 12.0) / 12.0], abs=1e-8)
+        assert point.x0 == pytest.approx([current_mode_x0(point.value)], rel=1e-8)
+        assert point.stable == (point.value < 24.0)
+    assert len(result.bifurcations) == 1
+    flip = result.bifurcations[0]
+    assert flip.kind == "period doubling" and flip.bracket == (values[3], values[4])
+    assert abs(flip.value - 24.0) < 1e-6 and flip.multiplier == pytest.approx(-1.0, abs=1e-6)
+    assert flip.orbit.x0 == pytest.approx([current_mode_x0(flip.value)], rel=1e-8)
+    assert "period doubling at 24" in str(flip)
+
+
+def test_continuation_without_locating_reports_the_bracket_and_going_down_works_too():
+    result = continue_orbit(current_mode(), "Vout", [27.0, 25.0, 23.0], period=CM_T, x0=[0.64e-3],
+                            max_step=0.02 * CM_T, locate=False)
+    assert [(b.kind, b.bracket, b.multiplier) for b in result.bifurcations] == [("period doubling", (25.0, 23.0), None)]
+
+
+def test_a_point_without_orbit_names_the_parameter_value_and_keeps_the_points_before():
+    # at Vout = 11 V < Vin the current rises in both phases: the switch never turns off again
+    model = current_mode()
+    with pytest.raises(ContinuationError) as info:
+        continue_orbit(model, "Vout", [18.0, 14.0, 11.0], period=CM_T, x0=[0.8e-3], max_step=0.02 * CM_T)
+    error = info.value
+    assert error.value == 11.0 and "Vout = 11" in str(error) and "Vout = 14" in str(error)
+    assert "smaller steps" in str(error)
+    assert [p.value for p in error.result.points] == [18.0, 14.0]
+    stopped = continue_orbit(model, "Vout", [18.0, 14.0, 11.0], period=CM_T, x0=[0.8e-3], max_step=0.02 * CM_T,
+                             on_error="stop")
+    assert len(stopped.points) == 2 and "Vout = 11" in stopped.stopped
+    assert {s.name: v for s, v in model.parameter_values.items()}["Vout"] == 18.0
+
+
+def test_bad_requests_are_refused_with_what_to_do():
+    model = current_mode()
+    with pytest.raises(ContinuationError, match="not a parameter of model 'current_mode'.*build function"):
+        continue_orbit(model, "V_out", [18.0], period=CM_T)
+    with pytest.raises(ContinuationError, match="give period=T"):
+        continue_orbit(model, "Vout", [18.0])
+    with pytest.raises(ContinuationError, match="finite values"):
+        continue_orbit(model, "Vout", [18.0, float("nan")], period=CM_T)
+
+
+def test_bifurcation_diagram_draws_stable_solid_unstable_dashed_and_marks_the_flip():
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    result = continue_orbit(current_mode(), "Vout", [20.0, 22.0, 25.0, 27.0], period=CM_T, x0=[0.7e-3],
+                            max_step=0.02 * CM_T)
+    ax = result.plot("p_L")
+    # the min curve: 20-22 solid, 22-25-27 dashed (one line each), then the max curve
+    lines = [(line.get_linestyle(), list(line.get_xdata())) for line in ax.lines[:4]]
+    assert lines == [("-", [20.0, 22.0]), ("--", [22.0, 25.0, 27.0])] * 2
+    marks = [line for line in ax.lines if line.get_marker() == "o"]
+    assert len(marks) == 1 and marks[0].get_xdata()[0] == pytest.approx(24.0, abs=1e-6)
+    with pytest.raises(ContinuationError, match="signals="):
+        result.plot("v_C")
+    matplotlib.pyplot.close("all")
