@@ -188,3 +188,38 @@ def test_bifurcation_diagram_draws_stable_solid_unstable_dashed_and_marks_the_fl
     with pytest.raises(ContinuationError, match="signals="):
         result.plot("v_C")
     matplotlib.pyplot.close("all")
+
+
+def leaky(G=0.5):
+    """A capacitor (C = 1 F) driven by ``u = sin 2πt`` through a conductance G (which may be negative: an
+    active element), beside a clocked switch in a separate loop (so the model has an automaton and events
+    that do not touch q_C).  ``q̇_C = G (u − q_C)``: the multiplier over T = 1 s is ``μ = e^{−G}``, through
+    +1 at G = 0 (a fold of the fixed-period orbit, stable for G > 0)."""
+    import sympy as sp
+
+    from bondgraph import C, R
+    from switching import ExpressionInput
+
+    g = BondGraph("leaky")
+    loop = g.add(One("loop"))
+    g.connect(Se("u", sp.Symbol("u")), loop)
+    g.input("u")
+    g.connect(loop, R("R", 1 / sp.Symbol("G")))
+    g.connect(loop, C("C", "C"))
+    k = g.add(One("k", controlled=True))
+    g.connect(Se("W", "W"), k)
+    g.connect(k, R("R2", "R2"))
+    clock = Automaton("clock", {"low": {"k": False}, "high": {"k": True}}, "low")
+    clock.add_transition("low", "high", "sin(2*pi*t) > 0.5")
+    clock.add_transition("high", "low", "sin(2*pi*t) < -0.5")
+    return HybridModel(g, [clock], dict(G=G, C=1.0, W=1.0, R2=1.0), inputs={"u": ExpressionInput("sin(2*pi*t)", {})})
+
+
+def test_a_multiplier_through_plus_one_is_a_fold_located_where_the_conductance_vanishes():
+    result = continue_orbit(leaky(), "G", [0.3, 0.1, -0.1, -0.3], period=1.0)
+    for point in result.points:
+        assert point.multipliers == pytest.approx([np.exp(-point.value)], abs=1e-8)
+        assert point.stable == (point.value > 0)
+    assert [(b.kind, b.bracket) for b in result.bifurcations] == [("fold", (0.1, -0.1))]
+    fold = result.bifurcations[0]
+    assert abs(fold.value) < 1e-6 and fold.multiplier == pytest.approx(1.0, abs=1e-6)
