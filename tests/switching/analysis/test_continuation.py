@@ -18,6 +18,11 @@ is all of it: both flows have constant rates), and passes through −1 at
 ``Vout = 2 Vin`` exactly — the classical sub-harmonic instability of peak
 current-mode control at duty 1/2.  The orbit's current at the turn-on is
 ``i* = i_ref − T m1 m2/(m1 + m2)``, at ``t = 0`` (while off) ``i* + 0.2 T m2``.
+With a resistance of voltage ``k i²`` in the inductor's loop the map is
+nonlinear and the multiplier depends on the orbit (:func:`quadratic_map`,
+exact to round-off): the flip moves to Vout = 23.2914271... V.
+
+A fold (a multiplier through +1): :func:`leaky`, ``μ = e^{−G}`` through +1 at G = 0.
 """
 
 from __future__ import annotations
@@ -98,11 +103,18 @@ def test_boost_continuation_in_a_build_argument_and_its_table():
     assert "min:v_C" in table.columns and table["stable"].all()
 
 
-def current_mode(Vin=12.0, L=1e-3, i_ref=1.0, f_sw=10e3, Vout=18.0):
-    """The current-mode controlled converter of the module docstring."""
+def current_mode(Vin=12.0, L=1e-3, i_ref=1.0, f_sw=10e3, Vout=18.0, k=None):
+    """The current-mode controlled converter of the module docstring (with ``k``: and a resistance whose
+    voltage is ``k i_L²``, see :func:`quadratic_map`)."""
+    import sympy as sp
+
+    from bondgraph import R
+
     g = BondGraph("current_mode")
     loop = g.add(One("iL"))
     a = g.add(Zero("A"))
+    if k is not None:
+        g.connect(loop, R("Rk", effort_law=lambda f: sp.Symbol("k") * f**2))
     switch, diode = g.add(One("S", controlled=True)), g.add(One("D", controlled=True))
     g.connect(Se("Vin", "Vin"), loop)
     g.connect(loop, I("L", "L"))
@@ -114,7 +126,8 @@ def current_mode(Vin=12.0, L=1e-3, i_ref=1.0, f_sw=10e3, Vout=18.0):
     pwm = Automaton("pwm", {"on": {"S": True, "D": False}, "off": {"S": False, "D": True}}, initial="off")
     pwm.add_transition("on", "off", "p_L/L > i_ref", "a priori")
     pwm.add_transition("off", "on", "cos(2*pi*(f_sw*t - 0.25)) > cos(2*pi*0.05)", "a priori")
-    return HybridModel(g, [pwm], dict(Vin=Vin, L=L, i_ref=i_ref, f_sw=f_sw, Vout=Vout), initial_state={"p_L": 0.0})
+    values = dict(Vin=Vin, L=L, i_ref=i_ref, f_sw=f_sw, Vout=Vout, **({} if k is None else {"k": k}))
+    return HybridModel(g, [pwm], values, initial_state={"p_L": 0.0})
 
 
 CM_T = 1e-4
@@ -223,3 +236,36 @@ def test_a_multiplier_through_plus_one_is_a_fold_located_where_the_conductance_v
     assert [(b.kind, b.bracket) for b in result.bifurcations] == [("fold", (0.1, -0.1))]
     fold = result.bifurcations[0]
     assert abs(fold.value) < 1e-6 and fold.multiplier == pytest.approx(1.0, abs=1e-6)
+
+
+def quadratic_map(i0, Vout, Vin=12.0, L=1e-3, k=2.0, i_ref=1.0):
+    """The exact map from one turn-on current to the next with a resistance of voltage ``k i²`` in the
+    inductor's loop: on, ``L di/dt = Vin − k i²`` gives ``i = a tanh(artanh(i0/a) + a k t/L)``, ``a² = Vin/k``,
+    so the switch opens after ``t_on = L (artanh(i_ref/a) − artanh(i0/a))/(a k)``; off,
+    ``L di/dt = −(Vout − Vin + k i²)`` gives ``i = b tan(atan(i_ref/b) − b k t/L)``, ``b² = (Vout − Vin)/k``,
+    for ``CM_T − t_on``.  Its slope at a fixed point ``i*`` is ``μ = −(Vout − Vin + k i*²)/(Vin − k i*²)`` (the
+    rates just after and just before the turn-off's ratio, times the on-flow's transport from the turn-on):
+    the flip ``μ = −1`` is at ``Vout = 2 (Vin − k i*²)``, with ``i*`` the fixed point there."""
+    a, b = np.sqrt(Vin / k), np.sqrt((Vout - Vin) / k)
+    t_on = L / (a * k) * (np.arctanh(i_ref / a) - np.arctanh(i0 / a))
+    return b * np.tan(np.arctan(i_ref / b) - b * k / L * (CM_T - t_on))
+
+
+def test_period_doubling_with_a_state_dependent_multiplier_matches_the_exact_map():
+    from scipy.optimize import brentq
+
+    def fixed(Vout):
+        return brentq(lambda i: quadratic_map(i, Vout) - i, -2.0, 0.999, xtol=1e-15)
+
+    def mu(Vout):
+        i = fixed(Vout)
+        return -(Vout - 12.0 + 2.0 * i**2) / (12.0 - 2.0 * i**2)
+
+    flip = brentq(lambda V: mu(V) + 1.0, 16.0, 26.0, xtol=1e-13)  # 23.2914271...
+    model = current_mode(k=2.0)
+    values = [18.0, 20.0, 22.0, 24.0, 26.0]
+    result = continue_orbit(model, "Vout", values, period=CM_T, x0=[0.7e-3], max_step=0.02 * CM_T)
+    for point in result.points:
+        assert point.multipliers == pytest.approx([mu(point.value)], abs=1e-7)
+    assert [(b.kind, b.bracket) for b in result.bifurcations] == [("period doubling", (22.0, 24.0))]
+    assert abs(result.bifurcations[0].value - flip) < 1e-6
