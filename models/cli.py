@@ -888,6 +888,8 @@ def _cmd_orbit(args) -> int:
     if args.section is None and args.period is None:
         raise _UsageError("give --period T (a fixed-period orbit, e.g. 1/f_sw of a clocked converter) or "
                           "--section AUTOMATON:SOURCE->TARGET (an autonomous orbit)")
+    if args.doubled and axis is None:
+        raise _UsageError("--doubled follows the branch born at a period doubling: it needs --continue")
     if args.period is not None:
         _positive("--period", args.period)
     for option, value in (("--rtol", args.rtol), ("--max-step", args.max_step)):
@@ -925,12 +927,19 @@ def _cmd_orbit(args) -> int:
           f"({len(values)} points)")
     result = continue_orbit(module.build, name, values, period=args.period, fixed=parameters, x0=x0,
                             signals=[signal] if signal and signal not in model.state_names else [],
-                            on_error="stop", **options)
+                            on_error="stop", switch_branch=args.doubled, **options)
     _print_table(result.rows())
     for b in result.bifurcations:
         print(f"  {b}")
     if not result.bifurcations:
         print("  no multiplier crossed -1 or +1")
+    for branch in result.branches:
+        print(f"doubled branch from the {branch.origin} (period 2T):")
+        _print_table(branch.rows())
+        if branch.stopped:
+            print(f"  {branch.stopped}")
+    if args.doubled and not result.branches:
+        print("  no doubled branch followed (none found next to a located period doubling)")
     print(f"  {len(result.points)} orbit(s) in {result.wall_time:.2f} s")
     status = EXIT_OK
     if result.stopped:
@@ -1105,6 +1114,9 @@ def _add_orbit(sub) -> None:
     p.add_argument("--continue", dest="continue_", metavar="NAME=START:STOP:COUNT",
                    help="follow the orbit as the parameter NAME takes COUNT equally spaced values from START to STOP: "
                         "a table of period, start and multipliers, with period doublings and folds located")
+    p.add_argument("--doubled", action="store_true",
+                   help="with --continue: at each period doubling, find the orbit of twice the period and follow it "
+                        "(a second table; orange in the plot)")
     p.add_argument("--warmup", type=int, default=0, metavar="N",
                    help="periods of plain simulation before Newton's first step (default 0)")
     p.add_argument("--rtol", type=float, help="relative tolerance of every run (default 1e-10)")

@@ -45,9 +45,24 @@ the orbit.  When the two ends flow through different mode sequences the
 multipliers may jump across ±1 without crossing it (a border collision):
 that is reported with ``kind="border collision"`` and not located.
 
-Switching to the doubled branch after a period doubling is not done here:
-continue a fixed-period orbit of period ``2T`` from ``x0`` plus a step along
-the eigenvector of the multiplier at −1 (``Bifurcation.eigenvector``).
+**Switching to the doubled branch** (``switch_branch=True``).  At a located
+period doubling ``p*`` (orbit ``x*``, eigenvector ``v`` of the multiplier −1)
+the orbit of twice the period (fixed period ``2T``; autonomous: ``2·crossings``
+returns to the section) bifurcates with an amplitude ``∝ sqrt(|p − p*|)`` on
+one side — beyond ``p*`` (supercritical: it takes over the stability) or
+before it (subcritical: an unstable orbit around the stable one).  At
+``p1 = p* ± δ``, ``δ = 10⁻² |bracket|``, beyond first, Newton for the doubled
+period starts from ``x* ± s v`` (``v`` scaled to the states' amplitudes,
+``s`` from 10⁻³ to 0.3 of them) until it converges to an orbit whose start is
+not the period-1 orbit's at ``p1`` (relative difference > 10⁻⁵; the residual
+asked of that search is ``10⁻⁶ |μ² − 1|``, ``μ`` the period-1 multiplier
+nearest −1 at ``p1``, since ``M² − I`` is nearly singular there); the branch is
+then continued from ``p1`` over the given values on that side, outward,
+through the distances ``2δ, 4δ, …`` from ``p*`` first (the branch grows as
+``sqrt(|p − p*|)``, which a secant through steps doubling in size predicts
+within about 12 %); a point without orbit, or one where Newton lands on the
+period-1 orbit, ends it (``stopped``).  It is returned in
+``Continuation.branches`` (its ``origin`` the bifurcation).
 """
 
 from __future__ import annotations
@@ -125,7 +140,9 @@ class Continuation:
     ``bifurcations`` (:class:`Bifurcation`, in parameter order along the
     path), ``state_names``, ``signals`` (the signal names whose ranges were
     recorded), ``wall_time`` [s]; ``stopped``: ``None``, or the message of
-    the error that ended the continuation early (``on_error="stop"``)."""
+    the error that ended the continuation early (``on_error="stop"``);
+    ``branches``: the doubled branches followed from its period doublings
+    (each a Continuation whose ``origin`` is the :class:`Bifurcation`)."""
 
     parameter: str
     points: list
@@ -134,6 +151,8 @@ class Continuation:
     signals: tuple = ()
     wall_time: float = 0.0
     stopped: str | None = None
+    branches: list = field(default_factory=list)
+    origin: Bifurcation | None = None
 
     @property
     def values(self) -> np.ndarray:
@@ -188,26 +207,9 @@ class Continuation:
             raise ContinuationError(f"Continuation.plot: what='x0' is for states; {name!r} is a signal")
         if ax is None:
             _, ax = pyplot().subplots(figsize=(6.4, 4.0))
-        p = self.values
-        if what == "x0":
-            curves = [np.array([pt.x0[self.state_names.index(name)] for pt in self.points])]
-        else:
-            curves = [np.array([pt.ranges[name][0] for pt in self.points]),
-                      np.array([pt.ranges[name][1] for pt in self.points])]
-        stable = [pt.stable for pt in self.points]
-        # runs of segments of one kind, each drawn as one line (so a dash pattern shows on short segments)
-        runs, start = [], 0
-        for k in range(1, len(p)):
-            solid = stable[k - 1] and stable[k]
-            if k == len(p) - 1 or (stable[k] and stable[k + 1]) != solid:
-                runs.append((start, k, solid))
-                start = k
-        for curve in curves:
-            for first, last, solid in runs:
-                ax.plot(p[first:last + 1], curve[first:last + 1], color="C0", linestyle="-" if solid else "--",
-                        linewidth=1.4)
-            if len(p) == 1:
-                ax.plot(p, curve, "o", color="C0")
+        p, curves = self._curves(name, what, ax, "C0")
+        for branch in self.branches:  # doubled branches, in another colour
+            branch._curves(name, what, ax, "C1")
         markers = {"period doubling": ("o", "C3"), "fold": ("s", "C2"), "border collision": ("x", "C1")}
         labelled = set()
         for b in self.bifurcations:
@@ -225,10 +227,35 @@ class Continuation:
             labelled.add(b.kind)
         ax.set_xlabel(self.parameter)
         ax.set_ylabel(f"{name} at the orbit's start" if what == "x0" else f"{name}: min and max over a period")
-        ax.set_title("solid: stable orbit, dashed: unstable", fontsize=9)
+        ax.set_title("solid: stable orbit, dashed: unstable" + ("; doubled branches in orange" if self.branches
+                                                                else ""), fontsize=9)
         if labelled:
             ax.legend(fontsize=8)
         return ax
+
+    def _curves(self, name, what, ax, color):
+        """Draw this continuation's curves of ``name`` on ``ax``; returns ``(values, curves)``."""
+        p = self.values
+        if what == "x0":
+            curves = [np.array([pt.x0[self.state_names.index(name)] for pt in self.points])]
+        else:
+            curves = [np.array([pt.ranges[name][0] for pt in self.points]),
+                      np.array([pt.ranges[name][1] for pt in self.points])]
+        stable = [pt.stable for pt in self.points]
+        # runs of segments of one kind, each drawn as one line (so a dash pattern shows on short segments)
+        runs, start = [], 0
+        for k in range(1, len(p)):
+            solid = stable[k - 1] and stable[k]
+            if k == len(p) - 1 or (stable[k] and stable[k + 1]) != solid:
+                runs.append((start, k, solid))
+                start = k
+        for curve in curves:
+            for first, last, solid in runs:
+                ax.plot(p[first:last + 1], curve[first:last + 1], color=color, linestyle="-" if solid else "--",
+                        linewidth=1.4)
+            if len(p) == 1:
+                ax.plot(p, curve, "o", color=color, markersize=3)
+        return p, curves
 
 
 class _Family:
@@ -300,7 +327,7 @@ def _nearest(orbit: PeriodicOrbit, target: float):
 
 def continue_orbit(model, parameter: str, values, *, period=None, section=None, crossings: int = 1, x0=None,
                    mode=None, fixed=None, signals=(), locate: bool = True, parameter_tol: float = 1e-9,
-                   on_error: str = "raise", **orbit_options) -> Continuation:
+                   on_error: str = "raise", switch_branch: bool = False, **orbit_options) -> Continuation:
     """Follow a periodic orbit of ``model`` as ``parameter`` runs through
     ``values`` (the mathematics: the module docstring).
 
@@ -322,6 +349,9 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
     ``on_error``: ``"raise"`` (a :class:`~switching.errors.ContinuationError`
     naming the parameter value, with the points so far in ``.result``) or
     ``"stop"`` (return them, ``.stopped`` the message).
+    ``switch_branch``: at each located period doubling, look for the orbit
+    of twice the period and follow it (module docstring); the branches
+    found are in ``.branches``.
     """
     if on_error not in ("raise", "stop"):
         raise ContinuationError(f"continue_orbit: on_error={on_error!r}; use 'raise' or 'stop'")
@@ -384,6 +414,14 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
             if result.points:
                 _detect(result, result.points[-1], point, solve, locate, parameter_tol)
             result.points.append(point)
+        if switch_branch:
+            context = dict(period_of=period_of, section=section, crossings=crossings, signals=signals,
+                           locate=locate, parameter_tol=parameter_tol, options=orbit_options)
+            for bifurcation in list(result.bifurcations):
+                if bifurcation.kind == "period doubling" and bifurcation.orbit is not None:
+                    branch = _doubled_branch(family, bifurcation, values, result.points, **context)
+                    if branch is not None:
+                        result.branches.append(branch)
     finally:
         family.restore()
         result.wall_time = time.perf_counter() - started
@@ -418,8 +456,86 @@ def _detect(result: Continuation, a: ContinuationPoint, b: ContinuationPoint, so
             return _test_value(point.orbit.multipliers, shift)
 
         xtol = parameter_tol * max(abs(a.value), abs(b.value), abs(b.value - a.value))
-        value = brentq(g, a.value, b.value, xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=200)
-        g(value)  # the orbit at the located value (computed once)
+        try:
+            value = brentq(g, a.value, b.value, xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=200)
+            g(value)  # the orbit at the located value (computed once)
+        except HybridBondGraphError:  # an orbit inside the bracket not found: report the bracket alone
+            result.bifurcations.append(Bifurcation(kind, 0.5 * (a.value + b.value), bracket))
+            continue
         orbit = found[value]
         multiplier, vector = _nearest(orbit, -shift)
         result.bifurcations.append(Bifurcation(kind, float(value), bracket, multiplier, vector, orbit))
+
+
+def _doubled_branch(family, bifurcation: Bifurcation, values, main: list, *, period_of, section, crossings, signals, locate,
+                    parameter_tol, options):
+    """The branch of twice the period born at ``bifurcation`` (module docstring), or ``None`` if none is found."""
+    p_star, (low, high) = bifurcation.value, bifurcation.bracket
+    delta = 1e-2 * abs(high - low)
+    orbit1 = bifurcation.orbit
+    scale = np.maximum(np.max(np.abs(orbit1.trajectory.x), axis=0), float(options.get("atol", 1e-12)))
+    v = np.real(np.asarray(bifurcation.eigenvector))
+    v = v / np.max(np.abs(v) / scale)
+    doubled_crossings = 2 * crossings if section is not None else crossings
+
+    def doubled_period(p):
+        return 2.0 * period_of(p) if section is None else 2.0 * orbit1.period
+
+    for end in (high, low):
+        direction = 1.0 if end > p_star else -1.0
+        p1 = p_star + direction * delta
+        model = family.set(p1)
+        try:
+            single = periodic_orbit(model, period_of(p1) if section is None else orbit1.period, section=section,
+                                    crossings=crossings, x0=orbit1.x0, mode=orbit1.modes[0], **options)
+        except HybridBondGraphError:
+            continue
+        # near the flip the doubled map's Jacobian M² − I is nearly singular along v (|μ² − 1| small): a guess
+        # off the period-1 orbit by s has a residual of only about |μ² − 1| s, so the candidate must converge to
+        # a residual that pins its start to 1e-6 of the states' amplitudes (floored at 10 rtol, the runs' accuracy)
+        mu, _ = _nearest(single, -1.0)
+        gap = abs(mu * mu - 1.0) if mu is not None else 1.0
+        tol = max(min(float(options.get("tol", 1e-8)), 1e-6 * gap), 10.0 * float(options.get("rtol", 1e-10)))
+        candidate_options = {**options, "tol": tol}
+        found = None
+        for size in (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3):
+            for sign in (1.0, -1.0):
+                try:
+                    orbit = periodic_orbit(model, doubled_period(p1), section=section, crossings=doubled_crossings,
+                                           x0=orbit1.x0 + sign * size * v, mode=orbit1.modes[0],
+                                           **candidate_options)
+                except HybridBondGraphError:
+                    continue
+                if np.max(np.abs(orbit.x0 - single.x0) / scale) > 1e-5:
+                    found = orbit
+                    break
+            if found is not None:
+                break
+        if found is None:
+            continue
+        outward = sorted((p for p in values if (p - p_star) * direction > delta), key=lambda p: abs(p - p_star))
+        # the branch grows as sqrt(|p − p*|): distances from p* doubling (δ, 2δ, 4δ, … up to the first given
+        # value) keep the secant predictor within about 12 % of the amplitude's growth
+        reach = abs(outward[0] - p_star) if outward else delta
+        ladder = [p_star + direction * delta * 2.0**k for k in range(1, 64) if delta * 2.0**k < reach]
+        outward = ladder + outward
+        source = family.build if family.build is not None else family.model
+        branch = continue_orbit(source, family.parameter, [p1, *outward], period=doubled_period,
+                                section=section, crossings=doubled_crossings, x0=found.x0, mode=found.modes[0],
+                                fixed=family.fixed if family.build is not None else None, signals=signals,
+                                locate=locate, parameter_tol=parameter_tol, on_error="stop", **options)
+        branch.origin = bifurcation
+        # a point whose start is the period-1 orbit's at the same value: the branch has ended (Newton for the
+        # doubled period also converges to the period-1 orbit, a fixed point of the twice-iterated map)
+        single_at = {point.value: point.x0 for point in main}
+        for k, point in enumerate(branch.points[1:], 1):
+            if point.value in single_at and np.max(np.abs(point.x0 - single_at[point.value]) / scale) <= 1e-5:
+                branch.stopped = (f"the doubled branch meets the period-1 orbit at {family.parameter} = "
+                                  f"{point.value:.10g}: it ends between {branch.points[k - 1].value:.10g} and there "
+                                  "(or leaves the region where its mode sequence holds); smaller steps show where")
+                branch.points = branch.points[:k]
+                kept = {p.value for p in branch.points}
+                branch.bifurcations = [b for b in branch.bifurcations if set(b.bracket) <= kept]
+                break
+        return branch
+    return None

@@ -101,3 +101,8 @@ def test_an_orbit_not_found_is_an_error_of_the_run():
     # ... while Newton out of its depth is a failed computation (exit 1) that says what to try
     out = hbg("orbit", "boost-converter", "--period", "1e-4", "--set", "R_L=0.1", "--set", "v_C0=40")
     assert out.returncode == 1 and "hbg: error: periodic_orbit: iterate 1" in out.stderr and "warmup=" in out.stderr
+
+
+def test_doubled_needs_a_continuation():
+    out = hbg("orbit", "boost-converter", "--period", "1e-4", "--doubled")
+    assert out.returncode == 2 and "--doubled" in out.stderr and "--continue" in out.stderr

@@ -269,3 +269,47 @@ def test_period_doubling_with_a_state_dependent_multiplier_matches_the_exact_map
         assert point.multipliers == pytest.approx([mu(point.value)], abs=1e-7)
     assert [(b.kind, b.bracket) for b in result.bifurcations] == [("period doubling", (22.0, 24.0))]
     assert abs(result.bifurcations[0].value - flip) < 1e-6
+
+
+def two_cycle(V):
+    """The exact two-cycle of :func:`quadratic_map` at ``Vout = V``: turn-on currents ``i1 < i* < i2``."""
+    from scipy.optimize import brentq
+
+    i_star = brentq(lambda i: quadratic_map(i, V) - i, -2.0, 0.999, xtol=1e-15)
+
+    def g(i):
+        return quadratic_map(quadratic_map(i, V), V) - i
+
+    return [brentq(g, lo, hi, xtol=1e-15) for lo, hi in ((i_star - 0.5, i_star - 1e-4), (i_star + 1e-4, 0.999))]
+
+
+def test_the_doubled_branch_of_a_subcritical_flip_is_the_exact_maps_two_cycle():
+    # quadratic_map's flip is subcritical: the two-cycle (an unstable orbit of period 2T around the stable one)
+    # lives below the flip and grows as sqrt(Vout* − Vout) until its upper turn-on current reaches i_ref
+    # (the switch then opens at once: another mode sequence), a little above 23.13 V
+    result = continue_orbit(current_mode(k=2.0), "Vout", [18.0, 20.0, 22.0, 24.0, 26.0], period=CM_T, x0=[0.7e-3],
+                            max_step=0.02 * CM_T, switch_branch=True)
+    flip = result.bifurcations[0]
+    assert len(result.branches) == 1
+    branch = result.branches[0]
+    assert branch.origin is flip
+    # from p* − δ (δ = 0.02, a hundredth of the bracket) through p* − 2δ, p* − 4δ, ...
+    assert [p.value for p in branch.points] == pytest.approx([flip.value - 0.02 * 2**k for k in range(3)], abs=1e-12)
+    assert "no orbit at Vout = 23.13" in branch.stopped and branch.bifurcations == []
+    for point in branch.points:
+        V = point.value
+        assert point.period == 2 * CM_T and not point.stable
+        cycle = two_cycle(V)
+        assert cycle[1] == pytest.approx(quadratic_map(cycle[0], V), abs=1e-9)
+        # the orbit starts at t = 0, 0.2 T before a turn-on, in the off phase: i(0) = b tan(atan(i_on/b) + 0.2 b k T/L)
+        b = np.sqrt((V - 12.0) / 2.0)
+        starts = [1e-3 * b * np.tan(np.arctan(i / b) + 0.2 * b * 2.0 * CM_T / 1e-3) for i in cycle]
+
+        def slope(i):
+            return -(V - 12.0 + 2.0 * quadratic_map(i, V) ** 2) / (12.0 - 2.0 * i**2)
+
+        mu = slope(cycle[0]) * slope(cycle[1])
+        assert point.multipliers == pytest.approx([mu], rel=1e-6)
+        # Newton stops at a residual tol = 1e-8 (relative): near the flip μ is near 1, and the start is then
+        # only pinned to about tol/|μ − 1| (1e-6 at the first point, 160 times the residual)
+        assert min(abs(point.x0[0] - s) for s in starts) < 2e-8 / abs(mu - 1.0) * max(abs(s) for s in starts)
