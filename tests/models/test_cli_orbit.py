@@ -106,3 +106,20 @@ def test_an_orbit_not_found_is_an_error_of_the_run():
 def test_doubled_needs_a_continuation():
     out = hbg("orbit", "boost-converter", "--period", "1e-4", "--doubled")
     assert out.returncode == 2 and "--doubled" in out.stderr and "--continue" in out.stderr
+
+
+def test_continuation_of_the_relay_in_its_threshold_follows_the_closed_form_period(tmp_path):
+    table = tmp_path / "relay.csv"
+    out = hbg("orbit", "models/examples/relay.toml", "--section", "relay: on -> off", "--period", "0.01",
+              "--continue", "v_hi=7.5:8.5:5", "--csv", str(table))
+    assert out.returncode == 0, out.stderr
+    V, R, C, R_load, v_lo = 10.0, 1.0, 1e-3, 20.0, 6.0
+    v_inf = V * R_load / (R + R_load)
+    rows = list(csv.DictReader(table.open()))
+    assert [float(r["v_hi"]) for r in rows] == [7.5, 7.75, 8.0, 8.25, 8.5]
+    for row in rows:
+        v_hi = float(row["v_hi"])
+        period = (C * R * R_load / (R + R_load) * np.log((v_inf - v_lo) / (v_inf - v_hi))
+                  + C * R_load * np.log(v_hi / v_lo))
+        assert float(row["period"]) == pytest.approx(period, rel=1e-8)
+        assert float(row["x0:q_C"]) == pytest.approx(C * v_hi, rel=1e-9)
