@@ -61,8 +61,10 @@ Exit status:
 
     0    success (``verify``: no divergence of time found)
     1    the run failed (the partial run is saved), ``verify`` found a
-         divergence of time, an output file could not be written, or an
-         unexpected internal error
+         divergence of time, ``orbit`` found no orbit (Newton did not
+         converge, the mode sequence changed, a guard grazed; with
+         ``--continue`` the table holds the points before), an output file
+         could not be written, or an unexpected internal error
     2    bad input, rejected before anything runs: the command line (unknown
          model, parameter, option or signal; a non-finite or out-of-range
          number; an unsupported plot format; an output directory that does not
