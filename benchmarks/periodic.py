@@ -1,6 +1,6 @@
 """The boost converter's periodic steady state: Newton shooting versus waiting for it.
 
-    python benchmarks/periodic.py [--duty 0.4] [--R_L 0.1] [--tol 1e-8] [--rtol 1e-10]
+    python benchmarks/periodic.py [--duty 0.4] [--R_L 0.1] [--tol 1e-8] [--rtol 1e-10] [--points 100]
 
 Continuous conduction (Vin = 12 V, L = 1 mH, C = 100 µF, R_load = 20 Ω,
 f_sw = 10 kHz).  Row 1: :func:`switching.periodic_orbit` from the model's
@@ -12,6 +12,9 @@ state at the start of a period is within ``tol`` of the shooting's orbit
 (in the same scaling): how many periods that takes, and the wall time of a
 run of that many periods.  The slowest nontrivial multiplier |μ| sets that
 count: about ``ln(tol)/ln|μ|`` periods.
+Row 3: :func:`switching.continue_orbit` in the duty over ``--points``
+equally spaced values from 0.2 to 0.8 (secant predictor from the last two
+orbits; max_step 0.15 T): its wall time, and the runs over all points.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ def main() -> None:
     parser.add_argument("--tol", type=float, default=1e-8)
     parser.add_argument("--rtol", type=float, default=1e-10)
     parser.add_argument("--max-periods", type=int, default=5000)
+    parser.add_argument("--points", type=int, default=100, help="points of the continuation in the duty")
     args = parser.parse_args()
 
     model = boost_converter.build(D=args.duty, R_L=args.R_L)
@@ -64,6 +68,16 @@ def main() -> None:
     print(f"{'approach':<22}{'wall time [s]':>15}{'periods':>10}{'residual':>12}  steady state (p_L, q_C)")
     print(f"{'periodic_orbit':<22}{shooting:>15.3f}{orbit.iterations + 1:>10d}{orbit.residual:>12.2e}  {x_star}")
     print(f"{'plain simulation':<22}{plain:>15.3f}{periods:>10d}{errors[periods]:>12.2e}  {run.x[periods]}")
+    from switching import continue_orbit
+
+    duties = np.linspace(0.2, 0.8, args.points)
+    started = time.perf_counter()
+    # steps shorter than the shortest phase (0.2 T): the PWM guards are tested at step ends
+    path = continue_orbit(model, "D", duties, period=T, x0=x_star, tol=args.tol, **{**run_options, "max_step": 0.15 * T})
+    along = time.perf_counter() - started
+    iterations = sum(p.orbit.iterations for p in path.points)
+    print(f"{'continue_orbit (D)':<22}{along:>15.3f}{iterations + len(path.points):>10d}"
+          f"{max(p.orbit.residual for p in path.points):>12.2e}  {len(path.points)} orbits, D = 0.2 to 0.8")
     print("(periods of periodic_orbit: one run with sensitivities per Newton iterate)")
 
 

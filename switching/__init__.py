@@ -66,6 +66,10 @@ from .errors import OrbitError as OrbitError
 from .errors import OrbitConvergenceError as OrbitConvergenceError
 from .errors import ModeSequenceChangedError as ModeSequenceChangedError
 from .errors import GrazingError as GrazingError
+from .errors import ContinuationError as ContinuationError
+from .analysis.continuation import Bifurcation as Bifurcation
+from .analysis.continuation import Continuation as Continuation
+from .analysis.continuation import continue_orbit as continue_orbit
 
 # the model's methods reach the floors above it through these (switching.model.services)
 from .model.services import provide as _provide  # noqa: E402

@@ -29,6 +29,7 @@ __all__ = [
     "OrbitConvergenceError",
     "ModeSequenceChangedError",
     "GrazingError",
+    "ContinuationError",
 ]
 
 
@@ -211,6 +212,19 @@ class OrbitError(HybridBondGraphError):
         self.x = x
         self.residual = residual
         self.history = tuple(history)
+
+
+class ContinuationError(OrbitError):
+    """A continuation of a periodic orbit (:func:`switching.continue_orbit`)
+    that could not go on, or was asked for wrongly.  ``value`` is the
+    parameter value where it stopped (``None`` for a bad request),
+    ``result`` the :class:`~switching.analysis.continuation.Continuation`
+    of the points found before it (``None`` for a bad request)."""
+
+    def __init__(self, message: str, value: float | None = None, result=None):
+        super().__init__(message)
+        self.value = value
+        self.result = result
 
 
 class OrbitConvergenceError(OrbitError):

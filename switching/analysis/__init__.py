@@ -1,4 +1,5 @@
 """Questions asked of a model beyond one run: the divergence-of-time check
-(:mod:`.verify`), forward sensitivities (:mod:`.sensitivity`, :mod:`.sensitivity_run`)
-and least-squares fits (:mod:`.fitting`).
+(:mod:`.verify`), forward sensitivities (:mod:`.sensitivity`, :mod:`.sensitivity_run`),
+least-squares fits (:mod:`.fitting`), periodic orbits (:mod:`.orbits`) and their continuation in
+one parameter (:mod:`.continuation`).
 """
