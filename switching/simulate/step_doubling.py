@@ -36,7 +36,7 @@ from .flow_rates import flow_functions
 __all__ = ["COARSE", "SAMPLED_STEPS", "error_estimate", "warn_if_coarse"]
 
 #: steps sampled for the estimate
-SAMPLED_STEPS = 128
+SAMPLED_STEPS = 64
 #: a relative error estimate above this warns (the estimate sums the local errors: pessimistic, up to ~10×,
 #: where the flow damps them)
 COARSE = 0.1

@@ -172,10 +172,24 @@ class Trajectory:
     def __getstate__(self):
         state = dict(self.__dict__)
         state["model"] = None
+        state.pop("_numbers", None)  # (keyed by the list's id: made again after unpickling)
         return state
 
     def __len__(self) -> int:
         return len(self.t)
+
+    def _mode_numbers(self) -> tuple[np.ndarray, list]:
+        """``(numbers, modes)``: each sample's mode as its place in ``modes``
+        (the distinct modes in order of appearance); kept while ``self.modes``
+        is the same list of the same length."""
+        key = (id(self.modes), len(self.modes))
+        cached = self.__dict__.get("_numbers")
+        if cached is None or cached[0] != key:
+            places: dict = {}
+            numbers = np.fromiter((places.setdefault(m, len(places)) for m in self.modes), dtype=np.int64,
+                                  count=len(self.modes))
+            cached = self.__dict__["_numbers"] = (key, numbers, list(places))
+        return cached[1], cached[2]
 
     @property
     def mode_labels(self) -> list[str]:
@@ -257,9 +271,9 @@ class Trajectory:
             return self.power(which)
         model = self._needs_model()
         out = np.empty(len(self.t))
-        labels = np.array(self.mode_labels)
-        for mode in dict.fromkeys(self.modes):
-            mask = labels == mode.describe()
+        numbers, modes = self._mode_numbers()
+        for k, mode in enumerate(modes):
+            mask = numbers == k
             fn = model.signal_function(mode, [name])
             times = self.t[mask]
             inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
