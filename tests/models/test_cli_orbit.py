@@ -11,7 +11,8 @@ import sys
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
+
+from test_orbits import boost_exact  # the exact two-phase answers (tests/switching/analysis)
 
 
 def hbg(*args):
@@ -36,16 +37,9 @@ def test_orbit_of_the_relay_prints_its_period_start_and_trivial_multiplier():
     assert float(value_after(out.stdout, "trivial multiplier (along the flow):")) == pytest.approx(1.0, abs=1e-6)
 
 
-def boost_multipliers(D, Vin=12.0, L=1e-3, R_L=0.1, C=100e-6, R=20.0, T=1e-4):
-    def E(A, tau):
-        Z = np.zeros((3, 3))
-        Z[:2, :2], Z[:2, 2] = A, [Vin, 0.0]
-        return expm(Z * tau)
-
-    on = E(np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]]), D * T)
-    off = E(np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]]), (1 - D) * T)
-    Phi = (off @ on)[:2, :2]
-    x_star = np.linalg.solve(np.eye(2) - Phi, off[:2, :2] @ on[:2, 2] + off[:2, 2])
+def boost_multipliers(D):
+    """The boost converter's orbit start and multipliers at duty ``D`` from its two phases' matrix exponentials."""
+    x_star, Phi = boost_exact(D=D)
     return x_star, np.linalg.eigvals(Phi)
 
 

@@ -34,30 +34,7 @@ from bondgraph import BondGraph, I, One, Se, Zero
 from models import boost_converter
 from switching import Automaton, ContinuationError, HybridModel, continue_orbit
 
-from scipy.linalg import expm
-
-BOOST = dict(Vin=12.0, L=1e-3, R_L=0.1, C=100e-6, R_load=20.0, f_sw=10e3, D=0.4)  # as in test_orbits.py
-T = 1.0 / BOOST["f_sw"]
-
-
-def phase(A, b, tau):
-    """``(E, c)`` of ``x(τ) = E x(0) + c`` for ``ẋ = A x + b`` (as in test_orbits.py)."""
-    n = len(b)
-    Z = np.zeros((n + 1, n + 1))
-    Z[:n, :n], Z[:n, n] = A, b
-    E = expm(Z * tau)
-    return E[:n, :n], E[:n, n]
-
-
-def boost_exact(D=BOOST["D"], R=BOOST["R_load"]):
-    L, C, R_L, V = (BOOST[k] for k in ("L", "C", "R_L", "Vin"))
-    A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
-    A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])
-    b = np.array([V, 0.0])
-    E_on, c_on = phase(A_on, b, D * T)
-    E_off, c_off = phase(A_off, b, (1 - D) * T)
-    Phi = E_off @ E_on
-    return np.linalg.solve(np.eye(2) - Phi, E_off @ c_on + c_off), Phi
+from test_orbits import BOOST, T, boost_exact  # the exact two-phase answers
 
 
 def same_multipliers(got, exact) -> float:

@@ -91,8 +91,9 @@ def phase(A, b, tau):
     return E[:n, :n], E[:n, n]
 
 
-def boost_exact():
-    L, C, R, R_L, V, D = (BOOST[k] for k in ("L", "C", "R_load", "R_L", "Vin", "D"))
+def boost_exact(D=BOOST["D"], R=BOOST["R_load"]):
+    """The orbit's start ``x*`` (i_L, v_C) and the monodromy ``Φ = E_off·E_on`` at duty ``D`` and load ``R``."""
+    L, C, R_L, V = (BOOST[k] for k in ("L", "C", "R_L", "Vin"))
     A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
     A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])
     b = np.array([V, 0.0])
