@@ -546,6 +546,11 @@ class HybridModel:
         target)``); see :func:`switching.analysis.orbits.periodic_orbit`."""
         return SERVICES.periodic_orbit(self, period, **options)
 
+    def state_space(self, mode=None, outputs=None, inputs=None, numeric: bool = True):
+        """The linear state-space matrices of one mode (default the initial one), over its independent
+        states, parameter values substituted; see :func:`switching.analysis.linear.state_space`."""
+        return SERVICES.state_space(self, mode, outputs, inputs, numeric)
+
     def save(self, path, *, run: dict | None = None, description: str | None = None) -> None:
         """Write the model to the model file ``path``, checked to read back to
         the same model; see :func:`switching.files.modelfile.save_model`."""
