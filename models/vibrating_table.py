@@ -84,16 +84,19 @@ ball [N], with a Dirac pulse of area ``m (v⁺ − v⁻)`` at each impact),
 
 Valid range (exercised by ``tests/models/test_model_ranges.py``):
 ``0 <= e <= 1``, ``A >= 0``, ``omega > 0``, ``m > 0``, ``g > 0``, ``gap0 >= 0``
-over orders of magnitude (tested ``A ω²/g`` from 0.5 to 4, with ``A`` from
-1e-4 to 1e2 m, ``omega`` from 1 to 1e3 rad/s, ``e`` from 0 to 0.9, ``m``
-from 1e-3 to 1e3 kg), starting at rest on the table or dropped from a
-height; ``v_stick`` a small fraction of the velocities (``1e-3`` of
-``A ω``).  A ball that chatters on the table (impacts accumulating in finite
-time, as they do when ``A ω²/g`` is small or right after a take-off) ends the
-chattering with the stick rule; with ``v_stick = 0`` and ``0 < e < 1`` the
-accumulation is a :class:`~switching.ZenoError` (its ``accumulation_time``
-the chattering's end), or ends the run with ``on_zeno="stop"``.  No other
-error is documented in this range.
+over orders of magnitude (tested ``Γ = A ω²/g`` from 0.5 to 4, ``A`` from
+1e-4 to 1e2 m, so ``omega`` from 0.2 to 630 rad/s, ``e`` from 0 to 0.9,
+``m`` from 1e-3 to 1e3 kg), starting at rest on the table or dropped from
+``10 A``, with ``v_stick = 1e-3 A ω`` (scale it with the velocities: the
+default 1e-3 m/s suits the default table).  Every impact there obeys the
+restitution law relative to the table, every release happens where
+``A ω² sin(ω t) = g``, and the ball never goes through the table.  A ball
+whose impacts accumulate (chattering: a landing on a table that keeps
+pushing, as it always does when ``Γ < 1``) ends the sequence with the stick
+rule; with ``v_stick = 0`` and ``0 < e < 1`` the accumulation is a
+:class:`~switching.ZenoError` (its ``accumulation_time`` the end of the
+chattering), or ends the run with ``on_zeno="stop"``.  No other error is
+documented in this range.
 """
 
 from __future__ import annotations
