@@ -330,3 +330,51 @@ def test_continuation_in_the_amplitude_locates_the_period_doubling_and_follows_t
             table_v = point.value * OMEGA * math.cos(OMEGA * impact.t)
             assert impact.x_after[p] - table_v == pytest.approx(-e * (impact.x_before[p] - table_v), rel=1e-8)
     assert branch.points[branch.values.tolist().index(values[2])].stable
+
+
+# ------------------------------------------------------------------ from the command line
+
+
+def on_orbit_at_time_zero(A: float, e: float) -> tuple:
+    """``(p, y)`` of the period-1 orbit at ``t = 0`` (``m = 1``): the last impact was at
+    ``θ/ω − T``, so ``τ = T − θ/ω`` into the flight ``y = A sin θ + (g T/2) τ − g τ²/2``,
+    ``v = g T/2 − g τ``."""
+    theta = impact_phase(A, e)
+    tau = T - theta / OMEGA
+    return G * T / 2 - G * tau, A * math.sin(theta) + G * T / 2 * tau - G * tau**2 / 2
+
+
+def test_hbg_orbit_finds_the_period_one_orbit_and_its_flip(capsys):
+    from models.cli import main
+
+    A, e = vibrating_table.DEFAULTS["A"], vibrating_table.DEFAULTS["e"]
+    p0, y0 = on_orbit_at_time_zero(A, e)
+    assert main(["orbit", "vibrating-table", "--period", repr(T), "--warmup", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "stable: yes" in out
+    start = dict(part.split(" = ") for part in out.split("x0: ", 1)[1].splitlines()[0].split(", "))
+    assert float(start["p"]) == pytest.approx(p0, rel=1e-9)
+    assert float(start["y"]) == pytest.approx(y0, rel=1e-9)
+    A_flip = gamma_flip(e) * G / OMEGA**2
+    assert main(["orbit", "vibrating-table", "--period", repr(T), "--set", f"p={p0!r}", "--set", f"y={y0!r}",
+                 "--continue", "A=0.013:0.017:5"]) == 0
+    out = capsys.readouterr().out
+    flip = float(out.split("period doubling at ", 1)[1].split()[0])
+    assert flip == pytest.approx(A_flip, rel=1e-8)
+
+
+def test_hbg_run_of_the_default_drop_settles_on_the_period_one_orbit(tmp_path, capsys):
+    """The default run (a drop from 0.1 m) ends on the stable period-1 orbit: its last impacts at
+    the phase ``θ``, with ``v⁺ → g T/2``."""
+    from models.cli import main
+
+    target = tmp_path / "table.csv"
+    assert main(["run", "vibrating-table", "--method", "RK45", "--csv", str(target)]) == 0
+    assert "vibrating_table" in capsys.readouterr().out and target.stat().st_size > 0
+    model = vibrating_table.build()
+    run = model.simulate(vibrating_table.RUN["t_end"], "RK45", rtol=vibrating_table.RUN["rtol"])
+    theta = impact_phase(vibrating_table.DEFAULTS["A"], vibrating_table.DEFAULTS["e"])
+    last = run.events[-1]
+    assert math.remainder(OMEGA * last.t - theta, 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
+    p = [s.name for s in model.states].index("p")
+    assert last.x_after[p] == pytest.approx(G * T / 2, rel=1e-3)
