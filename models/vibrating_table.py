@@ -67,7 +67,14 @@ phase ``cos θ = π g (1 − e)/(A ω² (1 + e))``, ``θ = +acos(…)``; it exis
 ``Γ² = π² (1 − e)²/(1 + e)² + 4 (1 + e²)²/(1 + e)⁴`` (period doubling).  The
 model is forced (time is not a state), so its periodic orbits have the
 forcing's period: find them with ``periodic_orbit(model, period=2π/ω, t0=…)``
-(a stroboscopic start in flight), not with an autonomous ``section=``.
+(a stroboscopic start in flight), not with an autonomous ``section=``
+(which restarts every return at the same ``t0``).  From the command line:
+``hbg orbit vibrating-table --period 0.2 --warmup 10`` (the defaults' orbit
+from ``t = 0``), and its bifurcation diagram with ``--continue
+A=0.013:0.017:9 --doubled`` from a start on the orbit (``--set p=-0.8 --set
+y=0.0235``; the default drop's warmup may settle on another attractor
+instead, the ball locked to the table by chattering and sticking, whose
+multipliers are 0).
 
 Sign conventions and units: ``y`` [m] the ball's height, ``v`` [m/s] its
 velocity, both up and in the laboratory frame (the table's mean position is
