@@ -54,10 +54,11 @@ impact instant (the table, a flow source, does not feel the impulse).
 table pushes (``flight → stick`` at the same instant) and flies off
 tangentially otherwise.
 
-Resting on the table (``gap0 = 0, vrel0 = 0``, the default start) is the
-stick mode: the ball rides the table while ``A ω² sin(ω t) < g`` and leaves
-it at the first ``t`` with ``sin(ω t) = g/(A ω²)`` (never when
-``Γ = A ω²/g <= 1``).  In flight ``y(t) = y_k + v_k (t − t_k) − g (t − t_k)²/2``.
+Resting on the table (``gap0 = 0, vrel0 = 0``; the default start is a drop
+from ``gap0 = 0.1`` m) is the stick mode: the ball rides the table while
+``A ω² sin(ω t) < g`` and leaves it at the first ``t`` with
+``sin(ω t) = g/(A ω²)`` (never when ``Γ = A ω²/g <= 1``).  In flight
+``y(t) = y_k + v_k (t − t_k) − g (t − t_k)²/2``.
 
 Period-1 orbit (one impact per table period ``T = 2π/ω``, tested in
 ``tests/models/test_model_vibrating_table.py``): flight time ``T`` needs
@@ -135,7 +136,7 @@ RANGES = {
     "g": positive("gravity pulling the ball to the table"),
     "e": Range("a restitution coefficient", 0.0, 1.0),
     "A": nonnegative("the table's amplitude"),
-    "omega": positive("the table's angular frequency", required=True),
+    "omega": positive("the table's angular frequency"),
     "gap0": nonnegative("a height above the table"),
     "v_stick": nonnegative("a sticking threshold speed"),
 }
