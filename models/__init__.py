@@ -45,6 +45,7 @@ MODELS = (
     "parallel_capacitors",
     "boost_converter",
     "two_tanks",
+    "vibrating_table",
 )
 
 

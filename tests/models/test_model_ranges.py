@@ -33,6 +33,7 @@ from models import (
     load,
     parallel_capacitors,
     two_tanks,
+    vibrating_table,
 )
 from switching import DivergenceOfTimeError, StepSizeError, StiffnessError, ZenoError
 
@@ -497,3 +498,72 @@ def test_two_tanks(Q_in, A1, R_v):
 @pytest.mark.parametrize("Q_in, A1, R_v", grid([1e-3, 1e-2, 1e-1], [0.1, 1.0, 10.0], [5e4, 5e5, 5e6]))
 def test_two_tanks_full_grid(Q_in, A1, R_v):
     _check_tanks(Q_in, A1, R_v)
+
+
+# ================================================================== vibrating table
+
+
+def _check_table(gamma, A, e, m, gap0, periods=12):
+    """The ball on the table ``s = A sin(ω t)`` with ``A ω²/g = gamma``, from rest on the table
+    (``gap0 = 0``) or dropped from ``gap0`` with the table's velocity, over ``periods`` periods."""
+    omega = math.sqrt(gamma * G / A)
+    T = 2 * math.pi / omega
+    model = vibrating_table.build(A=A, omega=omega, e=e, m=m, gap0=gap0, v_stick=1e-3 * A * omega)
+    t_end = periods * T
+    trajectory = run(model, t_end, "RK45", rtol=1e-9, atol=1e-12 * A * min(1.0, m * omega))  # y [m] and p [kg·m/s]
+    reaches_end(trajectory, t_end)
+    # the ball never goes through the table
+    assert trajectory.signal("gap").min() >= -1e-7 * A
+    momentum = [s.name for s in model.states].index("p")
+    for event in trajectory.events:
+        before, after = event.mode_before.state_of("contact"), event.mode_after.state_of("contact")
+        table_v = A * omega * math.cos(omega * event.t)
+        v_minus, v_plus = (x[momentum] / m for x in (event.x_before, event.x_after))
+        if any(step.mode.state_of("contact") == "impact" for step in event.steps):
+            # Newton's restitution relative to the table
+            assert v_plus - table_v == pytest.approx(-e * (v_minus - table_v), abs=1e-9 * A * omega)
+        if after == "stick":
+            assert v_plus == pytest.approx(table_v, abs=1e-9 * A * omega)
+        if before == "stick" and after == "flight":
+            # the table lets go where its acceleration passes -g
+            assert A * omega**2 * math.sin(omega * event.t) == pytest.approx(G, rel=1e-7)
+    if gap0 == 0:
+        assert trajectory.events[0].t == 0 and trajectory.events[0].mode_after.state_of("contact") == "stick"
+        if gamma <= 1:  # the table never accelerates down faster than g: the ball rides it
+            assert len(trajectory.events) == 1
+        else:
+            assert trajectory.events[1].t == pytest.approx(math.asin(1 / gamma) / omega, rel=1e-8)
+    return trajectory
+
+
+@pytest.mark.parametrize("gamma, A, e, gap0", [(0.5, 1e-2, 0.5, 0.0), (1.5, 1e-2, 0.5, 0.0), (1.2, 1e-4, 0.9, 1e-3),
+                                               (4.0, 1.0, 0.0, 0.0), (2.0, 1e2, 0.5, 50.0)])
+def test_vibrating_table(gamma, A, e, gap0):
+    _check_table(gamma, A, e, 1.0, gap0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gamma, A, e, m, gap0", grid([0.5, 1.5, 4.0], [1e-4, 1.0, 1e2], [0.0, 0.5, 0.9], [1e-3, 1e3],
+                                                      [0.0, 10.0]))
+def test_vibrating_table_full_grid(gamma, A, e, m, gap0):
+    _check_table(gamma, A, e, m, gap0 * A)
+
+
+@pytest.mark.parametrize("A", [1e-2, 1.0])
+def test_vibrating_table_without_sticking_rule_is_zeno(A):
+    """Documented: with ``v_stick = 0`` and ``0 < e < 1`` a ball dropped on a table that always
+    pushes (``A ω²/g = 0.5 < 1``) chatters, its impacts accumulating in finite time."""
+    documented(vibrating_table, ZenoError)
+    omega = math.sqrt(0.5 * G / A)
+    T = 2 * math.pi / omega
+    model = vibrating_table.build(A=A, omega=omega, e=0.5, gap0=2 * A, v_stick=0.0)
+    with pytest.raises(ZenoError) as info:
+        model.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega)
+    t_inf = info.value.accumulation_time
+    assert 0 < t_inf < 20 * T
+    stopped = model.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega, on_zeno="stop")
+    assert stopped.stopped == "zeno" and stopped.t[-1] == pytest.approx(t_inf, rel=1e-6)
+    # with the sticking rule the same drop ends on the table, riding it
+    sticking = vibrating_table.build(A=A, omega=omega, e=0.5, gap0=2 * A, v_stick=1e-3 * A * omega)
+    ride = sticking.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega)
+    assert ride.modes[-1].state_of("contact") == "stick" and ride.events[-1].t < t_inf
