@@ -87,8 +87,10 @@ map of slope ``μ = −(m2 − m_c)/(m1 + m_c)`` (without compensation
 (the turn-off's saltation; the clock edges have none).  Its fixed point
 ``i* = i_ref − m2 T (m1 + m_c)/(m1 + m2)``.  The orbit period-doubles at
 ``μ = −1``: ``D = 1/2`` (``Vout = 2 Vin``) without compensation; with it,
-``|μ| < 1`` exactly when ``m_c > (m2 − m1)/2``, and since ``m1 > 0`` the
-classical choice ``m_c ≥ m2/2`` keeps the orbit stable for every ``D``.
+``|μ| < 1`` exactly when ``m_c > (m2 − m1)/2``.  With the output held, ``m2 −
+m1 = (Vout − 2 Vin)/L`` grows towards ``Vout/L`` as ``D → 1``, so ``m_c ≥
+Vout/(2 L)`` (half the largest falling slope) keeps the orbit stable for
+every duty.
 
 Sign conventions and units: voltages [V] from node to ground, currents [A];
 ``i_L`` from the source into node A, ``i_D`` from A to the output
