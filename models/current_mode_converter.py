@@ -92,6 +92,13 @@ m1 = (Vout − 2 Vin)/L`` grows towards ``Vout/L`` as ``D → 1``, so ``m_c ≥
 Vout/(2 L)`` (half the largest falling slope) keeps the orbit stable for
 every duty.
 
+Periodic orbits: ``periodic_orbit(model, period=1/f_sw, max_step=...)``
+from a first guess ``x0`` whose switch turns off by the comparator (``i_L0``
+a little below the orbit's valley current): from ``i_L = 0`` with the output
+held the switch may stay on for the whole period, a piece of the period map
+of slope 1, where the monodromy is 1 and Newton cannot move.  The orbit
+starts at ``t = 0``, a clock edge, in ``switch=on, diode=off``.
+
 Sign conventions and units: voltages [V] from node to ground, currents [A];
 ``i_L`` from the source into node A, ``i_D`` from A to the output
 (forward), ``v_D = v_sw − v_out`` (forward voltage; 0 while on), ``i_sw``
@@ -105,13 +112,15 @@ Signals: ``i_L``, ``v_out``, ``v_L`` (inductor voltage), ``v_sw``,
 
 Valid range (exercised by ``tests/models/test_model_ranges.py``): ``Vin`` 1
 to 100 V, ``L`` 1e-5 to 1e-2 H, ``C`` 1e-6 to 1e-3 F, ``R_load`` 2 to 2000 Ω,
-``f_sw`` 1e3 to 1e5 Hz, ``i_ref`` from below to far above the load's
-current (continuous and discontinuous conduction, skipped turn-offs when
-the current cannot reach the reference in a period), ``m_c`` from 0 to a
-few ``m1``, ``w_clock`` from 0.01 to 0.2.  Pass ``max_step <= w_clock/f_sw``
+``f_sw`` 1e3 to 1e5 Hz, ``i_ref`` 0.1 to 10 A (from below to far above the
+load's current: continuous and discontinuous conduction, turn-offs at the
+pulse's end, clock edges with the switch still on, or a current that never
+reaches the reference), ``m_c`` 0 to 1e5 A/s, ``w_clock`` 0.01 to 0.2, and
+the output held at ``Vout = 2.5 Vin`` (D = 0.6: irregular without
+compensation, a stable orbit with it).  Pass ``max_step <= w_clock/(2 f_sw)``
 (a guard on time holds only during the pulse; ``RUN`` does).  Every turn-on
-falls at ``k/f_sw``, every turn-off where ``i_L = i_ref_comp`` or at the
-pulse's end, and the inductor current never reverses; no error is
+falls at a clock edge ``k/f_sw``, every turn-off where ``i_L = i_ref_comp``
+or at the pulse's end, and the inductor current never reverses; no error is
 documented in this range.
 """
 

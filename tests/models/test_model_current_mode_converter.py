@@ -299,3 +299,33 @@ def test_the_same_converter_in_milliamperes_millihenries_and_microseconds_switch
     np.testing.assert_allclose(np.array(b.event_times) * 1e-6, a.event_times, rtol=1e-9)
     np.testing.assert_allclose(b.signal("i_L")[-1] * 1e-3, a.signal("i_L")[-1], rtol=1e-8)
     np.testing.assert_allclose(b.signal("v_out")[-1], a.signal("v_out")[-1], rtol=1e-8)
+
+
+# ------------------------------------------------------------------ the command line
+
+
+def hbg(*args):
+    import os
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "models.cli", *args], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+
+
+def test_hbg_orbit_locates_the_period_doubling_of_the_held_output(tmp_path):
+    import csv
+
+    table = tmp_path / "vout.csv"
+    # the first guess i_L = 2.5 A: from the default 0 A the switch stays on all period (a piece of the edge map of
+    # slope 1, where the monodromy is 1 and Newton's matrix M − I vanishes)
+    out = hbg("orbit", "current-mode-converter", "--set", "load=source", "--set", "i_ref=3", "--set", "i_L0=2.5",
+              "--period", "1e-4", "--continue", "Vout=18:30:5", "--csv", str(table))
+    assert out.returncode == 0, out.stderr
+    assert "period doubling at 24" in out.stdout and "5 orbit(s)" in out.stdout
+    rows = list(csv.DictReader(table.open()))
+    assert [float(r["Vout"]) for r in rows] == [18.0, 21.0, 24.0, 27.0, 30.0]
+    for row in rows:
+        Vout = float(row["Vout"])
+        assert float(row["x0:p_L"]) == pytest.approx(HELD["L"] * fixed_current(Vout), rel=1e-8)
+        assert float(row["multiplier_1"]) == pytest.approx(multiplier(Vout), abs=1e-8)
