@@ -28,7 +28,10 @@ switch opening at the pulse's end: ``g(b) = b − c``, ``c = m2 (1 − w) T − 
 2-cycle's multiplier is the product of the slopes, ``−k·1 = −k``: unstable.
 At ``k = 1`` (``m_c = 0``) ``b = i_ref − m1 w T``, the border of the blanked
 piece: the branch leaves the flip there (at ``k = 1`` every ``i`` of the middle
-piece is on a 2-cycle: the flip of a piecewise-affine map is degenerate).
+piece is on a 2-cycle: the flip of a piecewise-affine map is degenerate).  It
+ends where ``a`` leaves the middle piece, ``i_ref − a = (m2 T + c)/(1 + k) = m1 T``
+(without compensation), i.e. ``c = m1 T``, ``m2 = m1 (1 + w)/(1 − w)``:
+``Vout = 2 Vin/(1 − w)`` (25.26 V for Vin = 12 V, w = 0.05).
 
 **RC load** (continuous conduction): with the switch on the diode is off, so
 ``i_L`` rises at ``m1`` exactly and ``v_C`` decays as ``e^{−t/(R C)}``: the
@@ -88,8 +91,8 @@ def two_cycle(Vout, m_c=0.0):
     c = m2 * (1 - w) * T - m1 * w * T
     b = HELD["i_ref"] - (m2 * T - k * c) / (1 + k)
     a = b - c
-    # on those pieces only (24 V < Vout < 25.25 V without compensation): a's turn-off between the pulse's end and
-    # the next edge, b's before the pulse's end
+    # on those pieces only (24 V < Vout < 2 Vin/(1 − w) = 25.26 V without compensation): a's turn-off between
+    # the pulse's end and the next edge, b's before the pulse's end
     assert w * T <= (HELD["i_ref"] - a) / (m1 + m_c) <= T and (HELD["i_ref"] - b) / (m1 + m_c) <= w * T
     return a, b
 
@@ -203,7 +206,12 @@ def test_the_doubled_branch_beyond_the_flip_is_the_edge_maps_two_cycle():
     (flip,) = result.bifurcations
     assert abs(flip.value - 24.0) < 1e-6
     (branch,) = result.branches
-    assert branch.points and all(p.value > 24.0 for p in branch.points)
+    # from p* + δ (δ = 0.03, a hundredth of the bracket 22–25) through p* + 2δ, 4δ, ... and the given 25 V; the
+    # 2-cycle ends at 2 Vin/(1 − w) = 25.26 V (module docstring), so there is none at 27 V
+    end = 2 * HELD["Vin"] / (1 - HELD["w_clock"])
+    assert [p.value for p in branch.points] == pytest.approx([flip.value + 0.03 * 2**k for k in range(6)] + [25.0],
+                                                            abs=1e-6)
+    assert all(24.0 < p.value < end for p in branch.points) and "no orbit at Vout = 27" in branch.stopped
     for point in branch.points:
         a, b = two_cycle(point.value)
         assert edge_map(a, point.value) == pytest.approx(b, rel=1e-13)  # a 2-cycle of the exact map
