@@ -49,12 +49,13 @@ above the reference at the clock (the switch then opens at the pulse's end,
 sawtooth's jump at ``kT`` (inside the pulse) never decides the turn-off.
 The pulse's width does not enter the period-1 orbit, the multipliers nor the
 run, as long as the switch turns off after the pulse (on time ``D T >
-w_clock T``) and turns on only once per pulse (its guard holds on the whole
-pulse, but the switch is then already on): the turn-on instant is the rising
-edge, and the turn-off is where ``i_L`` meets ``i_ref_comp``.  Orbits whose
-on time would be shorter than the pulse (the period-2 orbits just beyond the
-period doubling, see below) do depend on it: their short on time ends at the
-pulse's end.
+w_clock T``): the turn-on is the pulse's rising edge whatever its width (the
+switch, on from then, cannot turn off inside the pulse, so the guard that
+holds on the whole pulse turns it on once), and the turn-off is where
+``i_L`` meets ``i_ref_comp``.  Orbits whose on time would be shorter than
+the pulse (the period-2 orbits just beyond the period doubling, see
+``tests/models/test_model_current_mode_converter.py``) do depend on it:
+their short on time ends at the pulse's end.
 
 Automaton ``diode`` (states ``off``, ``on``; initial ``off``), an ideal
 diode as in :mod:`models.boost_converter`:
@@ -90,7 +91,11 @@ map of slope ``μ = −(m2 − m_c)/(m1 + m_c)`` (without compensation
 ``|μ| < 1`` exactly when ``m_c > (m2 − m1)/2``.  With the output held, ``m2 −
 m1 = (Vout − 2 Vin)/L`` grows towards ``Vout/L`` as ``D → 1``, so ``m_c ≥
 Vout/(2 L)`` (half the largest falling slope) keeps the orbit stable for
-every duty.
+every duty.  Over all currents ``i`` at a clock edge the period map is
+``g(i) = max(0, i + m1 τ − m2 (T − τ))`` with the on time
+``τ = clamp((i_ref − i)/(m1 + m_c), w_clock T, T)``: the comparator's piece
+above, a turn-off at the pulse's end (slope 1), a switch on all period
+(slope 1), discontinuous conduction (0).
 
 Periodic orbits: ``periodic_orbit(model, period=1/f_sw, max_step=...)``
 from a first guess ``x0`` whose switch turns off by the comparator (``i_L0``
@@ -164,7 +169,7 @@ RANGES = {
                      high_open=True, required=True),
 }
 #: a meaningful default run (used by ``hbg run``): the start-up from v_out = Vin over 200 periods, to about
-#: 20.5 V (the power Vin (i_ref − m1 D T/2) into R_load), with steps within the clock's pulse
+#: 20.7 V (the period-1 orbit: D ≈ 0.42, stable), with steps within the clock's pulse
 RUN = {"t_end": 0.02, "rtol": 1e-8, "max_step": 0.5 * DEFAULTS["w_clock"] / DEFAULTS["f_sw"]}
 SIGNALS = ("i_L", "v_out", "v_L", "v_sw", "i_sw", "i_D", "v_D", "i_ref_comp", "ramp", "clock")
 

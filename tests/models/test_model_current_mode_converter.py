@@ -337,3 +337,13 @@ def test_hbg_orbit_locates_the_period_doubling_of_the_held_output(tmp_path):
         Vout = float(row["Vout"])
         assert float(row["x0:p_L"]) == pytest.approx(HELD["L"] * fixed_current(Vout), rel=1e-8)
         assert float(row["multiplier_1"]) == pytest.approx(multiplier(Vout), abs=1e-8)
+
+
+def test_bad_choices_are_refused_with_the_alternatives():
+    from bondgraph.errors import InvalidGraphError
+    from switching import ModelDefinitionError
+
+    with pytest.raises(ModelDefinitionError, match="unknown load 'lc'.*rc, source"):
+        current_mode_converter.build(load="lc")
+    with pytest.raises(InvalidGraphError, match="w_clock.*0 < the range < 1"):
+        current_mode_converter.build(w_clock=0.0)
