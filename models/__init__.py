@@ -46,6 +46,7 @@ MODELS = (
     "boost_converter",
     "two_tanks",
     "vibrating_table",
+    "current_mode_converter",
 )
 
 

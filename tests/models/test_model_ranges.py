@@ -28,6 +28,7 @@ from models import (
     boost_converter,
     bouncing_ball,
     colliding_balls,
+    current_mode_converter,
     diode_circuit,
     falling_rod,
     load,
@@ -567,3 +568,70 @@ def test_vibrating_table_without_sticking_rule_is_zeno(A):
     sticking = vibrating_table.build(A=A, omega=omega, e=0.5, gap0=2 * A, v_stick=1e-3 * A * omega)
     ride = sticking.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega)
     assert ride.modes[-1].state_of("contact") == "stick" and ride.events[-1].t < t_inf
+# ================================================================== current-mode converter
+
+
+def _check_current_mode(Vin, L, i_ref, m_c, R_load=20.0, C=100e-6, f_sw=10e3, w=0.05, load="rc", v_C0=None,
+                        periods=20) -> dict:
+    """Every turn-on at a clock edge ``k/f_sw``, and never off over an edge; every turn-off where ``i_L`` meets
+    ``i_ref − m_c (t mod T)`` after the clock's pulse, or at the pulse's end (the current already above the
+    reference); ``i_L`` never reverses.  Returns the regimes met: ``dcm`` (intervals with the switch and the
+    diode off), ``skipped`` (clock edges with the switch still on), ``blanked`` (turn-offs at the pulse's end),
+    each counted over the second half of the run (after the start-up from ``i_L = 0``)."""
+    T = 1 / f_sw
+    t_end = periods * T
+    model = current_mode_converter.build(Vin=Vin, L=L, i_ref=i_ref, m_c=m_c, R_load=R_load, C=C, f_sw=f_sw,
+                                         w_clock=w, load=load, v_C0=v_C0 or Vin, Vout=2.5 * Vin)
+    trajectory = run(model, t_end, "RK45", rtol=1e-9, atol=1e-12, max_step=0.5 * w * T)
+    reaches_end(trajectory, t_end)
+    k = model.state_names.index("p_L")
+    moves = [e for e in trajectory.events if e.mode_before.state_of("switch") != e.mode_after.state_of("switch")]
+    states = [e.mode_after.state_of("switch") for e in moves]
+    assert all(a != b for a, b in zip(states, states[1:]))  # alternate: off, on, off, ...
+    ons = np.array([e.t for e in moves if e.mode_after.state_of("switch") == "on"]) / T
+    assert np.all(np.abs(ons - np.round(ons)) < 1e-9)  # none when the current never reaches the reference
+    # the switch is never off over a clock edge: a turn-off is followed by the turn-on at the next edge
+    for off, on in zip(moves, moves[1:]):
+        if off.mode_after.state_of("switch") == "off":
+            assert on.t / T == pytest.approx(math.floor(off.t / T + 1e-9) + 1, abs=1e-9)
+    blanked, settled = 0, periods // 2 * T
+    for e in moves:
+        if e.mode_after.state_of("switch") == "off":
+            phase = e.t / T - math.floor(e.t / T + 1e-9)
+            i_L = e.x_before[k] / L
+            at_pulse_end = phase == pytest.approx(w, abs=1e-9)
+            assert phase >= w - 1e-9, e.t
+            assert at_pulse_end or i_L == pytest.approx(i_ref - m_c * phase * T, rel=1e-6, abs=1e-6 * i_ref), e.t
+            blanked += at_pulse_end and e.t >= settled
+    i_L = trajectory.signal("i_L")
+    assert i_L.min() >= -1e-9 * max(1.0, np.abs(i_L).max())
+    edges = sum(1 for on in ons if periods // 2 <= round(on) < periods)
+    return {"dcm": sum(1 for e in trajectory.events if e.mode_after.label == "off|off" and e.t >= settled),
+            "skipped": periods - periods // 2 - edges, "blanked": blanked}
+
+
+@pytest.mark.parametrize("Vin, L, i_ref, m_c, R_load, v_C0, regimes", [
+    (12.0, 1e-3, 2.0, 0.0, 20.0, 20.5, set()),  # the defaults near their steady state: continuous conduction, D ≈ 0.41
+    (12.0, 1e-3, 0.5, 0.0, 200.0, 24.0, {"dcm"}),  # a low reference: discontinuous conduction
+    (12.0, 1e-4, 20.0, 6e4, 2.0, 20.0, set()),  # a heavy load and a large ripple, compensated
+    (1.0, 1e-5, 1.0, 0.0, 2000.0, 5.0, {"dcm"}),  # a light load, a fast inductor
+    (100.0, 1e-2, 5.0, 1e4, 20.0, 100.0, {"blanked"}),  # v_out ≈ Vin: the current hardly falls, above the reference
+])
+def test_current_mode_converter(Vin, L, i_ref, m_c, R_load, v_C0, regimes):
+    met = _check_current_mode(Vin, L, i_ref, m_c, R_load, v_C0=v_C0)
+    assert {name for name, count in met.items() if count} == regimes
+
+
+@pytest.mark.parametrize("i_ref, m_c, regimes", [(2.0, 0.0, {"skipped"}), (2.0, 9e3, set()), (0.2, 0.0, {"dcm"})])
+def test_current_mode_converter_with_the_output_held(i_ref, m_c, regimes):
+    # Vout = 2.5 Vin: D = 0.6, unstable without compensation (irregular, with skipped turn-offs), stable with
+    # m_c > (m2 − m1)/2 = 3000 A/s
+    met = _check_current_mode(12.0, 1e-3, i_ref, m_c, load="source")
+    assert {name for name, count in met.items() if count} == regimes
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("Vin, L, C, R_load, f_sw, i_ref, m_c, w", grid(
+    [1.0, 100.0], [1e-5, 1e-2], [1e-6, 1e-3], [2.0, 2000.0], [1e3, 1e5], [0.1, 10.0], [0.0, 1e5], [0.01, 0.2]))
+def test_current_mode_converter_full_grid(Vin, L, C, R_load, f_sw, i_ref, m_c, w):
+    _check_current_mode(Vin, L, i_ref, m_c, R_load, C, f_sw, w)
