@@ -134,9 +134,9 @@ from __future__ import annotations
 from bondgraph import BondGraph, C, I, One, R, Se, Zero
 from switching import Automaton, HybridModel, ModelDefinitionError
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "LOADS", "controller_signals"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "UNITS", "LOADS", "controller_signals"]
 
 #: the output's two forms: the capacitor with its load, or a voltage source holding it
 LOADS = ("rc", "source")
@@ -172,6 +172,11 @@ RANGES = {
 #: 20.7 V (the period-1 orbit: D ≈ 0.42, stable), with steps within the clock's pulse
 RUN = {"t_end": 0.02, "rtol": 1e-8, "max_step": 0.5 * DEFAULTS["w_clock"] / DEFAULTS["f_sw"]}
 SIGNALS = ("i_L", "v_out", "v_L", "v_sw", "i_sw", "i_D", "v_D", "i_ref_comp", "ramp", "clock")
+#: the unit of each parameter, state and signal (shown on plots, kept in model files; ``q_C`` with the RC load)
+UNITS = {"Vin": "V", "L": "H", "R_L": "Ω", "C": "F", "R_load": "Ω", "Vout": "V", "f_sw": "Hz", "i_ref": "A",
+         "m_c": "A/s", "w_clock": "1", "v_C0": "V", "i_L0": "A", "p_L": "V·s", "q_C": "C", "i_L": "A",
+         "v_out": "V", "v_L": "V", "v_sw": "V", "i_sw": "A", "i_D": "A", "v_D": "V", "i_ref_comp": "A",
+         "ramp": "1", "clock": "1"}
 
 
 def controller_signals() -> dict:
@@ -231,10 +236,11 @@ def build(**parameters) -> HybridModel:
         raise ModelDefinitionError(f"unknown load {load!r} of current_mode_converter; choose one of: "
                                    f"{', '.join(LOADS)}")
     names = ["Vin", "L", "R_L", "f_sw", "i_ref", "m_c", "w_clock"]
-    names += ["Vout"] if load == "source" else ["C", "R_load"]
-    initial = {"p_L": p["L"] * p["i_L0"]}
+    names += ["Vout"] if load == "source" else ["C", "R_load", "v_C0"]
+    names += ["i_L0"]
+    initial = {"p_L": "L*i_L0"}
     if load == "rc":
-        initial["q_C"] = p["C"] * p["v_C0"]
+        initial["q_C"] = "C*v_C0"
     signals = {
         "i_L": "p_L/L",
         "v_out": "e_out",
@@ -245,5 +251,8 @@ def build(**parameters) -> HybridModel:
         "v_D": "e_diode - e_out",
         **controller_signals(),
     }
-    return HybridModel(_graph(load), _automata(load), {k: p[k] for k in names}, initial_state=initial,
-                       signals=signals, name="current_mode_converter")
+    model_parameters = {k: p[k] for k in names}
+    return HybridModel(_graph(load), _automata(load), model_parameters, initial_state=initial,
+                       signals=signals, name="current_mode_converter",
+                       **annotated({k: v for k, v in UNITS.items() if k != "q_C" or load == "rc"}, RANGES, DEFAULTS,
+                                   model_parameters))

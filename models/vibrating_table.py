@@ -116,9 +116,9 @@ import sympy as sp
 from bondgraph import BondGraph, I, One, Se, Sf, Zero, t
 from switching import Automaton, HybridModel, InMode
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RANGES", "RUN", "SIGNALS", "table_motion"]
+__all__ = ["build", "DEFAULTS", "RANGES", "RUN", "SIGNALS", "UNITS", "table_motion"]
 
 DEFAULTS = {
     "m": 1.0,
@@ -143,6 +143,10 @@ RANGES = {
 #: a meaningful default run (used by ``hbg run``): a drop onto the table, settling on the period-1 orbit
 RUN = {"t_end": 3.0, "rtol": 1e-9}
 SIGNALS = ("y", "v", "table", "table_v", "table_a", "gap", "vrel", "contact_force", "N_stick")
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"m": "kg", "g": "m/s²", "e": "1", "A": "m", "omega": "rad/s", "gap0": "m", "vrel0": "m/s", "v_stick": "m/s",
+         "p": "N·s", "y": "m", "v": "m/s", "table": "m", "table_v": "m/s", "table_a": "m/s²", "gap": "m",
+         "vrel": "m/s", "contact_force": "N", "N_stick": "N"}
 
 
 def table_motion(A, omega) -> tuple:
@@ -201,13 +205,13 @@ def build(**parameters) -> HybridModel:
     """The ball on the vibrating table with ``DEFAULTS`` overridden by ``parameters``."""
     p = merged(DEFAULTS, parameters, RANGES, "vibrating_table")
     # at t = 0 the table is at s = 0 moving at A ω
-    y0 = p["gap0"]
-    v0 = p["A"] * p["omega"] + p["vrel0"]
+    model_parameters = {k: p[k] for k in ("m", "g", "e", "A", "omega", "v_stick", "gap0", "vrel0")}
     return HybridModel(
         _graph(),
         [_automaton()],
-        {k: p[k] for k in ("m", "g", "e", "A", "omega", "v_stick")},
-        initial_state={"y": y0, "p": p["m"] * v0},
+        model_parameters,
+        initial_state={"y": "gap0", "p": "m*(A*omega + vrel0)"},
         signals={**_SIGNALS, "N_stick": InMode("-e_contact", contact="stick")},
         name="vibrating_table",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )
