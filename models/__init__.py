@@ -39,6 +39,7 @@ MODELS = (
     "parallel_capacitors",
     "boost_converter",
     "two_tanks",
+    "rimless_wheel",
 )
 
 
