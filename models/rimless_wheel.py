@@ -85,10 +85,13 @@ metric is ``m I``).  With ``v⁻ = l ω⁻ (cos α, −sin α)`` and ``u_new = (
 
 with the impulse ``m l ω⁻ sin 2α`` along the new spoke.  The old foot leaves
 the ground: were both feet held (double support, the hub stopped), the
-impulse through the old spoke would be ``−m l ω⁻ cot 2α``, a pull for
-``α < π/4`` — the unilateral ground cannot give it (the a posteriori
-judgement, in closed form; ``tests/models/test_model_rimless_wheel.py``
-derives it from a two-contact bond graph).  In flow the foot is held: a
+impulses through the spokes would be ``−m l ω⁻ cot 2α`` (old: a pull for
+``α < π/4``) and ``m l ω⁻ / sin 2α`` (new) — the unilateral ground cannot
+give the pull (the a posteriori judgement, in closed form).
+``tests/models/test_model_rimless_wheel.py`` derives these impulses from a
+two-contact bond graph (each foot its controlled junction and automaton,
+released a posteriori when its push would be ``<= 0``) and checks that it
+walks exactly as this model, double support passed as a mythical mode.  In flow the foot is held: a
 spoke that would pull in stance would make the wheel hop, and a massless
 wheel in the air has no defined orientation, so ``build`` refuses such
 parameters (below).
@@ -102,9 +105,19 @@ Stance (the closed forms the tests check).  The energy about the foot is
 With ``E = ω⁺²`` the stride map is ``E_{k+1} = cos² 2α (E_k + 4 (g/l) sin α
 sin γ)``, affine with slope ``cos² 2α``: its fixed point
 ``ω⁻*² = 4 (g/l) sin α sin γ / (1 − cos² 2α)`` attracts every gait that keeps
-rolling.  The stance time is ``∫_{−α}^{α} dθ / ω(θ)``.  The normal force is
+rolling; it exists when the hub passes the vertical at that speed, ``γ >= α`` or
+``ω⁺*² > (2g/l)(1 − cos(α − γ))`` (otherwise every wheel comes to rest).
+The stance time is ``∫_{−α}^{α} dθ / ω(θ)``.  The normal force is
 ``N = m (g cos(θ + γ) − l ω²) = m (3 g cos(θ + γ) − l C)`` with ``C = ω² +
 (2g/l) cos(θ + γ)`` constant in a stance; its least value is at ``θ = α``.
+
+The gait as a periodic orbit: ``periodic_orbit(model, section="stance: even
+-> odd", period=2.0)`` (``hbg orbit rimless-wheel --section
+"stance:even->odd" --period 2``).  The parity flips at every impact, so the
+state ``(p_x, p_y, psi)`` returns after *two* strides (the period is twice
+the stance time); the monodromy's multipliers are 1 (trivial, along the
+flow), ``cos⁴ 2α`` (the stride map's slope, twice) and 0 (the radial
+momentum, which the stance constraint removes at once).
 
 Sign conventions and units: kg, m, s, rad, N.  ``theta`` (``θ``) and
 ``omega`` (``ω = dθ/dt``) are the planted spoke's angle and rate (positive
@@ -133,7 +146,9 @@ gait's (a sufficient condition for ``N > 0``: ``C`` never exceeds the larger
 of the two, the stride map being affine with slope below 1 and a backward
 impact lowering ``C``), and for ``|phase0| > 1``.  Tested: ``α`` from π/20
 to π/5, ``γ`` from 0.01 to 0.3 rad, ``l`` from 1e-3 to 1e3 m with ``g``
-from 1.62 to 274 m/s², ``omega0`` from rest to the steady gait's.  A wheel
+from 1.62 to 274 m/s², started at the steady gait's ``ω⁺*`` (stance times
+against quadrature where it rolls, the refusal where it would hop, Zeno where
+it rocks).  A wheel
 too slow to carry its hub over the vertical (``θ = −γ``) rolls back onto the
 previous spoke and rocks between two feet, each impact shrinking ``ω`` by
 ``cos 2α``: the impacts accumulate (Zeno) and a run past the accumulation

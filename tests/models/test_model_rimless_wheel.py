@@ -36,9 +36,10 @@ import pytest
 import sympy as sp
 from scipy.integrate import quad
 
+from bondgraph import TF, BondGraph, I, One, Se, Sf, Zero
 from bondgraph.errors import InvalidGraphError, ParameterValueError
 from models import rimless_wheel
-from switching import ZenoError
+from switching import Automaton, HybridModel, ZenoError
 from switching.analysis.orbits import periodic_orbit
 
 OPTIONS = {"rtol": 1e-10, "atol": 1e-12}
@@ -170,6 +171,88 @@ def test_every_impact_of_a_run_follows_the_plastic_law(rolling):
     assert np.all(omega_minus > 0)
     np.testing.assert_allclose(omega_plus / omega_minus, math.cos(2 * ALPHA), rtol=1e-12)
     assert "impact ratios" in rimless_wheel.error_estimate(rolling)
+
+
+# ------------------------------------------------------------------ the release of the old foot
+
+
+def two_feet_wheel(**parameters):
+    """The wheel as two alternating foot contacts, each a controlled 0-junction with its own
+    automaton (``planted``/``lifted``): touchdown a priori as in the shipped model, release
+    a posteriori when the spoke's push (impulses included) would be ``<= 0`` while the other foot
+    is planted.  Its junction structure has loops (two radial constraints on the same two
+    velocities), which is why the shipped model switches one contact's geometry instead."""
+    p = {**P, **parameters}
+    m, l, g, gamma, psi = sp.symbols("m l g gamma psi")
+    sigma = sp.Symbol("planted_even") - sp.Symbol("planted_odd")
+    graph = BondGraph("two_feet_wheel")
+    vx, vy = graph.add(One("vx")), graph.add(One("vy"))
+    graph.connect(vx, I("I_x", m, state="p_x"))
+    graph.connect(vy, I("I_y", m, state="p_y"))
+    graph.connect(Se("gravity_x", m * g * sp.sin(gamma)), vx)
+    graph.connect(Se("gravity_y", -m * g * sp.cos(gamma)), vy)
+    for foot, sign in (("even", 1), ("odd", -1)):
+        leg = graph.add(Zero(f"leg_{foot}"))
+        for source, name, modulus in ((vx, f"ux_{foot}", sign * sp.sin(psi)), (vy, f"uy_{foot}", sp.cos(psi))):
+            graph.connect(source, TF(name, modulus))
+            graph.connect(name, leg)
+        contact = graph.add(Zero(f"foot_{foot}", controlled=True))
+        graph.connect(leg, contact, name=f"radial_{foot}")
+        graph.connect(contact, Sf(f"ground_{foot}", 0))
+    graph.connect(vx, TF("spin", sigma / (l * sp.cos(psi))))
+    graph.connect("spin", Se("free_spin", 0))
+    graph.displacement("psi", of="free_spin")
+    automata = []
+    for foot, other in (("even", "odd"), ("odd", "even")):
+        automaton = Automaton(f"foot_{foot}", {"planted": {f"foot_{foot}": True}, "lifted": {f"foot_{foot}": False}},
+                              "planted" if foot == "even" else "lifted",
+                              values={"planted": {f"planted_{foot}": 1}, "lifted": {f"planted_{foot}": 0}})
+        automaton.add_transition("lifted", "planted", "psi >= alpha and dpsi > 0 or psi <= -alpha and dpsi < 0")
+        automaton.add_transition("planted", "lifted", f"N_{foot} <= 0 and planted_{other} > 0", "a posteriori")
+        automata.append(automaton)
+    theta0 = p["phase0"] * p["alpha"]
+    speed = p["m"] * p["l"] * p["omega0"]
+    return HybridModel(graph, automata, {k: p[k] for k in ("m", "l", "g", "alpha", "gamma")},
+                       initial_state={"psi": theta0, "p_x": speed * math.cos(theta0),
+                                      "p_y": -speed * math.sin(theta0)},
+                       signals={"N_even": "-e_radial_even", "N_odd": "-e_radial_odd", "dpsi": "f_free_spin"},
+                       name="two_feet_wheel")
+
+
+def test_double_support_would_need_the_old_spoke_to_pull():
+    """Both feet held at a forward impact on the even spoke (``ψ = θ = α``): conservation of state
+    stops the hub, with the impulses ``P_old = −m l ω⁻ cot 2α`` (a pull for ``α < π/4``) and
+    ``P_new = m l ω⁻ / sin 2α`` through the spokes — so the old foot lifts (a posteriori)."""
+    model = two_feet_wheel()
+    m, l, alpha, w = sp.symbols("m l alpha omega_minus")
+    both = model.mode_equations(model.mode({"foot_even": "planted", "foot_odd": "planted"}))
+    states = [sp.Symbol(name) for name in ("p_x", "p_y", "psi")]
+    before = dict(zip(states, (m * l * w * sp.cos(alpha), -m * l * w * sp.sin(alpha), alpha)))
+    after = [sp.sympify(e).xreplace(before) for e in both.jump.vector()]
+    assert sp.simplify(after[0]) == 0 and sp.simplify(after[1]) == 0  # the hub stops
+
+    def impulse(name):
+        """The pulse area ``a(x)ᵀ (x⁺ − x)`` of a signal at the jump [N·s]."""
+        coefficients = both.signal(name).impulse
+        assert set(coefficients) <= set(states) and coefficients  # the push pulses at this jump
+        return sum(sp.sympify(coefficients.get(x, 0)).xreplace(before) * (x_after - before[x])
+                   for x, x_after in zip(states, after))
+    assert sp.simplify(impulse("N_even") + m * l * w * sp.cot(2 * alpha)) == 0
+    assert sp.simplify(impulse("N_odd") - m * l * w / sp.sin(2 * alpha)) == 0
+
+
+def test_two_feet_with_the_a_posteriori_release_walk_as_the_shipped_wheel(rolling):
+    """The two-contact wheel passes double support as a mythical mode at each impact and then
+    flows exactly as the shipped one: the same instants and states."""
+    trajectory = two_feet_wheel().simulate(6.0, "RK45", **OPTIONS)
+    assert len(trajectory.events) == len(rolling.events) == 5
+    for event in trajectory.events:
+        kinds = [step.kind for step in event.steps]
+        assert kinds == ["start", "mythical", "continuous"]
+        assert event.steps[1].mode.state_of("foot_even") == event.steps[1].mode.state_of("foot_odd") == "planted"
+    np.testing.assert_allclose(trajectory.event_times, rolling.event_times, rtol=1e-12)
+    np.testing.assert_allclose(trajectory.at_instants().x_after, rolling.at_instants().x_after, rtol=1e-10,
+                               atol=1e-12)
 
 
 # ------------------------------------------------------------------ (b) the stance phase
