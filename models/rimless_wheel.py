@@ -192,7 +192,7 @@ RANGES = {
 RUN = {"t_end": 6.0, "rtol": 1e-10, "atol": 1e-12}
 SIGNALS = ("theta", "omega", "normal_force", "hub_x", "hub_y")
 
-#: the two contacts: name → the sign of sin ψ in the unit vector from that foot to the hub
+#: the touchdown of the next spoke: the stance angle reaches ±α moving outward (``ψ ψ̇ > 0``)
 _TOUCHDOWN = "psi >= alpha and dpsi > 0 or psi <= -alpha and dpsi < 0"
 
 
@@ -255,16 +255,17 @@ def _check_ground_contact(p: dict) -> None:
         raise ParameterValueError(
             f"rimless_wheel: phase0 = {p['phase0']:g} puts the stance angle beyond ±alpha (|phase0| <= 1): the "
             "next spoke would be below the slope", "phase0", p["phase0"])
-    level = _pendulum_level(p["omega0"], p["phase0"] * alpha, g, l, gamma)
-    if 0 < gamma < math.pi / 2:
-        _, after = fixed_point(alpha, gamma, l, g)
-        level = max(level, _pendulum_level(after, -alpha, g, l, gamma))
-    if l * level >= 3 * g * math.cos(alpha + gamma):
+    first = _pendulum_level(p["omega0"], p["phase0"] * alpha, g, l, gamma)
+    steady = _pendulum_level(fixed_point(alpha, gamma, l, g)[1], -alpha, g, l, gamma) if 0 < gamma < math.pi / 2 else 0.0
+    limit = 3 * g * math.cos(alpha + gamma) / l
+    if max(first, steady) >= limit:
+        culprit, what = (("omega0", f"its first stance (omega0 = {p['omega0']:g} rad/s): lower omega0") if first >= steady
+                         else ("gamma", f"its steady gait (gamma = {gamma:g} rad): a gentler slope or more spokes"))
         raise ParameterValueError(
-            f"rimless_wheel: the wheel would leave the ground (omega0 = {p['omega0']:g} rad/s, l = {l:g} m, "
-            f"g = {g:g} m/s²): the spoke's push m (3 g cos(theta + gamma) − l C) turns negative at theta = alpha, "
-            f"C = {level:.6g} 1/s² against 3 g cos(alpha + gamma)/l = {3 * g * math.cos(alpha + gamma) / l:.6g}; "
-            "a massless wheel in the air is outside this model: lower omega0 or gamma", "omega0", p["omega0"])
+            f"rimless_wheel: the wheel would leave the ground in {what}. The spoke's push m (3 g cos(theta + "
+            f"gamma) − l C) turns negative at theta = alpha: C = {max(first, steady):.6g} 1/s² against "
+            f"3 g cos(alpha + gamma)/l = {limit:.6g} (l = {l:g} m, g = {g:g} m/s²); a massless wheel in the air "
+            "is outside this model", culprit, p[culprit])
 
 
 def build(**parameters) -> HybridModel:
