@@ -56,6 +56,8 @@ from .jump import JumpMap as JumpMap
 from .jump import JumpMapError as JumpMapError
 from .jump import derive_jump_map as derive_jump_map
 from .state_space import StateSpace as StateSpace
+from .linear_system import LinearSystem as LinearSystem
+from .errors import MissingDependencyError as MissingDependencyError
 from .graph import Bond as Bond
 from .graph import BondGraph as BondGraph
 from .graph import Instance as Instance

@@ -24,6 +24,7 @@ __all__ = [
     "UnknownParameterError",
     "DerivationError",
     "ParameterValueError",
+    "MissingDependencyError",
     "PhysicalRangeWarning",
     "EnergyGainWarning",
     "CoarseStepWarning",
@@ -195,6 +196,11 @@ class ParameterValueError(HybridBondGraphError, ValueError):
         super().__init__(message)
         self.name = name
         self.value = value
+
+
+class MissingDependencyError(HybridBondGraphError, ImportError):
+    """An optional dependency of a feature is not installed; the message
+    names the extra that installs it (and what works without it)."""
 
 
 class PhysicalRangeWarning(UserWarning):

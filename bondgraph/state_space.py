@@ -22,11 +22,13 @@ proportional to a state or an input is an error.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
+import numpy as np
 import sympy as sp
 
 from .errors import DerivationError
+from .linear_system import LinearSystem
 from .solving import simplified
 from .symbols import t
 
@@ -38,7 +40,11 @@ class StateSpace:
     """``ẋ = A x + B u``, ``y = C x + D u`` with the names of ``x``, ``u``, ``y``.
 
     ``A, B, C, D = ss`` unpacks the four matrices (sympy ``Matrix``);
-    ``states``, ``inputs`` are tuples of symbols, ``outputs`` a tuple of names."""
+    ``states``, ``inputs`` are tuples of symbols, ``outputs`` a tuple of names.
+    ``constraints``: dependent state → its constraint ``x_d = K x + L u``
+    (an expression of the independent states and the inputs), for each state
+    that the configuration holds dependent (derivative causality);
+    :meth:`reduced` removes those from ``states``."""
 
     A: sp.Matrix
     B: sp.Matrix
@@ -47,6 +53,7 @@ class StateSpace:
     states: tuple
     inputs: tuple
     outputs: tuple
+    constraints: dict = field(default_factory=dict)
 
     def __iter__(self):
         return iter((self.A, self.B, self.C, self.D))
@@ -55,12 +62,72 @@ class StateSpace:
         """A copy with parameters replaced by ``values`` (numbers or expressions)."""
         values = {sp.Symbol(k) if isinstance(k, str) else k: v for k, v in values.items()}
         return replace(self, A=self.A.xreplace(values), B=self.B.xreplace(values),
-                       C=self.C.xreplace(values), D=self.D.xreplace(values))
+                       C=self.C.xreplace(values), D=self.D.xreplace(values),
+                       constraints={x: v.xreplace(values) for x, v in self.constraints.items()})
+
+    def reduced(self) -> "StateSpace":
+        """The same system over the independent states ``x_i`` alone.
+
+        Each dependent state is ``x_d = K_d x + L_d u`` (:attr:`constraints`;
+        ``K_d`` is zero on the dependent states), so ``x = P x_i + Q u`` with
+        ``P`` (n × n_i) the identity on the independent rows and ``K_d`` on the
+        dependent ones, ``Q`` (n × m) zero and ``L_d``.  Then
+        ``ẋ_i = A_i P x_i + (B_i + A_i Q) u`` (``A_i``, ``B_i``: the
+        independent rows) and ``y = C P x_i + (D + C Q) u``.  The result
+        keeps :attr:`constraints` (their states no longer among ``states``);
+        without dependent states among ``states``, ``self``."""
+        keep = [k for k, x in enumerate(self.states) if x not in self.constraints]
+        if len(keep) == len(self.states):
+            return self
+        P, Q = self._embedding(keep)
+        A_i, B_i = self.A.extract(keep, list(range(self.A.cols))), self.B.extract(keep, list(range(self.B.cols)))
+        return StateSpace((A_i * P).applyfunc(sp.simplify), (B_i + A_i * Q).applyfunc(sp.simplify),
+                          (self.C * P).applyfunc(sp.simplify), (self.D + self.C * Q).applyfunc(sp.simplify),
+                          tuple(self.states[k] for k in keep), self.inputs, self.outputs, dict(self.constraints))
+
+    def _embedding(self, keep: list) -> tuple:
+        """``(P, Q)`` of ``x = P x_i + Q u`` (see :meth:`reduced`), ``x_i`` the states at ``keep``."""
+        P = sp.zeros(len(self.states), len(keep))
+        Q = sp.zeros(len(self.states), len(self.inputs))
+        for column, k in enumerate(keep):
+            P[k, column] = 1
+        for k, x in enumerate(self.states):
+            if k in keep:
+                continue
+            K, L = _linear_row(self.constraints[x], self.states, self.inputs, f"the constraint of {x}")
+            if any(K[j] != 0 for j in range(len(self.states)) if j not in keep):
+                raise DerivationError(f"the constraint {x} = {self.constraints[x]} names another dependent "
+                                      "state; no reduced state-space form", [str(x)])
+            for column, j in enumerate(keep):
+                P[k, column] = K[j]
+            for j, v in enumerate(L):
+                Q[k, j] = v
+        return P, Q
+
+    def numeric(self, values: dict | None = None, name: str = "") -> LinearSystem:
+        """A :class:`~bondgraph.linear_system.LinearSystem` (float arrays,
+        continuous time) over the independent states (:meth:`reduced`), with
+        ``values`` (symbol or name → number) substituted for the parameters.
+        Its ``dependent`` names the states left out, with their constraints.
+        A symbol left without a value raises :class:`DerivationError` naming it."""
+        system = self.substituted(values or {})
+        dependent = {str(x): str(v) for x, v in system.constraints.items()}
+        system = system.reduced()
+        arrays = []
+        for label, matrix in zip("ABCD", system):
+            free = sorted(str(s) for s in matrix.free_symbols)
+            if free:
+                raise DerivationError(f"state-space matrix {label} still holds the symbol(s) {', '.join(free)}: give "
+                                      f"their values (numeric(values={{...}})) to make it numerical", free)
+            arrays.append(np.array(matrix.evalf(), dtype=float).reshape(matrix.shape))
+        return LinearSystem(*arrays, tuple(map(str, system.states)), tuple(map(str, system.inputs)),
+                            tuple(map(str, system.outputs)), name=name, dependent=dependent)
 
     def pretty(self) -> str:
         lines = ["  x = [" + ", ".join(map(str, self.states)) + "]",
                  "  u = [" + ", ".join(map(str, self.inputs)) + "]",
                  "  y = [" + ", ".join(map(str, self.outputs)) + "]"]
+        lines += [f"  {x} = {v} (dependent)" for x, v in self.constraints.items()]
         for name, m in zip("ABCD", self):
             lines.append(f"  {name} = " + (sp.pretty(m, use_unicode=True).replace("\n", "\n      ") if m
                                           else f"[] ({m.rows}×{m.cols})"))
@@ -192,4 +259,4 @@ def state_space(eqs, outputs=None, inputs=None) -> StateSpace:
     n, m, p = len(states), len(u), len(out_names)
     return StateSpace(sp.Matrix(n, n, [v for r in A for v in r]), sp.Matrix(n, m, [v for r in B for v in r]),
                       sp.Matrix(p, n, [v for r in C for v in r]), sp.Matrix(p, m, [v for r in D for v in r]),
-                      tuple(states), tuple(u), tuple(out_names))
+                      tuple(states), tuple(u), tuple(out_names), dict(derived.constraints))

@@ -8,7 +8,13 @@ Every model is a module ``models.<name>`` with
 * ``DEFAULTS`` — parameter name → default value (a meaningful run);
 * ``build(**parameters) -> switching.HybridModel`` — unknown names are an error;
 * ``RUN`` — the default run: ``t_end`` and the step options (and a ``method`` where the model needs one: ``hbg run`` takes ``auto`` otherwise);
-* ``SIGNALS`` — the named signals worth plotting.
+* ``SIGNALS`` — the named signals worth plotting;
+* ``UNITS`` — the unit of each parameter, state and signal (plots label their
+  axes with them, model files keep them).
+
+A shipped model writes its initial state with parameters (``theta0``,
+``m*v0``), so ``hbg save`` keeps them: ``--set theta0=…`` moves a saved
+model's start as it moves the shipped one's.
 
 Also: :mod:`models.circuits` (electrical netlists: ``Circuit`` builds the hybrid
 model of components between named nodes), :mod:`models.mechanics` (1-D machines,
@@ -39,6 +45,8 @@ MODELS = (
     "parallel_capacitors",
     "boost_converter",
     "two_tanks",
+    "vibrating_table",
+    "current_mode_converter",
     "rimless_wheel",
 )
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from bondgraph.errors import InvalidGraphError, ParameterValueError, PhysicalRangeWarning, UnknownParameterError
 from bondgraph.reals import real_number
 
-__all__ = ["merged", "Range", "positive", "nonnegative"]
+__all__ = ["merged", "Range", "positive", "nonnegative", "annotated"]
 
 
 @dataclass(frozen=True)
@@ -104,3 +104,12 @@ def merged(defaults: Mapping, overrides: Mapping, ranges: Mapping[str, Range] | 
                 f"{model}: {name} = {values[name]:g} is outside the physical range {allowed.describe(name)} "
                 f"({allowed.what}); the run goes on, but its result may not be physical"), stacklevel=3)
     return values
+
+
+def annotated(units: Mapping, ranges: Mapping, defaults: Mapping, parameters) -> dict:
+    """``units=`` and ``descriptions=`` for a shipped model's ``HybridModel``:
+    the units of its states, signals and of those of ``parameters`` (the
+    names it passes as parameters) that ``units`` lists, and what each
+    parameter with a :class:`Range` is (its ``what``)."""
+    return {"units": {k: v for k, v in units.items() if k not in defaults or k in parameters},
+            "descriptions": {name: ranges[name].what for name in parameters if name in ranges}}

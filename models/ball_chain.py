@@ -128,14 +128,14 @@ from bondgraph import C, BondGraph, I, One, R, Zero
 from bondgraph.errors import InvalidGraphError
 from switching import Automaton, HybridModel, Tolerance
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
 #: a damped contact's guards (lengths: overlaps, the force over k) take lengths below this fraction of
 #: the radius as zero: touching balls at rest carry a force of exactly zero, which the integrator's
 #: round-off (far below this) must not turn into a pull
 LENGTH_ROUNDOFF = 1e-12
 
-__all__ = ["build", "LENGTH_ROUNDOFF", "DEFAULTS", "RUN", "SIGNALS", "signals_for", "error_estimate"]
+__all__ = ["build", "LENGTH_ROUNDOFF", "DEFAULTS", "RUN", "SIGNALS", "UNITS", "signals_for", "units_for", "error_estimate"]
 
 DEFAULTS = {
     "N": 4,
@@ -165,6 +165,18 @@ RANGES = {
 #: then ball N moves away
 RUN = {"t_end": 0.5, "rtol": 1e-9, "atol": 1e-12}
 SIGNALS = ("x1", "x2", "x3", "x4", "v1", "v2", "v3", "v4")
+#: the unit of each parameter (states and signals: :func:`units_for`)
+UNITS = {"m": "kg", "r": "m", "v0": "m/s", "distance": "m", "gap": "m", "e": "1", "v_th": "m/s", "k": "N/m",
+         "b": "N·s/m"}
+
+
+def units_for(N: int) -> dict:
+    """The units of the states and signals of a chain of ``N`` balls (``q<i>``: a compliant contact's compression)."""
+    units = {}
+    for i in range(1, N + 1):
+        units.update({f"p{i}": "N·s", f"pos{i}": "m", f"x{i}": "m", f"v{i}": "m/s"})
+    units.update({f"q{i}": "m" for i in range(1, N)})
+    return units
 
 
 def signals_for(N: int) -> tuple:
@@ -223,17 +235,16 @@ def build(**parameters) -> HybridModel:
         g.displacement(f"pos{i}", of=f"v{i}")
 
     names = ["m", "r"] + (["k"] + (["b"] if damped else []) if compliant else ["e", "v_th"])
-    model_parameters = {name: p[name] for name in names}
-    initial = {"p1": p["m"] * p["v0"], "pos1": 0.0}
-    x = 2 * p["r"] + p["distance"]
-    for i in range(2, n + 1):
-        initial[f"pos{i}"] = x
-        x += 2 * p["r"] + p["gap"]
+    model_parameters = {name: p[name] for name in names + ["v0", "distance"] + (["gap"] if n > 2 else [])}
+    initial = {"p1": "m*v0", "pos1": 0.0}
+    for i in range(2, n + 1):  # ball 2 at 2r + distance, each next one 2r + gap further
+        initial[f"pos{i}"] = f"{i - 1}*2*r + distance" + (f" + {i - 2}*gap" if i > 2 else "")
     signals = {f"x{i}": f"pos{i}" for i in range(1, n + 1)}
     signals.update({f"v{i}": f"p{i}/m" for i in range(1, n + 1)})
     tolerance = Tolerance(atol=LENGTH_ROUNDOFF * p["r"]) if damped else None
+    units = {**UNITS, **{k: v for k, v in units_for(n).items() if not k.startswith("q") or compliant}}
     return HybridModel(g, automata, model_parameters, initial_state=initial, signals=signals, name="ball_chain",
-                       tolerance=tolerance)
+                       tolerance=tolerance, **annotated(units, RANGES, DEFAULTS, model_parameters))
 
 
 

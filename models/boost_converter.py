@@ -88,9 +88,9 @@ from __future__ import annotations
 from bondgraph import BondGraph, C, I, One, R, Se, Zero
 from switching import Automaton, HybridModel
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "UNITS"]
 
 DEFAULTS = {
     "Vin": 12.0,
@@ -114,6 +114,11 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``): the start-up from v_C = Vin over 200 periods
 RUN = {"t_end": 0.02, "rtol": 1e-8, "max_step": 0.1 / DEFAULTS["f_sw"]}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"Vin": "V", "L": "H", "R_L": "Ω", "C": "F", "R_load": "Ω", "f_sw": "Hz", "D": "1", "i_L0": "A",
+         "v_C0": "V", "p_L": "V·s", "q_C": "C", "i_L": "A", "v_C": "V", "v_in": "V", "v_L": "V", "i_D": "A",
+         "v_D": "V", "v_sw": "V", "i_sw": "A", "i_load": "A", "carrier": "1"}
+
 SIGNALS = ("i_L", "v_C", "v_in", "v_L", "i_D", "v_D", "v_sw", "i_sw", "i_load", "carrier")
 
 
@@ -142,12 +147,12 @@ def build(**parameters) -> HybridModel:
     ideal_diode.add_transition("off", "on", "v_D > 0", "a posteriori")
     ideal_diode.add_transition("on", "off", "i_D < 0", "a posteriori")
 
-    model_parameters = {k: p[k] for k in ("Vin", "L", "R_L", "C", "R_load", "f_sw", "D")}
+    model_parameters = {k: p[k] for k in ("Vin", "L", "R_L", "C", "R_load", "f_sw", "D", "i_L0", "v_C0")}
     return HybridModel(
         g,
         [pwm, ideal_diode],
         model_parameters,
-        initial_state={"p_L": p["L"] * p["i_L0"], "q_C": p["C"] * p["v_C0"]},
+        initial_state={"p_L": "L*i_L0", "q_C": "C*v_C0"},
         signals={
             "i_L": "p_L/L",
             "v_C": "q_C/C",
@@ -161,4 +166,5 @@ def build(**parameters) -> HybridModel:
             "carrier": "acos(cos(2*pi*f_sw*t - pi*D))/pi",
         },
         name="boost_converter",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )

@@ -45,9 +45,9 @@ import sympy as sp
 from bondgraph import BondGraph, I, One, Se, Sf, Zero
 from switching import Automaton, HybridModel
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "UNITS"]
 
 DEFAULTS = {"m": 1.0, "g": 9.81, "e": 0.8, "y0": 1.0, "v0": 0.0, "v_rest": 0.0}
 #: physical ranges: a value outside gives a PhysicalRangeWarning
@@ -60,6 +60,10 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``)
 RUN = {"t_end": 2.5, "rtol": 1e-8}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"m": "kg", "g": "m/s²", "e": "1", "v_rest": "m/s", "y0": "m", "v0": "m/s",
+         "p": "N·s", "y": "m", "v": "m/s"}
+
 SIGNALS = ("y", "v")
 
 
@@ -83,14 +87,15 @@ def build(**parameters) -> HybridModel:
     contact.add_transition("flight", "rest", "y <= 0 and v < 0 and -v <= v_rest", "a priori")
     contact.add_transition("flight", "impact", "y <= 0 and v < 0", "a priori")
     contact.add_transition("impact", "flight", "v >= 0", "a priori")
-    model_parameters = {k: p[k] for k in ("m", "g", "e", "v_rest")}
+    model_parameters = {k: p[k] for k in ("m", "g", "e", "v_rest", "y0", "v0")}
     return HybridModel(
         g,
         [contact],
         model_parameters,
-        initial_state={"y": p["y0"], "p": p["m"] * p["v0"]},
+        initial_state={"y": "y0", "p": "m*v0"},
         signals={"v": "p/m"},
         name="bouncing_ball",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )
 
 

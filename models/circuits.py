@@ -116,12 +116,15 @@ from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParam
 from switching import Automaton, HybridModel
 
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
-                      parameter_name, source_value)
+                      parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Circuit", "Input", "PWM", "GROUND"]
 
 #: the ground node (0 V)
 GROUND = REFERENCE
+#: the units of the signals and states a circuit names, by prefix (capacitors' charges ``q_``,
+#: inductors' flux linkages ``p_``; a PWM switch's carrier is a pure number)
+CIRCUIT_UNITS = {"v_": "V", "i_": "A", "carrier_": "1", "q_": "C", "p_": "V·s"}
 
 
 
@@ -603,8 +606,10 @@ class _Builder(NetlistBuilder):
         if missing_inputs:
             raise InvalidGraphError(f"circuit {self.circuit.name!r}: input(s) {', '.join(missing_inputs)} have "
                                     "no function: give build(inputs={name: function of t})", missing_inputs)
+        names = list(signals) + [s.name for s in self.graph.states]
+        units = units_by_prefix(names, CIRCUIT_UNITS)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state,
-                           signals=signals, inputs=self.inputs or None, name=name, **options)
+                           signals=signals, inputs=self.inputs or None, name=name, units=units, **options)
 
 
 def _initial_state(storage, output: float, parameters: Mapping) -> float:

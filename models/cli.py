@@ -962,7 +962,7 @@ def _orbit_outputs(args, model, orbit=None, continuation=None) -> int:
             figure, ax = pyplot().subplots(figsize=(6.4, 4.0))
             names = [args.signal] if args.signal else list(model.state_names)
             for name in names:
-                ax.plot(orbit.trajectory.t, orbit.trajectory.signal(name), label=name)
+                ax.plot(orbit.trajectory.t, orbit.trajectory.signal(name), label=model.annotations.label(name))
             ax.set_xlabel("t [s]")
             ax.set_title(f"{model.name}: periodic orbit, period {orbit.period:.6g} s", fontsize=9)
             ax.legend(fontsize=8)

@@ -66,9 +66,9 @@ from __future__ import annotations
 from bondgraph import BondGraph, I, One, Zero
 from switching import Automaton, HybridModel
 
-from ._common import Range, merged, nonnegative, positive
+from ._common import Range, annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate", "UNITS"]
 
 DEFAULTS = {
     "m1": 1.0,
@@ -93,6 +93,11 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``): one collision at t ≈ 0.533 s
 RUN = {"t_end": 1.5, "rtol": 1e-9, "atol": 1e-12}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"m1": "kg", "m2": "kg", "e": "1", "v_th": "m/s", "r1": "m", "r2": "m", "x1_0": "m", "x2_0": "m",
+         "v1_0": "m/s", "v2_0": "m/s", "p1": "N·s", "p2": "N·s", "pos1": "m", "pos2": "m", "v1": "m/s",
+         "v2": "m/s"}
+
 SIGNALS = ("x1", "x2", "v1", "v2")
 
 
@@ -115,19 +120,20 @@ def build(**parameters) -> HybridModel:
     )
     contact.add_transition("free", "collide", "x2 - x1 <= r1 + r2 and v1 - v2 > v_th", "a priori")
     contact.add_transition("collide", "free", "v1 <= v2", "a priori")
-    model_parameters = {k: p[k] for k in ("m1", "m2", "e", "v_th", "r1", "r2")}
+    model_parameters = {k: p[k] for k in ("m1", "m2", "e", "v_th", "r1", "r2", "x1_0", "x2_0", "v1_0", "v2_0")}
     return HybridModel(
         g,
         [contact],
         model_parameters,
         initial_state={
-            "pos1": p["x1_0"],
-            "pos2": p["x2_0"],
-            "p1": p["m1"] * p["v1_0"],
-            "p2": p["m2"] * p["v2_0"],
+            "pos1": "x1_0",
+            "pos2": "x2_0",
+            "p1": "m1*v1_0",
+            "p2": "m2*v2_0",
         },
         signals={"x1": "pos1", "x2": "pos2", "v1": "p1/m1", "v2": "p2/m2"},
         name="colliding_balls",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )
 
 

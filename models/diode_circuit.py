@@ -60,9 +60,9 @@ import sympy as sp
 from bondgraph import BondGraph, I, One, R, Se, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged, nonnegative, positive
+from ._common import annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "UNITS"]
 
 DEFAULTS = {"V": 10.0, "R": 1.0, "L": 0.1, "V_th": 0.7, "I_th": 0.0, "t_open": 0.5, "i0": 0.0}
 #: physical ranges: a value outside gives a PhysicalRangeWarning
@@ -73,6 +73,10 @@ RANGES = {
     "I_th": nonnegative("the diode's holding current"),
 }
 RUN = {"t_end": 1.0, "rtol": 1e-8}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"V": "V", "R": "Ω", "L": "H", "V_th": "V", "I_th": "A", "t_open": "s", "i0": "A",
+         "p_L": "V·s", "i_L": "A", "v_L": "V", "i_D": "A", "v_D": "V"}
+
 SIGNALS = ("i_L", "v_L", "i_D", "v_D")
 
 
@@ -96,11 +100,13 @@ def build(**parameters) -> HybridModel:
     ideal_diode = Automaton("diode", {"off": {"D": False}, "on": {"D": True}}, "off")
     ideal_diode.add_transition("off", "on", "v_D >= V_th", "a posteriori")
     ideal_diode.add_transition("on", "off", "i_D <= I_th", "a posteriori")
+    model_parameters = {k: p[k] for k in ("V", "R", "L", "V_th", "I_th", "t_open", "i0")}
     return HybridModel(
         g,
         [switch, ideal_diode],
-        {k: p[k] for k in ("V", "R", "L", "V_th", "I_th", "t_open")},
-        initial_state={"p_L": p["L"] * p["i0"]},
+        model_parameters,
+        initial_state={"p_L": "L*i0"},
         signals={"i_L": "p_L/L", "v_L": "e_L", "i_D": "-f_diode", "v_D": "-e_diode"},
         name="diode_circuit",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )

@@ -128,10 +128,10 @@ import sympy as sp
 from bondgraph import BondGraph, One, Se, Sf, Zero
 from switching import Automaton, HybridModel, InMode, ModelDefinitionError
 
-from ._common import merged, nonnegative, positive
+from ._common import annotated, merged, nonnegative, positive
 from .components import rigid_planar_body
 
-__all__ = ["build", "DEFAULTS", "IMPACT_LAWS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "IMPACT_LAWS", "RUN", "SIGNALS", "UNITS"]
 
 DEFAULTS = {
     "m": 1.0,
@@ -157,6 +157,13 @@ RANGES = {
     "y_lift": nonnegative("a lift-off height"),
 }
 RUN = {"t_end": 0.5, "rtol": 1e-9, "atol": 1e-12}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"m": "kg", "J": "kg·m²", "l": "m", "g": "m/s²", "mu": "1", "v_th": "m/s", "y_lift": "m",
+         "theta0": "rad", "y0": "m", "x0": "m", "rod/p_x": "N·s", "rod/p_y": "N·s", "rod/p_J": "N·m·s",
+         "rod/x": "m", "rod/y": "m", "rod/theta": "rad", "omega": "rad/s", "vx": "m/s", "vy": "m/s",
+         "tip_x": "m", "tip_y": "m", "tip_vx": "m/s", "tip_vy": "m/s", "normal_force": "N",
+         "friction_force": "N", "F_stick": "N", "N_stick": "N", "N_contact": "N"}
+
 SIGNALS = (
     "theta",
     "omega",
@@ -242,13 +249,15 @@ def build(**parameters) -> HybridModel:
         "N_stick": InMode("-e_normal", friction="stuck"),
         "N_contact": InMode("-e_normal", contact="contact"),
     }
+    model_parameters = {k: p[k] for k in ("m", "J", "l", "g", "mu", "v_th", "y_lift", "theta0", "y0", "x0")}
     return HybridModel(
         scene,
         [contact, friction],
-        {k: p[k] for k in ("m", "J", "l", "g", "mu", "v_th", "y_lift")},
-        initial_state={"rod/theta": p["theta0"], "rod/y": p["y0"], "rod/x": p["x0"]},
+        model_parameters,
+        initial_state={"rod/theta": "theta0", "rod/y": "y0", "rod/x": "x0"},
         signals=signals,
         name="falling_rod",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
         jump_law=IMPACT_LAWS[p["impact_law"]],
     )
 

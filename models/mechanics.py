@@ -133,7 +133,7 @@ from switching import Automaton, HybridModel
 
 from .circuits import Input
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
-                      parameter_name, source_value)
+                      parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 
@@ -141,6 +141,14 @@ __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 FRAME = REFERENCE
 #: the two kinds of machine and their signal letters (position, velocity, force)
 KINDS = {"translational": ("x", "v", "F"), "rotational": ("theta", "omega", "T")}
+#: the units of the signals and states a mechanism names, by prefix (a motor's current and back-emf
+#: ``i_``, ``emf_``, its shaft torque and speed; masses' momenta ``p_``, springs' deflections ``q_``)
+MECHANICS_UNITS = {
+    "translational": {"x_": "m", "v_": "m/s", "F_": "N", "p_": "N·s", "q_": "m", "i_": "A", "emf_": "V",
+                      "T_": "N·m", "omega_": "rad/s"},
+    "rotational": {"theta_": "rad", "omega_": "rad/s", "T_": "N·m", "p_": "N·m·s", "q_": "rad", "i_": "A",
+                   "emf_": "V"},
+}
 
 
 
@@ -555,5 +563,8 @@ class _Builder(NetlistBuilder):
         if missing:
             raise InvalidGraphError(f"mechanism {m.name!r}: input(s) {', '.join(missing)} have no function: give "
                                     "build(inputs={name: function of t})", missing)
+        prefixes = dict(MECHANICS_UNITS[m.kind])
+        prefixes.update({f"p_{part.name}_L": "V·s" for part in m._parts.values() if part.kind == "DC"})
+        units = units_by_prefix(list(signals) + [s.name for s in self.graph.states], prefixes)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state, signals=signals,
-                           inputs=self.inputs or None, name=name, **options)
+                           inputs=self.inputs or None, name=name, units=units, **options)

@@ -25,7 +25,7 @@ from switching.errors import GuardSyntaxError
 from switching.language.parsing import parse_condition, parse_expression
 
 __all__ = ["NAME", "NODE", "REFERENCE", "Netlist", "NetlistBuilder", "Part", "checked_name", "checked_node", "holds_at_start", "parameter_name",
-           "source_value"]
+           "source_value", "units_by_prefix"]
 
 #: a component's (and a parameter's) name
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -90,6 +90,19 @@ def holds_at_start(condition: str, parameters: Mapping) -> bool:
         return False
     value = expr.subs({TIME: 0, **{sp.Symbol(k): v for k, v in parameters.items()}})
     return bool(value) if value in (sp.true, sp.false) else False
+
+
+def units_by_prefix(names, prefixes: Mapping[str, str]) -> dict:
+    """name → unit for each of ``names`` that starts with one of
+    ``prefixes`` (prefix → unit; the longest prefix wins): the units a
+    builder gives the signals and states it names (``v_C1`` → V)."""
+    ordered = sorted(prefixes, key=len, reverse=True)
+    units = {}
+    for name in names:
+        prefix = next((p for p in ordered if name.startswith(p)), None)
+        if prefix is not None:
+            units[name] = prefixes[prefix]
+    return units
 
 
 class Netlist:

@@ -67,9 +67,9 @@ from __future__ import annotations
 from bondgraph import C, BondGraph, One, R, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged, nonnegative, positive
+from ._common import annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "error_estimate", "UNITS"]
 
 DEFAULTS = {
     "C1": 1e-3,
@@ -87,6 +87,10 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``): the switch closes at 10 ms
 RUN = {"t_end": 0.05, "rtol": 1e-9, "atol": 1e-12}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"C1": "F", "C2": "F", "R": "Ω", "t_close": "s", "V1": "V", "V2": "V", "q1": "C", "q2": "C",
+         "v1": "V", "v2": "V", "q_total": "C", "energy": "J"}
+
 SIGNALS = ("v1", "v2", "q_total", "energy")
 
 
@@ -103,12 +107,13 @@ def build(**parameters) -> HybridModel:
         g.connect(sw, R("resistor", "R"))
     switch = Automaton("switch", {"open": {"sw": False}, "closed": {"sw": True}}, initial="open")
     switch.add_transition("open", "closed", "t >= t_close", "a priori")
-    names = ["C1", "C2", "t_close"] + (["R"] if p["R"] > 0 else [])
+    names = ["C1", "C2", "t_close", "V1", "V2"] + (["R"] if p["R"] > 0 else [])
+    model_parameters = {name: p[name] for name in names}
     return HybridModel(
         g,
         [switch],
-        {name: p[name] for name in names},
-        initial_state={"q1": p["C1"] * p["V1"], "q2": p["C2"] * p["V2"]},
+        model_parameters,
+        initial_state={"q1": "C1*V1", "q2": "C2*V2"},
         signals={
             "v1": "q1/C1",
             "v2": "q2/C2",
@@ -116,6 +121,7 @@ def build(**parameters) -> HybridModel:
             "energy": "q1**2/(2*C1) + q2**2/(2*C2)",
         },
         name="parallel_capacitors",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )
 
 

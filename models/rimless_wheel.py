@@ -137,14 +137,15 @@ the slope, ``l cos θ`` [m]) and ``dpsi`` [rad/s].
 Valid range (exercised by ``tests/models/test_model_ranges.py``):
 ``0 < α < π/4`` (more than four spokes: from ``π/4`` on the old spoke would
 push at an impact, and the wheel would stop on two feet, which this model
-does not hold; ``build`` raises :class:`~bondgraph.errors.InvalidGraphError`
-outside), ``0 <= γ < π/2`` (a warning outside), ``|phase0| <= 1``, and any
-``omega0`` that keeps the spoke pushing: ``build`` raises
-:class:`~bondgraph.errors.ParameterValueError` when ``l · max(C₁, C*) >=
-3 g cos(α + γ)`` with ``C₁`` the first stance's ``C`` and ``C*`` the steady
-gait's (a sufficient condition for ``N > 0``: ``C`` never exceeds the larger
-of the two, the stride map being affine with slope below 1 and a backward
-impact lowering ``C``), and for ``|phase0| > 1``.  Tested: ``α`` from π/20
+does not hold), ``|phase0| <= 1`` (beyond, the next spoke would be below
+the slope): ``build`` raises :class:`~bondgraph.errors.InvalidGraphError`
+outside these; ``0 <= γ < π/2`` (a warning outside); and any ``omega0`` that
+keeps the spoke pushing: ``build`` raises
+:class:`~bondgraph.errors.ParameterValueError` (naming ``omega0`` or
+``gamma``) when ``l · max(C₁, C*) >= 3 g cos(α + γ)`` with ``C₁`` the first
+stance's ``C`` and ``C*`` the steady gait's (a sufficient condition for
+``N > 0``: ``C`` never exceeds the larger of the two, the stride map being
+affine with slope below 1 and a backward impact lowering ``C``).  Tested: ``α`` from π/20
 to π/5, ``γ`` from 0.01 to 0.3 rad, ``l`` from 1e-3 to 1e3 m with ``g``
 from 1.62 to 274 m/s², started at the steady gait's ``ω⁺*`` (stance times
 against quadrature where it rolls, the refusal where it would hop, Zeno where
@@ -167,9 +168,9 @@ from bondgraph import TF, BondGraph, I, One, Se, Sf, Zero
 from bondgraph.errors import ParameterValueError
 from switching import Automaton, HybridModel
 
-from ._common import Range, merged, positive
+from ._common import Range, annotated, merged, positive
 
-__all__ = ["build", "DEFAULTS", "RANGES", "RUN", "SIGNALS", "stance", "fixed_point", "error_estimate"]
+__all__ = ["build", "DEFAULTS", "RANGES", "RUN", "SIGNALS", "UNITS", "stance", "fixed_point", "error_estimate"]
 
 DEFAULTS = {
     "m": 1.0,
@@ -188,9 +189,15 @@ RANGES = {
     "alpha": Range("half the angle between spokes (more than four spokes)", 0.0, math.pi / 4, low_open=True,
                    high_open=True, required=True),
     "gamma": Range("a slope angle (downhill)", 0.0, math.pi / 2, high_open=True),
+    "phase0": Range("the initial stance angle over alpha (beyond ±1 the next spoke is below the slope)", -1.0, 1.0,
+                    required=True),
 }
 RUN = {"t_end": 6.0, "rtol": 1e-10, "atol": 1e-12}
 SIGNALS = ("theta", "omega", "normal_force", "hub_x", "hub_y")
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"m": "kg", "l": "m", "g": "m/s²", "alpha": "rad", "gamma": "rad", "phase0": "1", "omega0": "rad/s",
+         "p_x": "N·s", "p_y": "N·s", "psi": "rad", "theta": "rad", "omega": "rad/s", "dpsi": "rad/s",
+         "normal_force": "N", "hub_x": "m", "hub_y": "m"}
 
 #: the touchdown of the next spoke: the stance angle reaches ±α moving outward (``ψ ψ̇ > 0``)
 _TOUCHDOWN = "psi >= alpha and dpsi > 0 or psi <= -alpha and dpsi < 0"
@@ -251,10 +258,6 @@ def fixed_point(alpha: float, gamma: float, l: float, g: float) -> tuple[float, 
 def _check_ground_contact(p: dict) -> None:
     """Raise :class:`ParameterValueError` where the planted spoke could pull (see the module docstring)."""
     alpha, gamma, l, g = p["alpha"], p["gamma"], p["l"], p["g"]
-    if abs(p["phase0"]) > 1:
-        raise ParameterValueError(
-            f"rimless_wheel: phase0 = {p['phase0']:g} puts the stance angle beyond ±alpha (|phase0| <= 1): the "
-            "next spoke would be below the slope", "phase0", p["phase0"])
     first = _pendulum_level(p["omega0"], p["phase0"] * alpha, g, l, gamma)
     steady = _pendulum_level(fixed_point(alpha, gamma, l, g)[1], -alpha, g, l, gamma) if 0 < gamma < math.pi / 2 else 0.0
     limit = 3 * g * math.cos(alpha + gamma) / l
@@ -278,7 +281,6 @@ def build(**parameters) -> HybridModel:
     psi, sigma = sp.symbols("psi sigma")
     _foot(graph, vx, vy, psi, sigma)
     _spin(graph, vx, psi, sigma)
-    theta0, speed = p["phase0"] * p["alpha"], p["m"] * p["l"] * p["omega0"]
     signals = {
         "normal_force": "-e_radial",
         "dpsi": "f_free_spin",
@@ -287,13 +289,17 @@ def build(**parameters) -> HybridModel:
         "hub_x": "l*sin(theta)",
         "hub_y": "l*cos(psi)",
     }
+    model_parameters = {k: p[k] for k in ("m", "l", "g", "alpha", "gamma", "phase0", "omega0")}
     return HybridModel(
         graph,
         [_automaton()],
-        {k: p[k] for k in ("m", "l", "g", "alpha", "gamma")},
-        initial_state={"psi": theta0, "p_x": speed * math.cos(theta0), "p_y": -speed * math.sin(theta0)},
+        model_parameters,
+        # on the even spoke at θ0 = phase0·α, the hub's velocity l ω0 (cos θ0, −sin θ0)
+        initial_state={"psi": "phase0*alpha", "p_x": "m*l*omega0*cos(phase0*alpha)",
+                       "p_y": "-m*l*omega0*sin(phase0*alpha)"},
         signals=signals,
         name="rimless_wheel",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )
 
 

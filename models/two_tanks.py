@@ -80,9 +80,9 @@ import sympy as sp
 from bondgraph import BondGraph, C, One, R, Sf, Zero
 from switching import Automaton, HybridModel
 
-from ._common import merged, nonnegative, positive
+from ._common import annotated, merged, nonnegative, positive
 
-__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS"]
+__all__ = ["build", "DEFAULTS", "RUN", "SIGNALS", "UNITS"]
 
 DEFAULTS = {
     "Q_in": 0.01,
@@ -111,6 +111,12 @@ RANGES = {
 }
 #: a meaningful default run (used by ``hbg run``): several valve cycles
 RUN = {"t_end": 1000.0, "rtol": 1e-8}
+#: the unit of each parameter, state and signal (shown on plots, kept in model files)
+UNITS = {"Q_in": "m³/s", "A1": "m²", "A2": "m²", "R_v": "Pa·s/m³", "R_out": "Pa·s/m³", "rho": "kg/m³",
+         "g": "m/s²", "h1_low": "m", "h1_high": "m", "h2_low": "m", "h2_high": "m", "h1_0": "m", "h2_0": "m",
+         "V1": "m³", "V2": "m³", "h1": "m", "h2": "m", "p1": "Pa", "p2": "Pa", "Q_pump": "m³/s",
+         "Q_valve": "m³/s", "Q_out": "m³/s", "V_total": "m³"}
+
 SIGNALS = ("h1", "h2", "p1", "p2", "Q_pump", "Q_valve", "Q_out", "V_total")
 
 
@@ -137,12 +143,13 @@ def build(**parameters) -> HybridModel:
     drain.add_transition("closed", "open", "h2 >= h2_high", "a priori")
     drain.add_transition("open", "closed", "h2 <= h2_low", "a priori")
 
-    names = ("Q_in", "A1", "A2", "R_v", "R_out", "rho", "g", "h1_low", "h1_high", "h2_low", "h2_high")
+    names = ("Q_in", "A1", "A2", "R_v", "R_out", "rho", "g", "h1_low", "h1_high", "h2_low", "h2_high", "h1_0", "h2_0")
+    model_parameters = {k: p[k] for k in names}
     return HybridModel(
         g,
         [transfer, drain],
-        {k: p[k] for k in names},
-        initial_state={"V1": p["A1"] * p["h1_0"], "V2": p["A2"] * p["h2_0"]},
+        model_parameters,
+        initial_state={"V1": "A1*h1_0", "V2": "A2*h2_0"},
         signals={
             "h1": "V1/A1",
             "h2": "V2/A2",
@@ -154,4 +161,5 @@ def build(**parameters) -> HybridModel:
             "V_total": "V1 + V2",
         },
         name="two_tanks",
+        **annotated(UNITS, RANGES, DEFAULTS, model_parameters),
     )

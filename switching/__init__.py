@@ -62,6 +62,9 @@ from .analysis.fitting import fit as fit
 from .analysis.fitting import sample_indices as sample_indices
 from .analysis.orbits import PeriodicOrbit as PeriodicOrbit
 from .analysis.orbits import periodic_orbit as periodic_orbit
+from .analysis.linear import orbit_small_signal as orbit_small_signal
+from .analysis.linear import state_space as state_space
+from bondgraph.linear_system import LinearSystem as LinearSystem
 from .errors import OrbitError as OrbitError
 from .errors import OrbitConvergenceError as OrbitConvergenceError
 from .errors import ModeSequenceChangedError as ModeSequenceChangedError
@@ -94,4 +97,4 @@ def _verify(*args, **kwargs):  # (scipy.optimize, 0.27 s, imported when a model 
 _provide(library=_ModeLibrary, simulate=_simulate, check_option_names=_check_option_names,
          check_sensitivity_options=_check_sensitivity_options, resolve_instant=_resolve_instant,
          simulate_with_sensitivities=_simulate_with_sensitivities, verify=_verify, save=save_model,
-         periodic_orbit=periodic_orbit)
+         periodic_orbit=periodic_orbit, state_space=state_space)

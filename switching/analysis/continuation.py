@@ -225,8 +225,11 @@ class Continuation:
             ax.plot([b.value] * len(ys), ys, marker, color=color, markersize=7, markerfacecolor="none",
                     label=None if b.kind in labelled else b.kind)
             labelled.add(b.kind)
-        ax.set_xlabel(self.parameter)
-        ax.set_ylabel(f"{name} at the orbit's start" if what == "x0" else f"{name}: min and max over a period")
+        notes = getattr(self.points[0].orbit.trajectory.model, "annotations", None) if self.points else None
+        label = notes.label if notes is not None else str
+        ax.set_xlabel(label(self.parameter))
+        ax.set_ylabel(f"{label(name)} at the orbit's start" if what == "x0" else
+                      f"{label(name)}: min and max over a period")
         ax.set_title("solid: stable orbit, dashed: unstable" + ("; doubled branches in orange" if self.branches
                                                                 else ""), fontsize=9)
         if labelled:
@@ -273,7 +276,7 @@ class _Family:
                                         f"(its parameters: {', '.join(sorted(names))}); to continue in a build "
                                         "argument pass the build function instead of the model")
             self.model, self.build = model, None
-            self.saved = (model.parameter_values, model.parameter_array)
+            self.saved = dict(model.parameter_values)
         elif callable(model):
             self.model, self.build, self.saved = None, model, None
         else:
@@ -283,14 +286,10 @@ class _Family:
     def set(self, value: float):
         """The model with ``parameter = value``."""
         if self.build is None:
-            from ..model.definition import parameter_values
-
             model = self.model
             values = {s.name: v for s, v in model.parameter_values.items()}
             values[self.parameter] = value
-            model.parameter_values = parameter_values(model, values)
-            model.parameter_array = np.array([model.parameter_values[s] for s in model.parameter_symbols],
-                                             dtype=float)
+            model.set_parameter_values(values)
             return model
         built = self.build(**{**self.fixed, self.parameter: value})
         if self.model is None:
@@ -305,7 +304,7 @@ class _Family:
 
     def restore(self) -> None:
         if self.saved is not None:
-            self.model.parameter_values, self.model.parameter_array = self.saved
+            self.model.set_parameter_values(self.saved)
 
 
 def _test_value(multipliers, shift: float) -> float:

@@ -59,6 +59,7 @@ default limit 1e3 flags a guard missed by a relative ``δ`` of about 1e-9
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass, field
 
@@ -87,7 +88,10 @@ class PeriodicOrbit:
     ``(automaton, source, target)`` or ``None``; ``wall_time`` [s];
     ``grazing_ratio``: the largest ``max_j |∂τ_k/∂x0_j| s_j / T`` over the
     orbit's instants ``k`` (how far the orbit is from grazing a guard: large
-    near a tangential touch, 0 with clock events only)."""
+    near a tangential touch, 0 with clock events only).
+
+    :meth:`small_signal` and :meth:`to_control`: the discrete small-signal
+    model of the period map (:mod:`switching.analysis.linear`)."""
 
     trajectory: object
     period: float
@@ -103,6 +107,8 @@ class PeriodicOrbit:
     t0: float = 0.0
     wall_time: float = 0.0
     grazing_ratio: float = 0.0
+    #: ``(shooter, mode)``: the runs' settings and the mode the orbit's runs start in (for :meth:`small_signal`)
+    shooting: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def residual(self) -> float:
@@ -112,6 +118,23 @@ class PeriodicOrbit:
     @property
     def mode_names(self) -> list:
         return [m.describe() for m in self.modes]
+
+    def small_signal(self, inputs=(), outputs=None):
+        """``δx_{k+1} = A δx_k + B δu_k``, ``y_k = C δx_k + D δu_k`` over one
+        period, ``A`` the period (return) map's Jacobian, ``B`` its derivative
+        with respect to the model parameters ``inputs``, ``C``, ``D`` the
+        Jacobians of the signals ``outputs`` (default: the states) at the
+        start: a :class:`~bondgraph.linear_system.LinearSystem` with ``dt =
+        period`` (:func:`switching.analysis.linear.orbit_small_signal`)."""
+        from .linear import orbit_small_signal
+
+        return orbit_small_signal(self, inputs, outputs)
+
+    def to_control(self, inputs=(), outputs=None):
+        """:meth:`small_signal` as a discrete-time ``control.StateSpace``
+        (python-control, ``pip install "hybrid-bondgraph[control]"``; at least
+        one input)."""
+        return self.small_signal(inputs, outputs).to_control()
 
 
 def _describe(modes) -> str:
@@ -125,6 +148,8 @@ class _Shooter:
         self.states = [s.name for s in model.states]
         self.n = len(self.states)
         self.names = [f"x0:{s}" for s in self.states]
+        #: model parameters whose sensitivities the runs also carry (columns after the initial states)
+        self.parameters: list = []
         self.period = period
         self.section = section
         self.crossings = crossings
@@ -146,7 +171,7 @@ class _Shooter:
     def run(self, x, mode, t_end, iterate):
         try:
             return self.model.simulate(t_end, self.method, t0=self.t0, x0=x, mode=mode, rtol=self.rtol,
-                                       atol=self.atol, sensitivities=self.names, sensitivity_rtol=self.rtol,
+                                       atol=self.atol, sensitivities=self.columns, sensitivity_rtol=self.rtol,
                                        sensitivity_atol=self.atol, **self.options)
         except SimulationError as error:
             if "touches its threshold without crossing" in str(error):
@@ -163,8 +188,14 @@ class _Shooter:
     def show(self, x) -> str:
         return ", ".join(f"{s} = {v:.10g}" for s, v in zip(self.states, np.asarray(x, dtype=float)))
 
+    @property
+    def columns(self) -> list:
+        """The sensitivities of every run: the initial states, then :attr:`parameters`."""
+        return self.names + self.parameters
+
     def sensitivity_matrix(self, trajectory, row) -> np.ndarray:
-        return np.array([[trajectory.sensitivity(s, p)[row] for p in self.names] for s in self.states])
+        """``∂x/∂(x0, p)`` (n × (n + m)) at sample ``row``."""
+        return np.array([[trajectory.sensitivity(s, p)[row] for p in self.columns] for s in self.states])
 
     def start_mode(self, trajectory):
         events = trajectory.events
@@ -230,8 +261,7 @@ class _Shooter:
             T = float(self.period)
             tr = self.run(x, mode, self.t0 + T, iterate)
             x_end = np.array(tr.x[-1], dtype=float)
-            M = self.sensitivity_matrix(tr, -1)
-            J = M - np.eye(self.n)
+            derivative = self.sensitivity_matrix(tr, -1)
             last, end_mode = None, tr.modes[-1]
         else:
             while True:
@@ -252,16 +282,31 @@ class _Shooter:
             tr = tr.take(np.arange(row + 1))  # one period: up to the section's event, its instant the last
             tr.events = list(tr.events[:last + 1])
             x_end = np.array(event.x_after, dtype=float)
-            M = self.sensitivity_matrix(tr, row)
+            S = self.sensitivity_matrix(tr, row)
             f_plus = np.asarray(self.model.compiled_mode(event.mode_after).rates(x_end, event.t), dtype=float)
-            tau_x = np.array([tr.event_time_sensitivity(last, p) for p in self.names])
-            J = M + np.outer(f_plus, tau_x) - np.eye(self.n)
+            tau = np.array([tr.event_time_sensitivity(last, p) for p in self.columns])
+            derivative = S + np.outer(f_plus, tau)  # the return map's, DP and ∂P/∂p
+            M = S[:, :self.n]
             end_mode = event.mode_after
             self.horizon = max(self.horizon, 1.5 * T)
+        if self.section is None:
+            M = derivative[:, :self.n]
+        J = derivative[:, :self.n] - np.eye(self.n)
+        #: the period (return) map's derivative with respect to :attr:`parameters` (n × m)
+        self.parameter_jacobian = derivative[:, self.n:]
         F = x_end - np.asarray(x, dtype=float)
         scale = np.maximum(np.max(np.abs(tr.x), axis=0), self.atol)
         modes = self.sequence(tr, last)
         return F, J, M, T, tr, modes, scale, end_mode, x_end
+
+    def linearization(self, x, mode, parameters) -> tuple:
+        """``(DP, ∂P/∂p)``: the period map's (autonomous: the return map's)
+        Jacobians at ``x`` with respect to the state (n × n) and to the
+        model parameters ``parameters`` (n × m), from one run."""
+        shooter = copy.copy(self)  # (this one's runs keep their columns)
+        shooter.parameters = list(parameters)
+        _, J, *_ = shooter.evaluate(np.asarray(x, dtype=float), mode, len(self.residuals) - 1)
+        return J + np.eye(self.n), shooter.parameter_jacobian
 
     def section_text(self) -> str:
         automaton, source, target = self.section
@@ -299,7 +344,7 @@ class _Shooter:
                     "has one mode sequence", iterate, x, residual, self.residuals, before=previous, after=modes)
             previous = modes
             if residual <= self.tol:
-                return self.result(tr, T, x, modes, M, iterate, started)
+                return self.result(tr, T, x, modes, M, iterate, started, mode)
             if iterate == self.max_iterations:
                 break
             step, *_ = np.linalg.lstsq(J, -F, rcond=None)
@@ -318,7 +363,7 @@ class _Shooter:
             f"{self.tol:g} (residuals: {history}). Try: {advice}", len(self.residuals) - 1, x, self.residuals[-1],
             self.residuals)
 
-    def result(self, tr, T, x, modes, M, iterations, started) -> PeriodicOrbit:
+    def result(self, tr, T, x, modes, M, iterations, started, mode) -> PeriodicOrbit:
         values, vectors = np.linalg.eig(M)
         trivial = None
         keep = np.ones(len(values), dtype=bool)
@@ -341,7 +386,8 @@ class _Shooter:
                              trivial_multiplier=None if trivial is None else (trivial.real if trivial.imag == 0 else trivial),
                              stable=bool(np.all(np.abs(multipliers) < 1.0)), iterations=iterations,
                              residuals=list(self.residuals), section=self.section, t0=self.t0,
-                             wall_time=time.perf_counter() - started, grazing_ratio=self.grazing_ratio)
+                             wall_time=time.perf_counter() - started, grazing_ratio=self.grazing_ratio,
+                             shooting=(self, mode))
 
 
 def periodic_orbit(model, period: float | None = None, *, section=None, crossings: int = 1, x0=None, mode=None,

@@ -31,9 +31,11 @@ per mode on first use and turned into generated Python functions
 (:mod:`codegen.source`), cached in memory and on disk like the modes' own
 functions (a rebuilt model, e.g. a fit's next iterate, derives nothing again).
 
-Sensitivities are with respect to the model's parameters with its initial
-state held fixed: an initial state that a ``build`` function computes from
-an argument (the colliding balls' momenta ``m·v0``) moves through the
+Sensitivities are with respect to the model's parameters, the initial
+state as the model defines it: an initial value written as an expression of
+parameters (``initial_state={"p": "m*v0"}``) moves with them
+(``S(t0) ∋ ∂x0/∂p``), a number stays fixed.  An initial state that a
+``build`` function computes from an argument as a number moves through the
 ``x0:<state>`` columns, by the chain rule (:func:`switching.fit` does this
 for any build argument, :func:`switching.analysis.fitting.build_derivatives`).  The
 derivative is of the exact flow from the recorded instants: its accuracy

@@ -224,9 +224,10 @@ class _Run:
         return D - np.outer(f_plus, tau), tau
 
     def initial(self):
-        """``S`` at the run's first sample: unit columns for initial states
-        (through the initial mode's projection when the model gave the state),
-        zero for parameters."""
+        """``S`` at the run's first sample: unit columns for initial states,
+        ``∂x0/∂p`` for a parameter the model's initial state is written with
+        (zero for the others), both through the initial mode's projection
+        when the model gave the state."""
         n, m = self.n, self.m
         S0 = np.zeros((n, m))
         for j, i in self.parameters.initial.items():
@@ -234,6 +235,11 @@ class _Run:
         model = self.model
         if self.options.get("x0") is not None:
             return S0
+        values = {**model.parameter_values, **model.initial_parameters}
+        for state, expr in model.initial_expressions.items():  # x0 written as an expression of parameters
+            for j, p in zip(self.columns, self.parameters.symbols):
+                if p in expr.free_symbols:
+                    S0[model.state_index[state], j] = float(expr.diff(p).xreplace(values))
         mode = model.initial_mode  # model.initial_state() projects the given state with its jump map at t = 0
         cm = model.compiled_mode(mode)
         if cm.jump_kind == "identity":

@@ -103,6 +103,7 @@ class LoadedModel:
         by_inputs = set().union(*(_free_names(e) for e in part.inputs.values())) - {"t"}
         by_initial = set().union(*(_free_names(e) for e in part.initial.values()))
         needed = self.model_parameters | by_inputs | by_initial
+        self._initial_only = by_initial - self.model_parameters  # kept with the model, out of its code
         own = {name for name, p in part.parameters.items() if p.where and p.where[0] is src}
         for name in sorted(own - needed):
             raise src.error("declared but used by no law, guard, signal, restitution, mode constant, input or "
@@ -190,7 +191,7 @@ class LoadedModel:
                     src, keys = self.part.initial_where[name]
                     raise src.error(message, keys, f"initial value of {name!r}")
                 raise ModelFileError(message, self.source.display, culprit=f"initial value of {name!r}")
-            out[name] = float(value)
+            out[name] = expr if expr.free_symbols else float(value)
         return out
 
     # ------------------------------------------------------------ build
@@ -213,11 +214,12 @@ class LoadedModel:
                   for name, expr in part.inputs.items()}
         signals = {name: (InMode(s.expression, **s.states) if isinstance(s, InModeSpec) else s)
                    for name, s in part.signals.items()}
+        kept = self.model_parameters | self._initial_only  # the parameters the model holds
         try:
             model = HybridModel(
                 part.graph,
                 automata,
-                {name: values[name] for name in sorted(self.model_parameters)},
+                {name: values[name] for name in sorted(self.model_parameters | self._initial_only)},
                 initial_state=self._initial_state(values),
                 signals=signals,
                 inputs=inputs,
@@ -226,6 +228,9 @@ class LoadedModel:
                 max_steps_per_instant=settings["max_steps_per_instant"],
                 jump_law=settings["jump_law"],
                 allow_infinite={n for n, p in part.parameters.items() if p.allow_infinite},
+                units={**{n: p.unit for n, p in part.parameters.items() if p.unit and n in kept},
+                       **settings.get("units", {})},
+                descriptions={n: p.description for n, p in part.parameters.items() if p.description and n in kept},
             )
         except ModelFileError:
             raise
@@ -245,7 +250,7 @@ class LoadedModel:
         src = self.source
         names = [str(n) for n in getattr(exc, "elements", ())] + [str(getattr(exc, "name", "") or "")]
         for name in names:
-            for section in ("automata", "elements", "signals", "parameters"):
+            for section in ("automata", "elements", "signals", "parameters", "units"):
                 line = src.lines.first((section, name)) if name else None
                 if line is not None:
                     return ModelFileError(str(exc), src.display, line, f"{section[:-1]} {name!r}")

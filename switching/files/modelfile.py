@@ -111,8 +111,12 @@ A model file is TOML (https://toml.io).  Keys and tables, in any order:
     signal ``F_stick = { expression = "-e_tangent", in_mode = { friction =
     "stuck" } }``.
 ``[initial_state]``
-    ``q_C = 0.0`` (a number or an expression of parameters); states not
-    given start at 0.
+    ``q_C = 0.0`` (a number or an expression of parameters, ``q_C =
+    "C*v0"``: the model keeps it so, and ``--set v0=…`` moves the start);
+    states not given start at 0.
+``[units]``
+    ``theta = "rad"``: the unit of a state, signal or input, shown on plots
+    (a parameter's unit is in its own entry in ``[parameters]``).
 ``[tolerance]``
     ``rtol``, ``atol``, ``jump_rtol``, ``jump_atol`` (:class:`~switching.model.hybrid_model.Tolerance`).
 ``[run]``

@@ -60,6 +60,7 @@ from .errors import (
 from .part import LAW_NAMES, InModeSpec, Part, build_part
 from .source import Source, did_you_mean, is_number, kind_of
 from ..language.parsing import parse_condition, parse_expression
+from ..model.annotations import MAX_UNIT_LENGTH
 
 __all__ = ["FORMAT_KEY", "FORMAT_VERSION", "Part", "InModeSpec", "Reader", "read_text"]
 
@@ -68,7 +69,7 @@ FORMAT_KEY = "hbg_model_format"
 FORMAT_VERSION = 1
 
 _TOP_KEYS = ("name", "description", "jump_law", "max_steps_per_instant", "parameters", "inputs", "elements",
-             "bonds", "displacements", "ports", "automata", "signals", "initial_state", "tolerance", "run")
+             "bonds", "displacements", "ports", "automata", "signals", "initial_state", "units", "tolerance", "run")
 _TOLERANCE_KEYS = ("rtol", "atol", "jump_rtol", "jump_atol")
 _RUN_NUMBERS = ("t_end", "rtol", "atol", "max_step", "first_step", "dt")
 
@@ -235,6 +236,13 @@ class Reader:
                 raise src.error(f"{key} must be a finite number ≥ 0, not {value!r}", ("tolerance", key))
         settings["tolerance"] = {k: float(v) for k, v in tolerance.items()}
         settings["run"] = self._run(src, data.get("run", {}))
+        units = src.table(data.get("units", {}), ("units",), "[units]", example='theta = "rad"')
+        for key, unit in units.items():
+            src.text_value(unit, ("units", key), "a unit", f"unit of {key!r}")
+            if not unit.strip() or not unit.isprintable() or len(unit) > MAX_UNIT_LENGTH:
+                raise src.error(f"the unit {unit!r} must be one printable line of at most {MAX_UNIT_LENGTH} "
+                                "characters", ("units", key), f"unit of {key!r}")
+        settings["units"] = dict(units)
         return settings
 
     def _run(self, src: Source, run) -> dict:

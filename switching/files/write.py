@@ -126,6 +126,7 @@ class _Writer:
         self._automata()
         self._signals()
         self._initial_state()
+        self._units()
         self._tolerance()
         self._run(run)
         return "\n".join(self.lines) + "\n"
@@ -151,7 +152,7 @@ class _Writer:
 
     def _parameters(self, info, inputs: dict) -> None:
         model = self.model
-        values = {s.name: v for s, v in model.parameter_values.items()}
+        values = {s.name: v for s, v in {**model.parameter_values, **model.initial_parameters}.items()}
         for name, (_, parameters) in inputs.items():
             for p, v in parameters.items():
                 if p in values and values[p] != v:
@@ -161,8 +162,9 @@ class _Writer:
         if not values:
             return
         self.section("[parameters]")
-        units = info.units if info else {}
-        descriptions = info.descriptions if info else {}
+        notes = model.annotations
+        units = {**(info.units if info else {}), **notes.units}
+        descriptions = {**(info.descriptions if info else {}), **notes.descriptions}
         for name in sorted(values):
             value = _float(values[name])
             fields = {}
@@ -329,7 +331,21 @@ class _Writer:
         model = self.model
         self.section("[initial_state]")
         for state, value in zip(model.states, model.given_initial_state):
-            self.lines.append(f"{_key(state.name)} = {_float(float(value))}")
+            expr = model.initial_expressions.get(state)
+            if expr is not None and expr.free_symbols:  # written with parameters: kept so, --set moves it
+                text = _string(self.expression_text_of(expr, f"initial value of {state.name!r}"))
+            else:
+                text = _float(float(value))
+            self.lines.append(f"{_key(state.name)} = {text}")
+
+    def _units(self) -> None:
+        """``[units]``: the units of states, signals and inputs (a parameter's is in its own entry)."""
+        model = self.model
+        parameters = {s.name for s in model.parameter_symbols} | {s.name for s in model.initial_parameters}
+        units = {name: unit for name, unit in model.annotations.units.items() if name not in parameters}
+        if units:
+            self.section("[units]")
+            self.lines += [f"{_key(name)} = {_string(unit)}" for name, unit in units.items()]
 
     def _tolerance(self) -> None:
         tolerance = self.model.tolerance

@@ -30,7 +30,9 @@ from ..errors import ModelDefinitionError
 from ..language.parsing import parse_condition, parse_expression
 
 __all__ = ["InMode", "base_names", "check_automata", "check_inputs", "check_law_switch_names", "collect_parameters",
-           "computable", "initial_state", "parameter_values", "parse_guards", "parse_signals"]
+           "computable", "initial_expressions", "initial_only_names", "initial_parameter_values",
+           "initial_state",
+           "parameter_values", "parse_guards", "parse_signals"]
 
 
 @dataclass(frozen=True)
@@ -273,22 +275,77 @@ def _text_only_names(model, names) -> dict:
     return hints
 
 
-def initial_state(states, initial: Mapping) -> np.ndarray:
-    """The initial state as given: an array over ``states``, zero where no value is given."""
-    x = np.zeros(len(states))
-    by_name = {s.name: k for k, s in enumerate(states)}
+def initial_expressions(states, initial: Mapping) -> dict:
+    """state symbol → its initial value as given, a sympy number or an
+    expression of parameters (text is parsed without executing code: ``"l*sin(theta0)"``).
+    Unknown states and values that are neither are refused."""
+    by_name = {s.name: s for s in states}
+    out = {}
     for name, value in initial.items():
         key = name.name if isinstance(name, sp.Symbol) else name
         if key not in by_name:
             raise UnknownNameError(
                 f"initial value for unknown state {key!r}; states are: {', '.join(by_name)}", key
             )
-        value = real_number(value, f"initial value of state {key!r}", key)
+        if isinstance(value, str):
+            value = parse_expression(value)
+        elif not isinstance(value, sp.Basic):
+            value = real_number(value, f"initial value of state {key!r}", key)
+            try:
+                value = sp.Float(float(value))
+            except (TypeError, ValueError, OverflowError):
+                raise ParameterValueError(f"initial value of state {key!r} must be a number or an expression of "
+                                          f"parameters, got {value!r}", key, value) from None
+        out[by_name[key]] = value
+    return out
+
+
+def initial_only_names(expressions: Mapping, parameters) -> set:
+    """Names the initial expressions use that no law, guard or signal uses:
+    parameters of the initial state alone (``theta0``, ``y0``), kept with
+    the model but not in its generated code."""
+    used = set().union(*(e.free_symbols for e in expressions.values())) if expressions else set()
+    return {s.name for s in used} - {s.name for s in parameters}
+
+
+def initial_parameter_values(model, values: Mapping) -> dict:
+    """symbol → float of the parameters only the initial state uses (each real and finite)."""
+    out = {}
+    for name, v in values.items():
+        name = name.name if isinstance(name, sp.Symbol) else str(name)
+        v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)
         try:
-            x[by_name[key]] = float(value)
+            value = float(v)
         except (TypeError, ValueError, OverflowError):
-            raise ParameterValueError(f"initial value of state {key!r} must be a number, got {value!r}",
-                                      key, value) from None
-        if not math.isfinite(x[by_name[key]]):
-            raise ParameterValueError(f"initial value of state {key!r} is {value}: it must be finite", key, value)
+            raise ParameterValueError(f"parameter {name!r} must be a number, got {v!r}", name, v) from None
+        if not math.isfinite(value):
+            raise ParameterValueError(f"parameter {name!r} of model {model.name!r} is {value}: the initial state "
+                                      "needs a finite value", name, value)
+        out[sp.Symbol(name)] = value
+    return out
+
+
+def initial_state(states, expressions: Mapping, values: Mapping) -> np.ndarray:
+    """The initial state as given: an array over ``states``, each expression
+    of :func:`initial_expressions` evaluated with ``values`` (symbol →
+    number: the model's parameters and its initial-state parameters), zero
+    where no value is given."""
+    x = np.zeros(len(states))
+    index = {s: k for k, s in enumerate(states)}
+    for state, expr in expressions.items():
+        missing = sorted(s.name for s in expr.free_symbols if s not in values)
+        if missing:
+            raise MissingParameterError(set(missing), {name: f"used by the initial value of state {state.name!r} "
+                                                             f"({expr})" for name in missing})
+        value = expr.xreplace(values) if expr.free_symbols else expr
+        try:
+            number = float(value)
+        except (TypeError, ValueError, OverflowError):
+            raise ParameterValueError(f"initial value of state {state.name!r} is {value} ({expr}): it must be a "
+                                      "real number; give parameter values for which it is", state.name,
+                                      value) from None
+        if not math.isfinite(number):
+            raise ParameterValueError(f"initial value of state {state.name!r} is {number} ({expr}): it must be "
+                                      "finite", state.name, number)
+        x[index[state]] = number
     return x

@@ -32,6 +32,7 @@ from bondgraph.jump import JUMP_LAWS
 from bondgraph.law_switches import law_switches
 from bondgraph.symbols import rate_symbol
 
+from .annotations import annotations
 from .automaton import Automaton
 from ..errors import ModelDefinitionError
 from . import definition
@@ -95,8 +96,12 @@ class HybridModel:
         the restitution coefficients (all missing ones are listed at once).
         Every value must be finite (NaN never is): :class:`~bondgraph.errors.ParameterValueError`
         names the culprit otherwise.
-    initial_state : mapping name → number, optional
-        Initial values by state name; states not given start at 0.
+    initial_state : mapping name → number or expression, optional
+        Initial values by state name; states not given start at 0.  A value
+        may be an expression of parameters (sympy, or text parsed without
+        executing code: ``"l*sin(theta0)"``); a parameter only the initial
+        state uses (``theta0``) is given in ``parameters`` like the others
+        and kept in :attr:`initial_parameters`, out of the generated code.
     signals : mapping name → expression, optional
         Named signals (sympy expressions, or text parsed without executing
         code) over states, bond variables (``e_<bond>``, ``f_<bond>``),
@@ -120,6 +125,10 @@ class HybridModel:
     allow_infinite : iterable of parameter names, optional
         Parameters that may be ``±inf`` where that is physical (a threshold
         never reached, an open circuit's resistance).
+    units, descriptions : mapping name → text, optional
+        The unit (``"V"``, ``"rad/s"``) and a one-line description of
+        parameters, states, signals and inputs, shown on plots' axes and kept
+        in model files (:mod:`switching.model.annotations`).
     """
 
     def __init__(
@@ -135,6 +144,8 @@ class HybridModel:
         max_steps_per_instant: int = 1000,
         jump_law: str = "conservation",
         allow_infinite: Iterable[str] = (),
+        units: Mapping[str, str] | None = None,
+        descriptions: Mapping[str, str] | None = None,
     ):
         if jump_law not in JUMP_LAWS:
             raise ModelDefinitionError(f"unknown jump_law {jump_law!r}; choose one of: {', '.join(JUMP_LAWS)}")
@@ -167,10 +178,14 @@ class HybridModel:
         self.input_signals = InputValues(tuple(graph.inputs), self._inputs)
         self.parameter_symbols = definition.collect_parameters(self)
         self.allow_infinite = frozenset(allow_infinite)
-        self.parameter_values = definition.parameter_values(self, parameters or {})
-        self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
-        self._initial_given = definition.initial_state(self.states, initial_state or {})
-        self._initial = None
+        #: state symbol → its initial value as given: a number, or an expression of parameters
+        self.initial_expressions = definition.initial_expressions(self.states, initial_state or {})
+        only = definition.initial_only_names(self.initial_expressions, self.parameter_symbols)
+        given = {(k.name if isinstance(k, sp.Symbol) else str(k)): v for k, v in (parameters or {}).items()}
+        self.set_parameter_values({k: v for k, v in given.items() if k not in only},
+                                  {k: v for k, v in given.items() if k in only})
+        #: units and descriptions by name (:mod:`switching.model.annotations`)
+        self.annotations = annotations(self, units, descriptions)
         #: the derived modes, generated functions and code-generation memos (:mod:`switching.library.mode_library`)
         self.library = SERVICES.library(self)
 
@@ -383,6 +398,22 @@ class HybridModel:
         vars(self).update(vars(other))
         self.library = library
 
+    def set_parameter_values(self, values: Mapping, initial: Mapping | None = None) -> None:
+        """Give every parameter its value (name → number), in place: the
+        structure, and so the derived modes and generated code, which read
+        the values at every call, stay.  ``initial``: the values of the
+        parameters only the initial state uses (``theta0``; default: as
+        before).  The given initial state is evaluated anew from
+        :attr:`initial_expressions` and projected again when next asked."""
+        self.parameter_values = definition.parameter_values(self, values)
+        self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
+        if initial is not None:
+            #: symbol → value of each parameter used only by the initial state
+            self.initial_parameters = definition.initial_parameter_values(self, initial)
+        self._initial_given = definition.initial_state(self.states, self.initial_expressions,
+                                                       {**self.parameter_values, **self.initial_parameters})
+        self._initial = None
+
     # ------------------------------------------------------------ initial state
 
     @property
@@ -514,6 +545,11 @@ class HybridModel:
         ``period`` [s], or autonomous with ``section=(automaton, source,
         target)``); see :func:`switching.analysis.orbits.periodic_orbit`."""
         return SERVICES.periodic_orbit(self, period, **options)
+
+    def state_space(self, mode=None, outputs=None, inputs=None, numeric: bool = True):
+        """The linear state-space matrices of one mode (default the initial one), over its independent
+        states, parameter values substituted; see :func:`switching.analysis.linear.state_space`."""
+        return SERVICES.state_space(self, mode, outputs, inputs, numeric)
 
     def save(self, path, *, run: dict | None = None, description: str | None = None) -> None:
         """Write the model to the model file ``path``, checked to read back to

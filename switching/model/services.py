@@ -45,6 +45,8 @@ class Services:
     verify: Callable = _missing("verify")
     #: ``periodic_orbit(model, period, **options) -> PeriodicOrbit`` (:mod:`switching.analysis.orbits`)
     periodic_orbit: Callable = _missing("periodic_orbit")
+    #: ``state_space(model, mode, outputs, inputs, numeric)`` (:mod:`switching.analysis.linear`)
+    state_space: Callable = _missing("state_space")
     #: ``save(model, path, **options)`` (:mod:`switching.files.modelfile`)
     save: Callable = _missing("save")
 

@@ -135,8 +135,18 @@ def _instant_kind(instant) -> str:
     return "pinnacles" if instant.pinnacles else "mythical" if instant.mythical else "switch"
 
 
+def _units(trajectory):
+    """``(unit(name), label(name))`` from the trajectory's model
+    (:mod:`switching.model.annotations`); names alone without a model."""
+    notes = getattr(trajectory.model, "annotations", None)
+    if notes is None:
+        return (lambda name: None), str
+    return notes.unit, notes.label
+
+
 def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instants=60, t_range=None):
-    """Signals against time, one panel each, the flow in each mode shaded
+    """Signals against time, one panel each (labelled with its unit where the
+    model gives one, :mod:`switching.model.annotations`), the flow in each mode shaded
     (a colour per mode that stays with it from run to run), instants marked
     (when there are at most ``max_instants`` of them), jumps upright where
     the run kept each instant's rows.  Returns the figure.
@@ -172,6 +182,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     colors = mode_colors([m for *_, m in spans] or trajectory.modes, trajectory.model)
     instants = [i for i in trajectory.events if low <= i.t <= high]
     cycle = plt.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+    unit, label = _units(trajectory)
     for ax, names in zip(axes, panels):
         flat = {}  # name → its value, for a signal constant to round-off
         for k, name in enumerate(names):
@@ -188,11 +199,14 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
             value = next(iter(flat.values()))
             pad = 0.5 * abs(value) if value else 1.0
             ax.set_ylim(value - pad, value + pad)
-        shown = [f"{name} (constant: {flat[name]:.6g})" if name in flat else name for name in names]
+        shown = [f"{label(name)} (constant: {flat[name]:.6g})" if name in flat else label(name) for name in names]
         if len(names) == 1:
             ax.set_ylabel(shown[0], fontsize=8 if len(shown[0]) > 18 else None)
         else:
             ax.legend(shown, fontsize=7, loc="upper right")
+            common = {unit(name) for name in names}
+            if len(common) == 1 and None not in common:  # one unit for the panel: on its axis
+                ax.set_ylabel(f"[{common.pop()}]")
         ax.grid(alpha=0.25)
         ax.set_xlim(low, high)
     axes[-1].set_xlabel("t [s]")
@@ -226,8 +240,9 @@ def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):
         ax.plot(xs[mask], ys[mask], color=color or colors[mode], lw=1.4)
     for k in trajectory.event_index:
         ax.plot(xs[k - 1 : k + 1], ys[k - 1 : k + 1], ":", color=color or "0.3", lw=1)
-    ax.set_xlabel(x)
-    ax.set_ylabel(y)
+    _, label = _units(trajectory)
+    ax.set_xlabel(label(x))
+    ax.set_ylabel(label(y))
     if label:
         ax.plot([], [], color=color or "black", label=label)
         ax.legend(fontsize=8)

@@ -43,7 +43,7 @@ from functools import partial
 
 import numpy as np
 
-from bondgraph.errors import HybridBondGraphError, ParameterValueError
+from bondgraph.errors import HybridBondGraphError, MissingDependencyError, ParameterValueError
 
 from ..errors import SweepInterrupted
 from ..simulate.driver import check_option_names
@@ -53,11 +53,6 @@ __all__ = ["BuildError", "MissingDependencyError", "RunResult", "local_cluster",
 
 #: the extra that installs what sweeps on Dask need
 DASK_EXTRA = "pip install '.[dask]'"
-
-
-class MissingDependencyError(HybridBondGraphError, ImportError):
-    """An optional dependency of a feature is not installed; the message
-    names the extra that installs it (and what works without it)."""
 
 
 @dataclass

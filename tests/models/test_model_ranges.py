@@ -28,12 +28,14 @@ from models import (
     boost_converter,
     bouncing_ball,
     colliding_balls,
+    current_mode_converter,
     diode_circuit,
     falling_rod,
     load,
     parallel_capacitors,
     rimless_wheel,
     two_tanks,
+    vibrating_table,
 )
 from bondgraph.errors import ParameterValueError
 from switching import DivergenceOfTimeError, StepSizeError, StiffnessError, ZenoError
@@ -500,6 +502,142 @@ def test_two_tanks(Q_in, A1, R_v):
 @pytest.mark.parametrize("Q_in, A1, R_v", grid([1e-3, 1e-2, 1e-1], [0.1, 1.0, 10.0], [5e4, 5e5, 5e6]))
 def test_two_tanks_full_grid(Q_in, A1, R_v):
     _check_tanks(Q_in, A1, R_v)
+
+
+# ================================================================== vibrating table
+
+
+def _check_table(gamma, A, e, m, gap0, periods=12):
+    """The ball on the table ``s = A sin(ω t)`` with ``A ω²/g = gamma``, from rest on the table
+    (``gap0 = 0``) or dropped from ``gap0`` with the table's velocity, over ``periods`` periods."""
+    omega = math.sqrt(gamma * G / A)
+    T = 2 * math.pi / omega
+    model = vibrating_table.build(A=A, omega=omega, e=e, m=m, gap0=gap0, v_stick=1e-3 * A * omega)
+    t_end = periods * T
+    trajectory = run(model, t_end, "RK45", rtol=1e-9, atol=1e-12 * A * min(1.0, m * omega))  # y [m] and p [kg·m/s]
+    reaches_end(trajectory, t_end)
+    # the ball never goes through the table
+    assert trajectory.signal("gap").min() >= -1e-7 * A
+    momentum = [s.name for s in model.states].index("p")
+    for event in trajectory.events:
+        before, after = event.mode_before.state_of("contact"), event.mode_after.state_of("contact")
+        table_v = A * omega * math.cos(omega * event.t)
+        v_minus, v_plus = (x[momentum] / m for x in (event.x_before, event.x_after))
+        if any(step.mode.state_of("contact") == "impact" for step in event.steps):
+            # Newton's restitution relative to the table
+            assert v_plus - table_v == pytest.approx(-e * (v_minus - table_v), abs=1e-9 * A * omega)
+        if after == "stick":
+            assert v_plus == pytest.approx(table_v, abs=1e-9 * A * omega)
+        if before == "stick" and after == "flight":
+            # the table lets go where its acceleration passes -g
+            assert A * omega**2 * math.sin(omega * event.t) == pytest.approx(G, rel=1e-7)
+    if gap0 == 0:
+        assert trajectory.events[0].t == 0 and trajectory.events[0].mode_after.state_of("contact") == "stick"
+        if gamma <= 1:  # the table never accelerates down faster than g: the ball rides it
+            assert len(trajectory.events) == 1
+        else:
+            assert trajectory.events[1].t == pytest.approx(math.asin(1 / gamma) / omega, rel=1e-8)
+    return trajectory
+
+
+@pytest.mark.parametrize("gamma, A, e, gap0", [(0.5, 1e-2, 0.5, 0.0), (1.5, 1e-2, 0.5, 0.0), (1.2, 1e-4, 0.9, 1e-3),
+                                               (4.0, 1.0, 0.0, 0.0), (2.0, 1e2, 0.5, 50.0)])
+def test_vibrating_table(gamma, A, e, gap0):
+    _check_table(gamma, A, e, 1.0, gap0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gamma, A, e, m, gap0", grid([0.5, 1.5, 4.0], [1e-4, 1.0, 1e2], [0.0, 0.5, 0.9], [1e-3, 1e3],
+                                                      [0.0, 10.0]))
+def test_vibrating_table_full_grid(gamma, A, e, m, gap0):
+    _check_table(gamma, A, e, m, gap0 * A)
+
+
+@pytest.mark.parametrize("A", [1e-2, 1.0])
+def test_vibrating_table_without_sticking_rule_is_zeno(A):
+    """Documented: with ``v_stick = 0`` and ``0 < e < 1`` a ball dropped on a table that always
+    pushes (``A ω²/g = 0.5 < 1``) chatters, its impacts accumulating in finite time."""
+    documented(vibrating_table, ZenoError)
+    omega = math.sqrt(0.5 * G / A)
+    T = 2 * math.pi / omega
+    model = vibrating_table.build(A=A, omega=omega, e=0.5, gap0=2 * A, v_stick=0.0)
+    with pytest.raises(ZenoError) as info:
+        model.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega)
+    t_inf = info.value.accumulation_time
+    assert 0 < t_inf < 20 * T
+    stopped = model.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega, on_zeno="stop")
+    assert stopped.stopped == "zeno" and stopped.t[-1] == pytest.approx(t_inf, rel=1e-6)
+    # with the sticking rule the same drop ends on the table, riding it
+    sticking = vibrating_table.build(A=A, omega=omega, e=0.5, gap0=2 * A, v_stick=1e-3 * A * omega)
+    ride = sticking.simulate(20 * T, "RK45", rtol=1e-9, atol=1e-12 * A * omega)
+    assert ride.modes[-1].state_of("contact") == "stick" and ride.events[-1].t < t_inf
+# ================================================================== current-mode converter
+
+
+def _check_current_mode(Vin, L, i_ref, m_c, R_load=20.0, C=100e-6, f_sw=10e3, w=0.05, load="rc", v_C0=None,
+                        periods=20) -> dict:
+    """Every turn-on at a clock edge ``k/f_sw``, and never off over an edge; every turn-off where ``i_L`` meets
+    ``i_ref − m_c (t mod T)`` after the clock's pulse, or at the pulse's end (the current already above the
+    reference); ``i_L`` never reverses.  Returns the regimes met: ``dcm`` (intervals with the switch and the
+    diode off), ``skipped`` (clock edges with the switch still on), ``blanked`` (turn-offs at the pulse's end),
+    each counted over the second half of the run (after the start-up from ``i_L = 0``)."""
+    T = 1 / f_sw
+    t_end = periods * T
+    model = current_mode_converter.build(Vin=Vin, L=L, i_ref=i_ref, m_c=m_c, R_load=R_load, C=C, f_sw=f_sw,
+                                         w_clock=w, load=load, v_C0=v_C0 or Vin, Vout=2.5 * Vin)
+    trajectory = run(model, t_end, "RK45", rtol=1e-9, atol=1e-12, max_step=0.5 * w * T)
+    reaches_end(trajectory, t_end)
+    k = model.state_names.index("p_L")
+    moves = [e for e in trajectory.events if e.mode_before.state_of("switch") != e.mode_after.state_of("switch")]
+    states = [e.mode_after.state_of("switch") for e in moves]
+    assert all(a != b for a, b in zip(states, states[1:]))  # alternate: off, on, off, ...
+    ons = np.array([e.t for e in moves if e.mode_after.state_of("switch") == "on"]) / T
+    assert np.all(np.abs(ons - np.round(ons)) < 1e-9)  # none when the current never reaches the reference
+    # the switch is never off over a clock edge: a turn-off is followed by the turn-on at the next edge
+    for off, on in zip(moves, moves[1:]):
+        if off.mode_after.state_of("switch") == "off":
+            assert on.t / T == pytest.approx(math.floor(off.t / T + 1e-9) + 1, abs=1e-9)
+    blanked, settled = 0, periods // 2 * T
+    for e in moves:
+        if e.mode_after.state_of("switch") == "off":
+            phase = e.t / T - math.floor(e.t / T + 1e-9)
+            i_L = e.x_before[k] / L
+            at_pulse_end = phase == pytest.approx(w, abs=1e-9)
+            assert phase >= w - 1e-9, e.t
+            assert at_pulse_end or i_L == pytest.approx(i_ref - m_c * phase * T, rel=1e-6, abs=1e-6 * i_ref), e.t
+            blanked += at_pulse_end and e.t >= settled
+    i_L = trajectory.signal("i_L")
+    assert i_L.min() >= -1e-9 * max(1.0, np.abs(i_L).max())
+    edges = sum(1 for on in ons if periods // 2 <= round(on) < periods)
+    return {"dcm": sum(1 for e in trajectory.events if e.mode_after.label == "off|off" and e.t >= settled),
+            "skipped": periods - periods // 2 - edges, "blanked": blanked}
+
+
+@pytest.mark.parametrize("Vin, L, i_ref, m_c, R_load, v_C0, regimes", [
+    (12.0, 1e-3, 2.0, 0.0, 20.0, 20.5, set()),  # the defaults near their steady state: continuous conduction, D ≈ 0.41
+    (12.0, 1e-3, 0.5, 0.0, 200.0, 24.0, {"dcm"}),  # a low reference: discontinuous conduction
+    (12.0, 1e-4, 20.0, 6e4, 2.0, 20.0, set()),  # a heavy load and a large ripple, compensated
+    (1.0, 1e-5, 1.0, 0.0, 2000.0, 5.0, {"dcm"}),  # a light load, a fast inductor
+    (100.0, 1e-2, 5.0, 1e4, 20.0, 100.0, {"blanked"}),  # v_out ≈ Vin: the current hardly falls, above the reference
+])
+def test_current_mode_converter(Vin, L, i_ref, m_c, R_load, v_C0, regimes):
+    met = _check_current_mode(Vin, L, i_ref, m_c, R_load, v_C0=v_C0)
+    assert {name for name, count in met.items() if count} == regimes
+
+
+@pytest.mark.parametrize("i_ref, m_c, regimes", [(2.0, 0.0, {"skipped"}), (2.0, 9e3, set()), (0.2, 0.0, {"dcm"})])
+def test_current_mode_converter_with_the_output_held(i_ref, m_c, regimes):
+    # Vout = 2.5 Vin: D = 0.6, unstable without compensation (irregular, with skipped turn-offs), stable with
+    # m_c > (m2 − m1)/2 = 3000 A/s
+    met = _check_current_mode(12.0, 1e-3, i_ref, m_c, load="source")
+    assert {name for name, count in met.items() if count} == regimes
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("Vin, L, C, R_load, f_sw, i_ref, m_c, w", grid(
+    [1.0, 100.0], [1e-5, 1e-2], [1e-6, 1e-3], [2.0, 2000.0], [1e3, 1e5], [0.1, 10.0], [0.0, 1e5], [0.01, 0.2]))
+def test_current_mode_converter_full_grid(Vin, L, C, R_load, f_sw, i_ref, m_c, w):
+    _check_current_mode(Vin, L, i_ref, m_c, R_load, C, f_sw, w)
 
 
 # ================================================================== rimless wheel
