@@ -40,6 +40,7 @@ from bondgraph import TF, BondGraph, I, One, Se, Sf, Zero
 from bondgraph.errors import InvalidGraphError, ParameterValueError
 from models import rimless_wheel
 from switching import Automaton, HybridModel, ZenoError
+from switching.analysis.continuation import continue_orbit
 from switching.analysis.orbits import periodic_orbit
 
 OPTIONS = {"rtol": 1e-10, "atol": 1e-12}
@@ -330,6 +331,21 @@ def test_gait_multipliers_trivial_energy_and_zero(gait):
     # the zero multiplier's direction: the momentum along the new spoke u = (−sin α, cos α)
     radial = np.array([-math.sin(ALPHA), math.cos(ALPHA), 0.0])
     assert np.linalg.norm(gait.monodromy @ radial) < 1e-6
+
+
+def test_gait_continued_in_the_slope_keeps_its_multiplier():
+    """Along ``γ`` the gait speeds up (``ω⁻*² ∝ sin γ``) and its period follows the quadrature, but
+    the multiplier ``cos⁴ 2α`` depends on the spokes only: no fold, no flip.  Each point is built
+    anew (the build function), so each passes the lift-off check."""
+    slopes = np.linspace(0.08, 0.2, 3)
+    result = continue_orbit(rimless_wheel.build, "gamma", slopes, section="stance: even -> odd", period=2.0,
+                            tol=1e-10, **OPTIONS)
+    assert not result.bifurcations and len(result.points) == len(slopes)
+    for gamma, point in zip(slopes, result.points):
+        assert point.value == pytest.approx(gamma, rel=1e-15)
+        assert point.orbit.period == pytest.approx(2 * stance_time(fixed_point(gamma=gamma)[1], gamma=gamma),
+                                                   rel=1e-8)
+        assert point.orbit.multipliers[0] == pytest.approx(math.cos(2 * ALPHA) ** 4, rel=1e-6)
 
 
 # ------------------------------------------------------------------ (d) too slow: rocking
