@@ -117,7 +117,11 @@ The gait as a periodic orbit: ``periodic_orbit(model, section="stance: even
 state ``(p_x, p_y, psi)`` returns after *two* strides (the period is twice
 the stance time); the monodromy's multipliers are 1 (trivial, along the
 flow), ``cos⁴ 2α`` (the stride map's slope, twice) and 0 (the radial
-momentum, which the stance constraint removes at once).
+momentum, which the stance constraint removes at once).  ``cos⁴ 2α`` does not
+depend on the slope: continued in ``γ`` (``continue_orbit(build, "gamma",
+...)``, or ``hbg orbit --continue gamma=a:b:n``, which build every point and
+so check it for lift-off; parameters changed in place on a built model are
+not checked) the gait neither folds nor flips.
 
 Sign conventions and units: kg, m, s, rad, N.  ``theta`` (``θ``) and
 ``omega`` (``ω = dθ/dt``) are the planted spoke's angle and rate (positive
