@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import mpmath
 import numpy as np
@@ -321,7 +322,9 @@ def test_the_readme_diode_law_simulates_on_the_newton_solution_and_its_exact_tim
         pytest.importorskip("numba")
     model = HybridModel(diode_loop(), [], {}, signals={"i_D": "f_D", "v_C": "e_C"})
     start = time.perf_counter()
-    run = model.simulate(1e-2, method, rtol=1e-10, atol=1e-18, t_eval=np.linspace(1e-3, 1e-2, 10))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)          # (a mode numba cannot compile flows in Python)
+        run = model.simulate(1e-2, method, rtol=1e-10, atol=1e-18, t_eval=np.linspace(1e-3, 1e-2, 10))
     print(f"{method}: 10 ms of the diode loop in {time.perf_counter() - start:.2f} s")
     q, current = run.state("q_C"), run.signal("i_D")
     newton = np.array([newton_current(v) for v in q])
@@ -372,3 +375,38 @@ def test_an_exported_module_carries_the_omega_function_and_needs_only_math(tmp_p
     assert done.returncode == 0, done.stderr
     rates = model.compiled_mode(model.initial_mode).rates
     assert [float(v) for v in done.stdout.split()] == [rates(np.array([q]), 0.0)[0] for q in (0.0, 2e-6, 4.5e-6)]
+
+
+def test_the_jacobian_and_the_sensitivity_differentiate_through_omega():
+    """The implicit methods' generated Jacobian (sympy's derivative of the loop's Lambert W, printed
+    through ω) is ``di/dq = −1/(C·(R + VT/(i + Is)))``, by differentiating the loop; the forward
+    sensitivity ``∂q(t)/∂q(0) = i(q(t))/i(q(0))`` (the autonomous ``dq/dt = i(q)`` carries a shift of its
+    start along itself)."""
+    from switching.library.jacobian import flow_jacobian
+
+    model = HybridModel(diode_loop(), [], {}, signals={"i_D": "f_D"})
+    cm = model.compiled_mode(model.initial_mode)
+    jacobian = flow_jacobian(model, cm, np.zeros(1))
+    source = model.library.jacobians[cm.mode].source
+    assert "wrightomega(" in source and "LambertW" not in source
+    for q in np.linspace(0.0, 4.6e-6, 12):
+        i = newton_current(q)
+        assert jacobian.dense(0.0, np.array([q]))[0, 0] == pytest.approx(-1 / (CAP * (RES + VT / (i + IS))),
+                                                                         rel=1e-11)
+    times = np.linspace(1e-3, 1e-2, 10)
+    run = model.simulate(1e-2, "RK45", rtol=1e-11, atol=1e-19, t_eval=times, sensitivities=["x0:q_C"])
+    np.testing.assert_allclose(run.sensitivity("q_C", "x0:q_C"), run.signal("i_D") / newton_current(0.0),
+                               rtol=1e-6)
+
+
+def test_the_diode_loops_mode_function_is_the_same_compiled_by_numba_and_translated_natively():
+    pytest.importorskip("numba")
+    from codegen.cache import SourceCache
+    from switching.library.jit_model import mode_function_source
+    from test_native import assert_modes_agree_with_numba
+
+    model = HybridModel(diode_loop(), [], {})
+    model.cache = SourceCache(None)
+    model.simulate(1e-3, "RK45")
+    assert "from codegen.compiled_omega import wrightomega" in mode_function_source(model, model.initial_mode)
+    assert_modes_agree_with_numba(model)
