@@ -235,8 +235,8 @@ def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
 def test_the_readme_diode_law_in_numbers_builds_simulates_and_settles_on_the_newton_solution():
     """Issue 28: ``R("D", flow_law=lambda e: Is*(sp.exp(e/VT) - 1))`` with Is, VT = 1e-12, 0.025 A, V.
 
-    Fed by V through R with a capacitor across it (the source alone in series with the law is an algebraic
-    loop whose solution is a Lambert W, which the code generator does not compute), the capacitor's voltage
+    Fed by V through R with a capacitor across it (the source alone in series with the law would be a
+    static algebraic loop, its solution a Lambert W, with no state to integrate), the capacitor's voltage
     settles where its current vanishes: V = R·i + VT·ln(1 + i/Is), the diode's current solved here by
     Newton's method.  The fast time constant is C times the diode's small-signal resistance VT/i ≈ 6 Ω:
     stiff, so Radau; 10 ms is over a thousand time constants, what is left is the integration's rtol."""
