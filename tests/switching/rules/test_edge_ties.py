@@ -1,0 +1,183 @@
+"""Ties at the edge (switching.rules.instants): a cycle of switches each
+enabled only by an inclusive comparison within its band takes none of them.
+
+The half-wave rectifier — a source ``Vm sin(w t)``, an ideal diode, a
+resistor — starts at rest (``v_D = i_D = 0``).  With the guards an engineer
+writes first, ``v_D >= 0`` on and ``i_D <= 0`` off, the diode off at
+``v_D = 0`` and on at ``i_D = 0`` are the same state: the instant rests
+where it began and the flow decides.  The exact answer: the diode conducts
+while ``sin(w t) > 0`` and blocks while it is negative, switching at
+``t = kπ/w``, with ``i_D = max(Vm sin(w t), 0)/R``.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from bondgraph import BondGraph, One, R, Se, Zero, t
+from models import diode_circuit
+from switching import Automaton, HybridModel
+from switching.errors import DivergenceOfTimeError
+from switching.rules import instants
+
+VM, W, RLOAD = 10.0, 2 * math.pi * 50, 1e3
+HALF = math.pi / W  # a half-wave [s]
+T_END = 4.5 * HALF  # two periods and a quarter
+
+
+def half_wave(turn_on: str, turn_off: str) -> HybridModel:
+    """The rectifier with the diode's guards as given (both a posteriori)."""
+    g = BondGraph("half_wave")
+    node, diode = g.add(Zero("n")), g.add(One("D", controlled=True))
+    g.connect(Se("Vs", sp.Symbol("Vm") * sp.sin(sp.Symbol("w") * t)), diode, name="source")
+    g.connect(diode, node, name="diode_out")
+    g.connect(node, R("Rload", "Rload"))
+    automaton = Automaton("D", {"off": {"D": False}, "on": {"D": True}}, "off")
+    automaton.add_transition("off", "on", turn_on, "a posteriori")
+    automaton.add_transition("on", "off", turn_off, "a posteriori")
+    return HybridModel(g, [automaton], {"Vm": VM, "w": W, "Rload": RLOAD},
+                       signals={"v_D": "e_source - e_diode_out", "i_D": "f_source"}, name="half_wave")
+
+
+INCLUSIVE, STRICT = ("v_D >= 0", "i_D <= 0"), ("v_D > 0", "i_D < 0")
+
+
+def _switches(run):
+    """``(t, mode before, mode after)`` of the instants that changed the mode."""
+    return [(e.t, e.mode_before.label, e.mode_after.label) for e in run.events if e.mode_before != e.mode_after]
+
+
+def _check_rectifier(run):
+    """The exact answer: switching at kπ/w (the first turn-on at t = 0⁺), conducting on the positive half-waves."""
+    switches = _switches(run)
+    assert [(before, after) for _, before, after in switches] == [("off", "on"), ("on", "off")] * 2 + [("off", "on")]
+    assert switches[0][0] < 1e-12 * HALF
+    for k, (t_switch, _, _) in enumerate(switches[1:], start=1):
+        assert t_switch == pytest.approx(k * HALF, rel=1e-9)
+    times = np.array(run.t)
+    inside = [j for j, tau in enumerate(times) if min(abs(tau / HALF - k) for k in range(6)) > 1e-6]
+    on = [run.modes[j].label == "on" for j in inside]
+    assert on == [math.sin(W * times[j]) > 0 for j in inside]
+    current = np.asarray(run.signal("i_D"))[inside]
+    exact = np.maximum(VM * np.sin(W * times[inside]), 0.0) / RLOAD
+    assert np.max(np.abs(current - exact)) < 1e-9 * VM / RLOAD
+
+
+@pytest.mark.parametrize("guards", [INCLUSIVE, STRICT], ids=["inclusive", "strict"])
+def test_the_rectifier_starting_at_rest_conducts_on_the_positive_half_waves(guards):
+    _check_rectifier(half_wave(*guards).simulate(T_END, "RK45", rtol=1e-10, atol=1e-14))
+
+
+def test_inclusive_and_strict_guards_switch_at_the_same_instants():
+    inclusive = _switches(half_wave(*INCLUSIVE).simulate(T_END, "RK45", rtol=1e-10, atol=1e-14))
+    strict = _switches(half_wave(*STRICT).simulate(T_END, "RK45", rtol=1e-10, atol=1e-14))
+    assert [s[1:] for s in inclusive] == [s[1:] for s in strict]
+    assert np.allclose([s[0] for s in inclusive], [s[0] for s in strict], rtol=1e-12, atol=1e-15)
+
+
+def test_the_tie_at_rest_is_recorded_and_takes_no_switch():
+    run = half_wave(*INCLUSIVE).simulate(HALF / 2, "RK45", rtol=1e-10, atol=1e-14)
+    first = run.events[0]
+    assert first.t == 0.0 and [s.mode.label for s in first.steps] == ["off", "on", "off"]
+    assert first.kinds == ["tie", "tie", "continuous"] and first.mythical == []
+    assert all(not fired.strict for step in first.steps[:2] for fired in step.fired)
+
+
+def test_the_compiled_kernel_gives_the_same_modes_and_instants():
+    pytest.importorskip("numba")
+    python = half_wave(*INCLUSIVE).simulate(T_END, "RK45", rtol=1e-10, atol=1e-14)
+    compiled = half_wave(*INCLUSIVE).simulate(T_END, "RK45-jit", rtol=1e-10, atol=1e-14)
+    _check_rectifier(compiled)
+    assert [s[1:] for s in _switches(compiled)] == [s[1:] for s in _switches(python)]
+    assert np.allclose([s[0] for s in _switches(compiled)], [s[0] for s in _switches(python)], rtol=1e-12,
+                       atol=1e-15)
+    assert [e.mode_after.label for e in compiled.events] == [e.mode_after.label for e in python.events]
+
+
+def test_a_cycle_with_a_guard_holding_beyond_its_band_still_diverges():
+    # the paper's diode circuit with a holding current above the inductor's current: i_D <= I_th holds by 190 A
+    with pytest.raises(DivergenceOfTimeError) as info:
+        diode_circuit.build(I_th=200.0).simulate(1.0, "RK45", rtol=1e-8)
+    assert "repeats in a chain of mythical modes" in str(info.value)
+    assert any(fired.strict for step in info.value.loop for fired in step.fired)
+
+
+def test_a_loop_with_a_guard_holding_with_room_to_spare_still_diverges():
+    # off → on when v_D >= −1 holds by 1 V at v_D = 0: a real loop, not a tie
+    with pytest.raises(DivergenceOfTimeError, match="repeats in a chain of mythical modes"):
+        half_wave("v_D >= -1", "i_D <= 0").simulate(T_END, "RK45")
+
+
+# ------------------------------------------------------------------ the rule itself, on scripts of answers
+
+A, B, C = 0, 1, 2
+TIE, FIRED = instants.FIRED_AT_TIE, instants.FIRED
+ASKS = (instants.JUMP_AND_DECIDE, instants.DECIDE_AS_FLOW, instants.JUMP_AT_TIE)
+
+
+def _drive(begin, step, script, max_steps=10, n=1):
+    """The rule answered by ``script``: each ``(fired, target, x)`` answers one request; the states it passed."""
+    chain = np.zeros(max_steps + 1, dtype=np.int64)
+    pin_modes, pin_x = np.zeros(8, dtype=np.int64), np.zeros((8, n))
+    state = begin(A, chain)
+    trail = [tuple(state)]
+    for fired, target, x in script:
+        assert state[0] in ASKS, trail
+        state = step(state, fired, target, np.array(x, dtype=float), max_steps, chain, pin_modes, pin_x)
+        trail.append(tuple(state))
+    return trail
+
+
+#: scripts and the rule's last state: (action, mode, detail)
+_SCRIPTS = {
+    "a cycle of ties rests where it began": (
+        [(TIE, B, [0]), (TIE, A, [0]), (0, A, [0])],
+        (instants.CONTINUOUS, A, 0)),
+    "the rest is asked for in the mode where the cycle began": (
+        [(TIE, B, [0]), (TIE, A, [0])],
+        (instants.JUMP_AT_TIE, A, 0)),
+    "a strict switch into a cycle of ties rests in the cycle": (
+        [(FIRED, B, [0]), (TIE, C, [0]), (TIE, B, [0]), (0, B, [0])],
+        (instants.CONTINUOUS, B, 1)),
+    "a cycle with one strict switch diverges": (
+        [(TIE, B, [0]), (FIRED, A, [0])],
+        (instants.REPEATS_IN_CHAIN, A, 0)),
+    "a strict switch after ties diverges too": (
+        [(FIRED, B, [0]), (TIE, A, [0])],
+        (instants.REPEATS_IN_CHAIN, A, 0)),
+    "a guard holding strictly at the rest makes it a pinnacle, and a new chain": (
+        [(TIE, B, [0]), (TIE, A, [0]), (FIRED, B, [1]), (TIE, A, [1]), (TIE, B, [1])],
+        (instants.JUMP_AT_TIE, B, 0)),
+    "ties before a pinnacle do not make a later cycle a tie": (
+        [(TIE, B, [0]), (0, B, [0]), (FIRED, C, [1]), (FIRED, A, [1]), (TIE, C, [1])],
+        (instants.REPEATS_IN_CHAIN, C, 0)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(_SCRIPTS))
+def test_the_rule_rests_at_a_cycle_of_ties_and_diverges_otherwise(name):
+    script, (action, mode, detail) = _SCRIPTS[name]
+    last = _drive(instants.instant_begin, instants.instant_next, script)[-1]
+    assert (last[0], last[2], last[5]) == (action, mode, detail), last
+
+
+def test_a_rest_at_a_tie_counts_its_pass_against_the_cap():
+    last = _drive(instants.instant_begin, instants.instant_next, [(TIE, B, [0]), (TIE, A, [0])], max_steps=2)[-1]
+    assert last[0] == instants.TOO_MANY_STEPS
+
+
+def test_the_rule_on_ties_python_and_compiled_agree():
+    numba = pytest.importorskip("numba")
+    begin, step = numba.njit(instants.instant_begin), numba.njit(instants.instant_next)
+    for name, (script, _) in sorted(_SCRIPTS.items()):
+        assert _drive(instants.instant_begin, instants.instant_next, script) == _drive(begin, step, script), name
+
+
+def test_run_summaries_explain_the_kind_of_a_tie():
+    from switching.simulate.trajectory import STEP_KINDS
+
+    run = half_wave(*INCLUSIVE).simulate(HALF / 2, "RK45", rtol=1e-10, atol=1e-14)
+    kinds = {step.kind for instant in run.events for step in instant.steps}
+    assert "tie" in kinds and kinds <= set(STEP_KINDS)
