@@ -47,8 +47,15 @@ flow then decides, each guard holding at its edge counted only once it
 holds strictly (``switching.simulate.events.GuardScan``, ``strict``), so the
 diode turns on when ``v_D`` becomes positive, off when ``i_D`` becomes
 negative, as with strict guards.  A cycle with one pass that fired
-strictly (a comparison holding beyond its band: the paper's diode with a
-holding current above its current) is a divergence of time, as before.
+strictly (a comparison holding beyond its band) is a divergence of time,
+as before (DESIGN §6): the paper's diode with a holding current above its
+current, its colliding balls without a separating condition (touching, the
+collision guard holds at a tie after a separation that holds strictly).
+That holds even where the mode left only at a tie would be a consistent
+rest: an ideal diode with ``v_D >= 0`` to turn on, turning off against a
+capacitor (``i_D < 0`` at the located crossing, ``v_D = 0`` after it), loops
+off → on → off; ``switching.simulate.resolution`` names such switches and
+says to write them strictly (``v_D > 0``), as ``models.circuits`` does.
 The compiled kernel reports every firing as strict (it does not tell ties
 apart), so a tie's cycle reaches Python, which resolves it by this rule.
 

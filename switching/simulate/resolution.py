@@ -335,6 +335,32 @@ def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
     return "\n".join(lines)
 
 
+def _tie_detail(numbered):
+    """``(detail lines, advice)`` for a loop that passed some switches only at
+    a tie (a guard holding, but not strictly: :attr:`FiredGuard.strict`) and
+    some beyond their band — not a cycle of ties, so it diverges — else
+    ``None``: name those switches and how to write them so that equality
+    does not switch (a capacitor's ideal diode turning off with ``v_D >= 0``
+    to turn on: off finds ``v_D = 0``)."""
+    ties = [(number, step, f) for number, step in numbered for f in step.fired if not f.strict]
+    if not ties:
+        return None
+    lines = []
+    for number, step, f in ties:
+        shown = "; ".join(f"{c.text}: {c.left} vs {c.right}" for c in f.comparisons)
+        lines.append(f"Step {number} left {step.mode.describe()} only at a tie: {f.automaton}'s guard [{f.guard}] "
+                     f"holds only within the tolerance band of a comparison ({shown}), where the mode is consistent "
+                     "too; the loop's other switches hold beyond their bands, so this is no cycle of ties (which "
+                     "would rest where it began).")
+    strict = ", ".join(dict.fromkeys(f"{f.guard.replace('>=', '>').replace('<=', '<')} for {f.guard}"
+                                     for _, _, f in ties if ">=" in f.guard or "<=" in f.guard))
+    advice = ("Write the guards that switched only at a tie strictly" + (f" ({strict})" if strict else "")
+              + ": at equality the mode is then kept, and the flow switches it once the comparison holds beyond its "
+              "band (models.circuits' diodes are written so: off → on when v_D > v_f, on → off when i_D < 0). "
+              + _ADVICE)
+    return lines, advice
+
+
 def _pinnacle_repeat_message(model, t, steps, first: int, x: np.ndarray) -> str:
     """Pinnacle ``steps[-1]`` came back to the state it had at ``steps[first]``."""
     last = len(steps) - 1
@@ -425,8 +451,10 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             first = state[5]
             loop = steps[chain_start + first:]
             numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
+            detail, advice = _tie_detail(numbered) or ((), _ADVICE)
             raise DivergenceOfTimeError(
-                _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes"),
+                _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes",
+                              detail, advice),
                 loop=loop, instant=instant)
         elif action == PINNACLE_REPEATS:
             loop = [s for s in steps if s.kind == "pinnacle"]

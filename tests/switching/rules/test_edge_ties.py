@@ -16,6 +16,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from scipy.optimize import brentq
+
+from bondgraph import C as Capacitor
 from bondgraph import BondGraph, One, R, Se, Zero, t
 from models import diode_circuit
 from switching import Automaton, HybridModel
@@ -27,17 +30,22 @@ HALF = math.pi / W  # a half-wave [s]
 T_END = 4.5 * HALF  # two periods and a quarter
 
 
-def half_wave(turn_on: str, turn_off: str) -> HybridModel:
-    """The rectifier with the diode's guards as given (both a posteriori)."""
+def half_wave(turn_on: str, turn_off: str, capacitor: float | None = None) -> HybridModel:
+    """The rectifier with the diode's guards as given (both a posteriori);
+    with ``capacitor`` [F] a capacitor across the load."""
     g = BondGraph("half_wave")
     node, diode = g.add(Zero("n")), g.add(One("D", controlled=True))
     g.connect(Se("Vs", sp.Symbol("Vm") * sp.sin(sp.Symbol("w") * t)), diode, name="source")
     g.connect(diode, node, name="diode_out")
     g.connect(node, R("Rload", "Rload"))
+    parameters = {"Vm": VM, "w": W, "Rload": RLOAD}
+    if capacitor is not None:
+        g.connect(node, Capacitor("C1", "C1"))
+        parameters["C1"] = capacitor
     automaton = Automaton("D", {"off": {"D": False}, "on": {"D": True}}, "off")
     automaton.add_transition("off", "on", turn_on, "a posteriori")
     automaton.add_transition("on", "off", turn_off, "a posteriori")
-    return HybridModel(g, [automaton], {"Vm": VM, "w": W, "Rload": RLOAD},
+    return HybridModel(g, [automaton], parameters,
                        signals={"v_D": "e_source - e_diode_out", "i_D": "f_source"}, name="half_wave")
 
 
@@ -96,6 +104,38 @@ def test_the_compiled_kernel_gives_the_same_modes_and_instants():
     assert [e.mode_after.label for e in compiled.events] == [e.mode_after.label for e in python.events]
 
 
+CAP = 1e-5  # [F]: ωRC = π
+
+
+def test_the_rectifier_with_a_capacitor_turns_off_where_tan_wt_is_minus_wrc():
+    run = half_wave(*STRICT, capacitor=CAP).simulate(2.5 * 2 * HALF, "RK45", rtol=1e-11, atol=1e-16)
+    switches = _switches(run)
+    assert [(b, a) for _, b, a in switches] == [("off", "on"), ("on", "off")] * 3
+    tau = RLOAD * CAP
+    for k in range(3):
+        t_off = (math.pi - math.atan(W * tau) + 2 * math.pi * k) / W
+        assert switches[2 * k + 1][0] == pytest.approx(t_off, rel=1e-9)
+        if k:  # the turn-on: the source meets the capacitor's exponential discharge from the last turn-off
+            last = (math.pi - math.atan(W * tau) + 2 * math.pi * (k - 1)) / W
+            v_off = VM * math.sin(W * last)
+            t_on = brentq(lambda x: VM * math.sin(W * x) - v_off * math.exp(-(x - last) / tau),
+                          2 * math.pi * k / W, (2 * math.pi * k + math.pi / 2) / W, xtol=1e-16, rtol=1e-15)
+            assert switches[2 * k][0] == pytest.approx(t_on, rel=1e-9)
+
+
+def test_a_switch_only_at_a_tie_in_a_loop_that_is_no_cycle_of_ties_is_named_with_the_strict_guard():
+    # turning off, i_D <= 0 holds beyond its band at the located crossing (the current is negative there) and off
+    # finds v_D = 0 (the capacitor followed the source): v_D >= 0 sends it back only at a tie — a loop with a strict
+    # switch, a divergence of time, whose message says which guard to write strictly
+    with pytest.raises(DivergenceOfTimeError) as info:
+        half_wave(*INCLUSIVE, capacitor=CAP).simulate(2 * HALF, "RK45", rtol=1e-11, atol=1e-16)
+    t_off = (math.pi - math.atan(W * RLOAD * CAP)) / W
+    assert info.value.instant.t == pytest.approx(t_off, rel=1e-9)
+    message = str(info.value)
+    assert "Step 2 left D=off only at a tie: D's guard [v_D >= 0]" in message
+    assert "Write the guards that switched only at a tie strictly (v_D > 0 for v_D >= 0)" in message
+
+
 def test_a_cycle_with_a_guard_holding_beyond_its_band_still_diverges():
     # the paper's diode circuit with a holding current above the inductor's current: i_D <= I_th holds by 190 A
     with pytest.raises(DivergenceOfTimeError) as info:
@@ -105,9 +145,11 @@ def test_a_cycle_with_a_guard_holding_beyond_its_band_still_diverges():
 
 
 def test_a_loop_with_a_guard_holding_with_room_to_spare_still_diverges():
-    # off → on when v_D >= −1 holds by 1 V at v_D = 0: a real loop, not a tie
-    with pytest.raises(DivergenceOfTimeError, match="repeats in a chain of mythical modes"):
+    # at rest, off → on holds by 1 V (v_D >= −1 at v_D = 0), on → off only at a tie (i_D = 0): not a cycle of ties
+    with pytest.raises(DivergenceOfTimeError, match="repeats in a chain of mythical modes") as info:
         half_wave("v_D >= -1", "i_D <= 0").simulate(T_END, "RK45")
+    assert info.value.instant.t == 0.0
+    assert [fired.strict for step in info.value.loop for fired in step.fired] == [True, False]
 
 
 # ------------------------------------------------------------------ the rule itself, on scripts of answers
@@ -138,19 +180,25 @@ _SCRIPTS = {
     "the rest is asked for in the mode where the cycle began": (
         [(TIE, B, [0]), (TIE, A, [0])],
         (instants.JUMP_AT_TIE, A, 0)),
-    "a strict switch into a cycle of ties rests in the cycle": (
+    "a strict switch into a cycle of ties rests where the cycle began": (
         [(FIRED, B, [0]), (TIE, C, [0]), (TIE, B, [0]), (0, B, [0])],
         (instants.CONTINUOUS, B, 1)),
-    "a cycle with one strict switch diverges": (
+    "a cycle with a strict switch back diverges": (
         [(TIE, B, [0]), (FIRED, A, [0])],
         (instants.REPEATS_IN_CHAIN, A, 0)),
-    "a strict switch after ties diverges too": (
+    "a cycle with a strict switch out diverges": (  # a capacitor's diode turning off, with inclusive guards
         [(FIRED, B, [0]), (TIE, A, [0])],
+        (instants.REPEATS_IN_CHAIN, A, 0)),
+    "a strict switch inside a longer cycle of ties makes it diverge": (
+        [(TIE, B, [0]), (FIRED, C, [0]), (TIE, A, [0])],
         (instants.REPEATS_IN_CHAIN, A, 0)),
     "a guard holding strictly at the rest makes it a pinnacle, and a new chain": (
         [(TIE, B, [0]), (TIE, A, [0]), (FIRED, B, [1]), (TIE, A, [1]), (TIE, B, [1])],
         (instants.JUMP_AT_TIE, B, 0)),
-    "ties before a pinnacle do not make a later cycle a tie": (
+    "a strict switch of a chain before a pinnacle does not count in the next chain": (
+        [(FIRED, B, [0]), (0, B, [0]), (FIRED, C, [1]), (TIE, A, [1]), (TIE, C, [1])],
+        (instants.JUMP_AT_TIE, C, 0)),
+    "ties of a chain before a pinnacle do not count in the next chain": (
         [(TIE, B, [0]), (0, B, [0]), (FIRED, C, [1]), (FIRED, A, [1]), (TIE, C, [1])],
         (instants.REPEATS_IN_CHAIN, C, 0)),
 }

@@ -28,10 +28,11 @@ def half_wave(turn_on: str, turn_off: str) -> HybridModel:
 
 
 def test_a_real_loop_is_not_called_a_tie():
-    # off → on when v_D >= −1 holds with room to spare at v_D = 0: no tie (tests/switching/rules/test_edge_ties.py
-    # has the ties themselves), the usual advice
+    # off → on when v_D >= −1 holds with room to spare, on → off at a tie (i_D = 0): no cycle of ties
+    # (tests/switching/rules/test_edge_ties.py has those), a divergence with the usual advice too
     with pytest.raises(DivergenceOfTimeError) as info:
         half_wave("v_D >= -1", "i_D <= 0").simulate(0.03, "RK45")
+    assert "so this is no cycle of ties" in str(info.value)
     assert "Make the guards leave only one mode consistent" in str(info.value)
 
 
