@@ -320,7 +320,7 @@ class GuardScan:
                 break
             if sign:
                 margin = self.margin(i, mid)
-                truth = margin >= 0.0 if inclusive else margin > 0.0
+                truth = margin >= 0.0 if inclusive and not self.strict else margin > 0.0
             else:
                 truth = self.point(mid).truths[i]
             if truth == truth_lo:
