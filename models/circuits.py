@@ -55,8 +55,14 @@ impulses included — a switch opening on an inductor's current gives, with
 the diode off, a pulse ``v_D = +∞`` that turns the diode on (the paper's
 mythical mode).  Both comparisons are *strict*: a diode at ``v_D = v_f``
 with ``i_D = 0`` (every diode of a circuit at rest at t = 0) stays where it
-is; with inclusive ``>=``/``<=`` such a diode turns on, finds ``i_D <= 0``
-and turns off again at the same instant, a divergence of time.
+is until the flow carries ``v_D`` above ``v_f``, and a diode turning off
+against a capacitor (``i_D < 0`` at the located crossing, ``v_D = v_f``
+after it) stays off.  With inclusive ``>=``/``<=`` the diode at rest would
+turn on, find ``i_D <= 0`` and turn off again — a cycle of switches each
+enabled only at a tie, which takes none of them and rests
+(:mod:`switching.rules.instants`) — but the one turning off would find
+``v_D >= v_f`` at a tie after a switch beyond its band: a divergence of
+time.
 
 Ideal switches (:meth:`Circuit.switch`, states ``open``/``closed``) follow
 a condition on time, parameters or signals (``closed_when="t < t_open"``),

@@ -48,6 +48,7 @@ STEP_KINDS = {
     "mythical": "passed through without its jump (its constraints never held)",
     "pinnacle": "jumped into and left at once",
     "continuous": "the mode the flow went on in",
+    "tie": "in a cycle of switches each enabled only at a tie (equality up to round-off), none of them taken",
 }
 
 #: relative round-off band of the energy ledger: a gain below this fraction of
