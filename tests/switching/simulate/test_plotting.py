@@ -85,7 +85,7 @@ def test_a_trajectory_plots_itself(ball_run):
     fig = ball_run.plot(["y", "v"], title="ball")
     assert [ax.get_ylabel() for ax in fig.axes] == ["y [m]", "v [m/s]"] and fig.axes[0].get_title() == "ball"
     # default: the declared signals, then the states none of them renames (issue 29: the rod drew 12 panels)
-    assert [ax.get_ylabel() for ax in ball_run.plot().axes] == ["v", "p", "y"]
+    assert [ax.get_ylabel() for ax in ball_run.plot().axes] == ["v [m/s]", "p [N·s]", "y [m]"]
 
 
 def test_mode_colours_stay_with_their_modes_whatever_the_run_met_first():
