@@ -322,7 +322,8 @@ class Trajectory:
         model = self._needs_model()
         times = np.atleast_1d(np.asarray(times, dtype=float))
         inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
-        return _energy_evaluator(model)(np.asarray(x, dtype=float).reshape(len(times), -1), times, inputs)
+        x = np.asarray(x, dtype=float).reshape(len(times), len(model.states))
+        return _energy_evaluator(model)(x, times, inputs)
 
     def energy(self) -> np.ndarray:
         """The energy stored in the C and I elements at every sample [J]
