@@ -58,50 +58,48 @@ class _GuardForm:
         namespace = execute(source, {}, "<hbg guards of their parts>")
         self.guard_of_parts = [namespace[f"guard_{g}"] for g in range(len(of_parts))]
         ops = [ops.get(k) for k in range(cm.n_relations)]
+        self.source = self._source("evaluate", ops, False, " or ".join(terms) or "False")
+        namespace = execute(self.source, {"band": band}, "<hbg guard parts>", also=frozenset({"band"}))
+        self.evaluate = namespace["evaluate"]
+        strict = self._source("evaluate_strict", ops, True, " or ".join(of_parts) or "False")
+        namespace = execute(strict, {"band": band}, "<hbg strict guard parts>", also=frozenset({"band"}))
+        self.evaluate_strict = namespace["evaluate_strict"]
+        self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+
+    def _source(self, name: str, ops: list, strict: bool, holds: str) -> str:
+        """The source of ``name(s, rtol, atol) -> (margins, truths, holds)``
+        (the class docstring); ``strict``: every part strict, and ``holds``
+        from the parts' truths ``q``."""
         truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
                  "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
-        lines = ["def evaluate(s, rtol, atol):"]
+        lines = [f"def {name}(s, rtol, atol):"]
         for k, op in enumerate(ops):
             if op is None:
                 continue
             # the band of the rule codegen.decision.band, widened by the round-off scale s[3k + 2]
             lines.append(f"    d{k} = s[{3 * k}] - s[{3 * k + 1}]; "
                          f"b{k} = band(s[{3 * k}], s[{3 * k + 1}], s[{3 * k + 2}], rtol, atol)")
-            lines.append(f"    r{k} = " + truth[op].format(k=k))
+            if not strict:
+                lines.append(f"    r{k} = " + truth[op].format(k=k))
         margins, truths = [], []
         for i, (k, sign, inclusive) in enumerate(self.parts):
             if sign:
-                lines.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} {'+' if inclusive else '-'} b{k}")
+                widened = inclusive and not strict
+                lines.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} {'+' if widened else '-'} b{k}")
                 margins.append(f"m{i}")
-                truths.append(f"m{i} {'>=' if inclusive else '>'} 0.0")
+                truths.append(f"m{i} {'>=' if widened else '>'} 0.0")
             else:
                 margins.append("None")
                 truths.append(f"abs(d{k}) > b{k}")
-        lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
-                     f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
-        namespace = execute("\n".join(lines), {"band": band}, "<hbg guard parts>", also=frozenset({"band"}))
-        self.evaluate = namespace["evaluate"]
-        self.source = "\n".join(lines)
-        strict = ["def evaluate_strict(s, rtol, atol):"]
-        for k, op in enumerate(ops):
-            if op is not None:
-                strict.append(f"    d{k} = s[{3 * k}] - s[{3 * k + 1}]; "
-                              f"b{k} = band(s[{3 * k}], s[{3 * k + 1}], s[{3 * k + 2}], rtol, atol)")
-        strict_margins, strict_truths = [], []
-        for i, (k, sign, _) in enumerate(self.parts):
-            if sign:
-                strict.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} - b{k}")
-                strict_margins.append(f"m{i}")
-                strict_truths.append(f"m{i} > 0.0")
-            else:
-                strict_margins.append("None")
-                strict_truths.append(f"abs(d{k}) > b{k}")
-        strict.append(f"    q = ({', '.join(strict_truths)}{',' if len(strict_truths) == 1 else ''})")
-        strict.append(f"    return ({', '.join(strict_margins)}{',' if len(strict_margins) == 1 else ''}), q, "
-                      f"{' or '.join(of_parts) or 'False'}")
-        namespace = execute("\n".join(strict), {"band": band}, "<hbg strict guard parts>", also=frozenset({"band"}))
-        self.evaluate_strict = namespace["evaluate_strict"]
-        self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+
+        def tuple_of(items):
+            return f"({', '.join(items)}{',' if len(items) == 1 else ''})"
+
+        if strict:
+            lines += [f"    q = {tuple_of(truths)}", f"    return {tuple_of(margins)}, q, {holds}"]
+        else:
+            lines.append(f"    return {tuple_of(margins)}, {tuple_of(truths)}, {holds}")
+        return "\n".join(lines)
 
     @classmethod
     def of(cls, cm):
