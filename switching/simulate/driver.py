@@ -286,7 +286,8 @@ class HybridRun:
         if not initial_in_kernel:
             self.initial_instant()
         elif not model.compiled_mode(self.mode).holds(self.x, self.t, self.rtol_g, self.atol_g):
-            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t)  # the kernel flows
+            # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
+            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t, rates=False)
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
         if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
