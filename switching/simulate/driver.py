@@ -164,16 +164,17 @@ class HybridRun:
         start, stepping, events = options.start, options.stepping, options.events
         method, t_end, t0 = options.method, options.t_end, start.t0
         self.auto = None
-        if METHOD_CLASSES[method].chooses:  # auto: RK45 compiled or not (switching.library.jit_model.choose_method)
-            self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt)  # the stats say which and why
-            method = self.auto.method
-        self.method = method
-        self.method_class = METHOD_CLASSES[method]
         self.output = options.output.recorded
         self.started = _time.perf_counter()
         self.x = model.initial_state() if start.x0 is None else start.x0
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
+        if METHOD_CLASSES[method].chooses:  # auto: compiled or not, explicit or implicit (stats: which and why;
+            # switching.library.jit_model.choose_method)
+            self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt, self.x, self.mode)
+            method = self.auto.method
+        self.method = method
+        self.method_class = METHOD_CLASSES[method]
         self.recorder = Recorder(model, self.output, options.output.t_eval, options.output.keep_instants,
                                  None if projected is None else (float(t0), *projected),
                                  with_instants=options.output.samples is not None)
@@ -300,7 +301,7 @@ class HybridRun:
                 if compiled is not None and compiled.covers(self.mode):
                     event, self.t, self.x, self.mode, steps, stop = run_kernel(
                         model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
-                        self.recorder, self.after_event, initial_in_kernel)
+                        self.recorder, self.after_event, initial_in_kernel, auto=self.auto)
                     if stop == "initial":  # the kernel leaves this initial instant to Python
                         initial_in_kernel = False
                         self.initial_instant()

@@ -1,0 +1,198 @@
+"""The compiled implicit method ``rodas-jit`` (issue 30, item 2): RODAS4P in
+the kernel with each mode's Jacobian derived symbolically and compiled.
+
+Its order from fitted slopes on the Prothero–Robinson problem (a stiff flow
+driven by an input, closed form ``x = cos t``), its dense output, its linear
+algebra against numpy's, and on the stiff compliant chain the instants and
+final velocities of Python's Radau."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from bondgraph import C, One, R, Se  # noqa: E402
+from bondgraph import BondGraph  # noqa: E402
+from models import ball_chain  # noqa: E402
+from switching import ExpressionInput, HybridModel  # noqa: E402
+from switching.kernel import implicit  # noqa: E402
+from switching.rules import rosenbrock  # noqa: E402
+from switching.simulate.energy_watch import energy_created  # noqa: E402
+
+T_END = 2.0
+
+
+def prothero_robinson(lam):
+    """A series RC circuit driven by an effort source: ``q̇ = (u − q/c)/r``, with ``c = 1``, ``r = 1/λ`` and
+    ``u = cos t − sin(t)/λ``: ``q̇ = −λ(q − cos t) − sin t``, ``q(0) = 1``, whose solution is ``q = cos t``
+    (stiff for large ``λ``: the Jacobian is ``−λ``)."""
+    g = BondGraph("prothero_robinson")
+    u = g.input("u")
+    j = g.add(One("j"))
+    g.connect(Se("source", u), j)
+    g.connect(j, R("r", "r"))
+    g.connect(j, C("c", "c"))
+    return HybridModel(g, [], {"r": 1.0 / lam, "c": 1.0}, initial_state={"q_c": 1.0},
+                       inputs={"u": ExpressionInput("cos(t) - sin(t)/lam", {"lam": lam})})
+
+
+def _slope(rows):
+    steps, errors = np.array(rows).T
+    return np.polyfit(np.log(steps), np.log(errors), 1)[0]
+
+
+def _fixed_steps(model, n):
+    """A run of ``n`` equal steps (every step accepted: a tolerance no error reaches, the step held at
+    ``T_END/n``), its requested times four per step."""
+    h = T_END / n
+    return model.simulate(T_END, "rodas-jit", rtol=1e3, atol=1e3, first_step=h, max_step=h,
+                          t_eval=np.linspace(0.0, T_END, 4 * n + 1))
+
+
+@pytest.mark.parametrize("lam, order", [(1.0, rosenbrock.ORDER), (1000.0, 3)])
+def test_the_order_from_the_fitted_slope_of_equal_steps(lam, order):
+    """The end-point error falls as ``n^(−p)``: p = 4 where the flow is not stiff; p = 3 at ``λ = 1000``
+    (``|h·λ|`` from 15 to 250), the order RODAS4P keeps on the Prothero–Robinson problem.  Between the
+    steps, the continuous extension is of order 3 (a local error O(h⁴))."""
+    model = prothero_robinson(lam)
+    ends, dense = [], []
+    for n in (8, 16, 32, 64, 128):
+        trajectory = _fixed_steps(model, n)
+        assert trajectory.stats["steps"] == n
+        ends.append((n, abs(trajectory.x[-1][0] - math.cos(T_END))))
+        dense.append((n, np.max(np.abs(trajectory.state("q_c") - np.cos(trajectory.t)))))
+    assert -order - 0.5 < _slope(ends) < -order + 0.3, ends
+    assert _slope(dense) < -3.5, dense
+
+
+def test_the_error_falls_with_the_tolerance_as_the_order_says():
+    """Fixed-tolerance sweeps (rtol 1e-6 … 1e-11): the end-point error against the number of steps has
+    the slope −4 of the method's order (fitted), and stays within a small multiple of the tolerance."""
+    model = prothero_robinson(1.0)
+    rows = []
+    for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11):
+        trajectory = model.simulate(T_END, "rodas-jit", rtol=rtol, atol=rtol * 1e-3, output="events")
+        error = abs(trajectory.x[-1][0] - math.cos(T_END))
+        assert error < 100 * rtol
+        rows.append((trajectory.stats["steps"], error))
+    assert -5.0 < _slope(rows) < -3.3, rows
+
+
+def test_a_stiff_driven_flow_takes_few_steps():
+    """At ``λ = 1000`` the steps follow the solution ``cos t``, not the fast time constant 1 ms: fewer than
+    40 steps over 2 s at rtol 1e-8, the error within the tolerance's order (RODAS4's coefficients took 751
+    steps here)."""
+    trajectory = prothero_robinson(1000.0).simulate(T_END, "rodas-jit", rtol=1e-8, atol=1e-11, output="events")
+    assert trajectory.stats["steps"] < 40
+    assert abs(trajectory.x[-1][0] - math.cos(T_END)) < 1e-8
+
+
+def test_the_continuous_extension_meets_the_step_ends():
+    y0, y1, q1, q2 = np.array([1.0, -2.0]), np.array([3.0, 0.5]), np.array([0.7, 9.0]), np.array([-4.0, 2.0])
+    assert np.array_equal(rosenbrock.rodas_dense(y0, y1, q1, q2, 0.0), y0)
+    assert np.array_equal(rosenbrock.rodas_dense(y0, y1, q1, q2, 1.0), y1)
+
+
+def test_the_step_control_bounds_and_rejections():
+    """h_new/h within [0.2, 6]; a rejected first step becomes a tenth; no growth right after a
+    rejection; a NaN error is a rejection."""
+    h_new, h_acc, err_acc = rosenbrock.rodas_control(0.0, 1.0, 0.0, 0.0, False)
+    assert h_new == pytest.approx(6.0) and h_acc == 1.0 and err_acc == 1e-2
+    assert rosenbrock.rodas_control(1e6, 1.0, 0.5, 0.1, False)[0] == pytest.approx(0.2)
+    assert rosenbrock.rodas_control(2.0, 1.0, 0.0, 0.0, False)[0] == pytest.approx(0.1)
+    assert rosenbrock.rodas_control(1e-3, 1.0, 0.5, 0.1, True)[0] == 1.0
+    assert rosenbrock.rodas_control(math.nan, 1.0, 0.5, 0.1, False) == (0.2, 0.5, 0.1)
+
+
+@pytest.mark.parametrize("n", [1, 3, 7])
+def test_the_lu_solve_is_numpys_solve(n):
+    """Partial pivoting: a matrix with a zero leading entry, and random ones."""
+    rng = np.random.default_rng(n)
+    for matrix in (rng.normal(size=(n, n)), np.roll(np.eye(n), 1, axis=0) + 0.1 * rng.normal(size=(n, n))):
+        b = rng.normal(size=n)
+        lu, piv, x = matrix.ravel().copy(), np.zeros(n, dtype=np.int64), b.copy()
+        assert implicit.lu_factor.py_func(lu, piv, n)
+        implicit.lu_solve.py_func(lu, piv, n, x)
+        np.testing.assert_allclose(x, np.linalg.solve(matrix, b), rtol=1e-10, atol=1e-12)
+    assert not implicit.lu_factor.py_func(np.zeros(n * n), np.zeros(n, dtype=np.int64), n)
+
+
+def _stiff_chain(N=3, zeta=10.0, k=1e8, m=1.0):
+    return ball_chain.build(N=N, compliant=True, k=k, b=2 * zeta * math.sqrt(k * m / 2))
+
+
+def _momenta(model, N):
+    return [model.state_index[s] for s in model.states if s.name in {f"p{i}" for i in range(1, N + 1)}]
+
+
+def test_the_stiff_chain_has_the_instants_and_velocities_of_python_radau():
+    """Three compliant balls, k = 1e8, ζ = 10, rtol 1e-10: the same instants (modes before and after) as
+    Python's Radau, their times within 1e-9 relative, the final momenta within 1e-7; no warning."""
+    model = _stiff_chain()
+    options = dict(rtol=1e-10, atol=1e-12, output="events")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        compiled = model.simulate(0.5, "rodas-jit", **options)
+    reference = model.simulate(0.5, "Radau", **options)
+    assert len(compiled.events) == len(reference.events) >= 3
+    assert [(e.mode_before, e.mode_after) for e in compiled.events] == \
+        [(e.mode_before, e.mode_after) for e in reference.events]
+    np.testing.assert_allclose(compiled.event_times, reference.event_times, rtol=1e-9, atol=0)
+    momenta = _momenta(model, 3)
+    np.testing.assert_allclose(compiled.x[-1][momenta], reference.x[-1][momenta], rtol=1e-7)
+    assert compiled.stats["steps"] < reference.stats["steps"]
+
+
+def test_the_stiff_chain_creates_no_energy_and_raises_no_stiffness():
+    """Every step of the damped chain: stored plus dissipated energy never exceeds the start (the energy
+    balance of the run's steps finds nothing created), and the implicit method never stops as stiff."""
+    model = _stiff_chain()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        trajectory = model.simulate(0.5, "rodas-jit", rtol=1e-8, atol=1e-10)
+    balance = energy_created(trajectory)
+    assert balance is not None and balance.first is None, balance
+    assert trajectory.stopped is None and "failed" not in trajectory.stats
+
+
+def test_without_a_compiled_jacobian_the_kernel_differences_f(monkeypatch):
+    """A mode whose Jacobian is not derived (over the symbolic budget) flows with ``J`` from differences of
+    ``f``: the same instants and velocities."""
+    from switching.simulate import compiled_flow
+
+    derived = []
+
+    def counted(model, mode):
+        derived.append(compiled(model, mode))
+        return derived[-1]
+
+    compiled = compiled_flow.jacobian_function
+    monkeypatch.setattr(compiled_flow, "jacobian_function", counted)
+    options = dict(rtol=1e-10, atol=1e-12, output="events")
+    symbolic = _stiff_chain().simulate(0.5, "rodas-jit", **options)
+    assert len(derived) >= 2 and all(j is not None for j in derived)
+    derived.clear()
+    compiled = lambda model, mode: None  # noqa: E731
+    model = _stiff_chain()
+    differenced = model.simulate(0.5, "rodas-jit", **options)
+    assert len(derived) >= 2 and not any(derived)
+    assert len(differenced.events) == len(symbolic.events)
+    np.testing.assert_allclose(differenced.event_times, symbolic.event_times, rtol=1e-8, atol=0)
+    momenta = _momenta(model, 3)
+    np.testing.assert_allclose(differenced.x[-1][momenta], symbolic.x[-1][momenta], rtol=1e-7)
+
+
+@pytest.mark.slow
+def test_ten_stiff_balls_have_the_instants_of_python_radau():
+    model = _stiff_chain(N=10)
+    options = dict(rtol=1e-8, atol=1e-10, output="events")
+    compiled = model.simulate(0.5, "rodas-jit", **options)
+    reference = model.simulate(0.5, "Radau", **options)
+    assert [(e.mode_before, e.mode_after) for e in compiled.events] == \
+        [(e.mode_before, e.mode_after) for e in reference.events]
+    np.testing.assert_allclose(compiled.event_times, reference.event_times, rtol=1e-7, atol=0)
+    momenta = _momenta(model, 10)
+    np.testing.assert_allclose(compiled.x[-1][momenta], reference.x[-1][momenta], atol=1e-6)
