@@ -196,3 +196,52 @@ def test_ten_stiff_balls_have_the_instants_of_python_radau():
     np.testing.assert_allclose(compiled.event_times, reference.event_times, rtol=1e-7, atol=0)
     momenta = _momenta(model, 10)
     np.testing.assert_allclose(compiled.x[-1][momenta], reference.x[-1][momenta], atol=1e-6)
+
+
+# ---------------------------------------------------------------- method="auto": explicit or implicit per mode
+
+
+def test_the_spectrum_says_which_modes_of_the_chain_are_stiff():
+    """In contact (k = 1e8, ζ = 10) the fastest decay is ≈ 2ζω ≈ 2.8e5 1/s: stiff over 0.5 s; apart, only the
+    relaxing damper's k/b ≈ 707 1/s: not stiff (354 ≤ 1e4)."""
+    from switching.library.spectrum import STIFF_SPAN, mode_stiffness
+    from switching.model.modes import Mode
+
+    model = _stiff_chain(N=2)
+    x = model.initial_state()
+    free = mode_stiffness(model, Mode(("free",), ("contact1",)), x, 0.0, 0.5)
+    touch = mode_stiffness(model, Mode(("touch",), ("contact1",)), x, 0.0, 0.5)
+    assert not free.stiff and free.value == pytest.approx(0.5 * 1e8 / (2 * 10 * math.sqrt(1e8 / 2)), rel=1e-9)
+    assert touch.stiff and touch.value > 10 * STIFF_SPAN
+    assert "max |Re λ|·T" in touch.reason and "> 10000" in touch.reason
+
+
+def test_auto_flows_implicitly_in_the_stiff_modes_and_says_so():
+    model = _stiff_chain()
+    options = dict(rtol=1e-10, atol=1e-12, output="events")
+    auto = model.simulate(0.5, "auto", **options)
+    reference = model.simulate(0.5, "Radau", **options)
+    assert auto.stats["method"] == "RK45-jit"
+    assert "rodas-jit in its stiff modes" in auto.stats["method chosen by auto"]
+    per_mode = dict(entry.split(": ", 1) for entry in auto.stats["method per mode (auto)"].split("; "))
+    assert per_mode["contact1=free, contact2=free"].startswith("RK45-jit")
+    assert per_mode["contact1=touch, contact2=touch"].startswith("rodas-jit")
+    assert [(e.mode_before, e.mode_after) for e in auto.events] == \
+        [(e.mode_before, e.mode_after) for e in reference.events]
+    np.testing.assert_allclose(auto.event_times, reference.event_times, rtol=1e-9, atol=0)
+    momenta = _momenta(model, 3)
+    np.testing.assert_allclose(auto.x[-1][momenta], reference.x[-1][momenta], rtol=1e-7)
+
+
+def test_auto_switches_a_mode_whose_explicit_flow_proves_stiff(monkeypatch):
+    """The mode judged not stiff (a threshold no mode reaches) on the Prothero–Robinson problem at λ = 1e5:
+    RK45's own stiffness test fires, and the mode flows with RODAS4P from there on instead of the run stopping
+    (RK45 alone would take some 1e5 steps)."""
+    from switching.library import spectrum
+
+    monkeypatch.setattr(spectrum, "STIFF_SPAN", 1e300)
+    auto = prothero_robinson(1e5).simulate(T_END, "auto", rtol=1e-8, atol=1e-11, output="events")
+    assert auto.stats["method"] == "RK45-jit" and auto.stopped is None
+    assert "rodas-jit (RK45's stiffness test fired at t = " in auto.stats["method per mode (auto)"]
+    assert auto.stats["steps"] < 1000
+    assert abs(auto.x[-1][0] - math.cos(T_END)) < 1e-8
