@@ -25,7 +25,8 @@ the next call by extending the record.  Per-mode operations (``op``):
  6    jac        ``out[:k·k]`` = the flow's Jacobian ``∂(dy/dt)/∂y`` at
                  ``y = x`` (row-major; units of ``ẏ_i/y_j``), from a
                  function of its own (``M.jfns``; address 0: none, the
-                 kernel differences ``f``)
+                 kernel differences ``f``); ``g`` 1: the entries it does
+                 not write hold zeros already
 ====  =========  ==========================================================
 
 The kernel's state travels in a few records (tuples of arrays from ``run``'s
@@ -146,8 +147,8 @@ def gparts(m, g, q, M):
 
 
 @inline
-def jac(m, y, t, M, out):
-    call(M.jfns[m], 6, 0, t, 0.0, 0.0, y, y, M.p, M.u, y, y, y, M.radix, M.radix, out)
+def jac(m, y, t, M, out, zeroed):
+    call(M.jfns[m], 6, 1 if zeroed else 0, t, 0.0, 0.0, y, y, M.p, M.u, y, y, y, M.radix, M.radix, out)
 
 
 @dispatch

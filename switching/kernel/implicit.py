@@ -20,10 +20,22 @@ of triangular solves.  The error norm is scipy's (root mean square of
 The records (see :mod:`.calls`): ``A = (y, f, y_new, f_new, Q)`` with the
 continuous extension's ``q₁, q₂`` in ``Q[:, 0:2]``; ``W = (tmp, err, K)``
 with the stages ``k₁…k₆`` in ``K[0:6]`` and a stage's rates in ``K[6]``;
-``L = (jac, lu, piv, fx, ctl)``: ``J`` (``k·k`` row-major, then room for
-``k`` more: ``f_t`` from the compiled function) and the LU factors of ``E``,
-the pivots, ``f_t``, and the controller's memory ``ctl = (h_acc,
-err_acc)`` (the last accepted step and its error; 0 at a flow's start).
+``L = (jac, lu, piv, fx, ctl, order)``: ``J`` (``k·k`` row-major, then room
+for ``k`` more: ``f_t`` from the compiled function) and the LU factors of
+``E``'s block ``E_SS`` (below), the pivots, ``f_t``, the controller's memory
+``ctl = (h_acc, err_acc)`` (the last accepted step and its error; 0 at a
+flow's start) with ``|S|`` and a flag after it (0 at a flow's start: ``J``'s
+buffer not zeroed, the order not made), and the states' order ``S`` then
+``Z``.
+
+The states no rate reads at ``(t, y)`` (``Z``: the columns of ``J`` that are
+zero, such as positions that only integrate velocities) are solved for
+without factoring: with the others ``S`` first, ``E = [[E_SS, 0], [−J_ZS,
+I/(γh)]]``, so ``E·x = b`` is ``E_SS·x_S = b_S`` (LU of ``|S| × |S|``) and
+``x_Z = γh·(b_Z + J_ZS·x_S)``, exactly.  The order of ``S`` is made at the
+flow's first step (:func:`_narrow`: nearly banded for a sparse ``J``) and
+kept while the columns of ``Z`` stay zero (any order of ``S`` is exact; a
+column of ``Z`` that is no longer zero makes the order again).
 """
 
 from __future__ import annotations
@@ -48,7 +60,9 @@ _SQRT_EPS = math.sqrt(np.finfo(np.float64).eps)
 @inline
 def lu_factor(a, piv, n):
     """LU factors of the ``n × n`` row-major matrix ``a`` in place, partial pivoting (row ``c`` swapped with
-    ``piv[c]`` at column ``c``).  Returns False for an exactly singular matrix."""
+    ``piv[c]`` at column ``c``); ``piv[n + r]`` the first column of row ``r``'s nonzeros in ``L``,
+    ``piv[2n + r]`` the last in ``U`` (``piv``: 3n entries), so that a sparse matrix eliminates and solves
+    over its nonzeros' extent only.  Returns False for an exactly singular matrix."""
     for c in range(n):
         p = c
         big = abs(a[c * n + c])
@@ -62,13 +76,31 @@ def lu_factor(a, piv, n):
         if p != c:
             for j in range(n):
                 a[c * n + j], a[p * n + j] = a[p * n + j], a[c * n + j]
+        last = c
+        for j in range(n - 1, c, -1):  # the pivot row's extent
+            if a[c * n + j] != 0.0:
+                last = j
+                break
         inv = 1.0 / a[c * n + c]
         for r in range(c + 1, n):
             ratio = a[r * n + c] * inv
             a[r * n + c] = ratio
             if ratio != 0.0:
-                for j in range(c + 1, n):
+                for j in range(c + 1, last + 1):
                     a[r * n + j] -= ratio * a[c * n + j]
+    for r in range(n):
+        first = r
+        for j in range(r):
+            if a[r * n + j] != 0.0:
+                first = j
+                break
+        piv[n + r] = first
+        last = r
+        for j in range(n - 1, r, -1):
+            if a[r * n + j] != 0.0:
+                last = j
+                break
+        piv[2 * n + r] = last
     return True
 
 
@@ -81,26 +113,135 @@ def lu_solve(a, piv, n, b):
             b[c], b[p] = b[p], b[c]
     for r in range(n):
         acc = b[r]
-        for j in range(r):
+        for j in range(piv[n + r], r):
             acc -= a[r * n + j] * b[j]
         b[r] = acc
     for r in range(n - 1, -1, -1):
         acc = b[r]
-        for j in range(r + 1, n):
+        for j in range(r + 1, piv[2 * n + r] + 1):
             acc -= a[r * n + j] * b[j]
         b[r] = acc / a[r * n + r]
+
+
+@inline
+def _linked(jbuf, ke, i, j):
+    """Is state ``i`` coupled with ``j`` in ``J`` (either way)?"""
+    return jbuf[i * ke + j] != 0.0 or jbuf[j * ke + i] != 0.0
+
+
+@inline
+def _narrow(jbuf, ke, order, s, scratch):
+    """Reorder ``S = order[:s]`` by reverse Cuthill–McKee on the pattern of ``J_SS + J_SSᵀ`` (breadth first from
+    a state of least degree, neighbours by increasing degree; then reversed), so that a sparse ``E_SS`` is
+    nearly banded and its LU works within the band (``scratch``: 3·ke integers)."""
+    deg, new, seen = scratch[0:ke], scratch[ke:2 * ke], scratch[2 * ke:3 * ke]
+    for a in range(s):
+        d = 0
+        for b in range(s):
+            if b != a and _linked(jbuf, ke, order[a], order[b]):
+                d += 1
+        deg[a] = d
+        seen[a] = 0
+    count = 0
+    while count < s:
+        start = -1
+        for a in range(s):
+            if seen[a] == 0 and (start < 0 or deg[a] < deg[start]):
+                start = a
+        seen[start] = 1
+        new[count] = start
+        count += 1
+        head = count - 1
+        while head < count:
+            a = new[head]
+            head += 1
+            first = count
+            for b in range(s):
+                if seen[b] == 0 and _linked(jbuf, ke, order[a], order[b]):
+                    seen[b] = 1
+                    new[count] = b
+                    count += 1
+                    c = count - 1
+                    while c > first and deg[new[c - 1]] > deg[new[c]]:
+                        new[c - 1], new[c] = new[c], new[c - 1]
+                        c -= 1
+    for a in range(s):
+        deg[a] = order[new[s - 1 - a]]
+    for a in range(s):
+        order[a] = deg[a]
+
+
+@inline
+def _partition(jbuf, ke, order, ctl, scratch):
+    """The states' order: those whose column of ``J`` is not zero (``S``, narrowed: :func:`_narrow`), then the
+    others (``Z``); ``|S|`` into ``ctl[2]``."""
+    s = 0
+    z = ke
+    for j in range(ke):
+        read = False
+        for i in range(ke):
+            if jbuf[i * ke + j] != 0.0:
+                read = True
+                break
+        if read:
+            order[s] = j
+            s += 1
+        else:
+            z -= 1
+            order[z] = j
+    ctl[2] = s
+    _narrow(jbuf, ke, order, s, scratch)
+
+
+@inline
+def _still_zero(jbuf, ke, order, s):
+    """Are the columns of ``Z`` (``order[s:]``) still zero in this ``J``?"""
+    for i in range(s, ke):
+        j = order[i]
+        for r in range(ke):
+            if jbuf[r * ke + j] != 0.0:
+                return False
+    return True
+
+
+@inline
+def _factor(jbuf, lu, piv, order, s, ke, factor):
+    """The LU factors of ``E_SS = I·factor − J_SS`` (``factor = 1/(γh)``); False when it is singular."""
+    for i in range(s):
+        row = order[i] * ke
+        for j in range(s):
+            lu[i * s + j] = -jbuf[row + order[j]]
+        lu[i * s + i] += factor
+    return lu_factor(lu, piv, s)
+
+
+@inline
+def _solve(jbuf, lu, piv, order, s, ke, gh, v, g):
+    """``v ← E⁻¹·v`` by blocks (see the module docstring; ``gh = γh``, ``g`` scratch of ``|S|``)."""
+    for i in range(s):
+        g[i] = v[order[i]]
+    lu_solve(lu, piv, s, g)
+    for i in range(s):
+        v[order[i]] = g[i]
+    for i in range(s, ke):
+        z = order[i]
+        acc = v[z]
+        row = z * ke
+        for j in range(s):
+            acc += jbuf[row + order[j]] * g[j]
+        v[z] = gh * acc
 
 
 @dispatch
 def jacobian(m, k, t, y, f, M, L, tmp, f1):
     """``J`` at ``(t, y)`` (rates ``f``) into ``L[0]``, and ``f_t`` into ``L[3]`` (0 unless the flow is driven
     by inputs); ``tmp``, ``f1`` scratch."""
-    jbuf, fx = L[0], L[3]
+    jbuf, fx, order = L[0], L[3], L[5]
     ke = y.shape[0]
     if k == 0:
         jbuf[0] = 0.0
     elif M.jfns[m] != 0:
-        jac(m, y, t, M, jbuf)
+        jac(m, y, t, M, jbuf, L[4][3] != 0.0)  # (zeroed by the flow's first call)
     else:
         for i in range(ke):
             tmp[i] = y[i]
@@ -112,6 +253,9 @@ def jacobian(m, k, t, y, f, M, L, tmp, f1):
             for i in range(ke):
                 jbuf[i * ke + j] = (f1[i] - f[i]) / delta
             tmp[j] = y[j]
+    if L[4][3] == 0.0 or not _still_zero(jbuf, ke, order, int(L[4][2])):
+        _partition(jbuf, ke, order, L[4], L[2])
+        L[4][3] = 1.0
     for i in range(ke):
         fx[i] = 0.0
     if M.driven != 0 and k > 0 and M.jfns[m] != 0:  # the compiled Jacobian's ∂f/∂t, after J
@@ -126,12 +270,13 @@ def jacobian(m, k, t, y, f, M, L, tmp, f1):
 
 @inline
 def _stages(m, k, t, h, rtol, atol, A, W, L, M):
-    """The six stages of a step of size ``h`` (``E``'s LU factors in ``L[1]``) into ``K[0:6]``, ``y₁`` into
-    ``y_new``; returns the error norm."""
+    """The six stages of a step of size ``h`` (``E_SS``'s LU factors in ``L[1]``) into ``K[0:6]``, ``y₁``
+    into ``y_new``; returns the error norm."""
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
-    lu, piv, fx = L[1], L[2], L[3]
+    jbuf, lu, piv, fx, ctl, order = L
     ke = y.shape[0]
+    s = int(ctl[2])
     for st in range(6):
         if st > 0:
             for c in range(ke):
@@ -145,7 +290,7 @@ def _stages(m, k, t, h, rtol, atol, A, W, L, M):
             for j in range(st):
                 acc += (RG[st, j] / h) * K[j, c]
             K[st, c] = acc + h * RD[st] * fx[c]
-        lu_solve(lu, piv, ke, K[st])
+        _solve(jbuf, lu, piv, order, s, ke, GAMMA * h, K[st], err)
     total = 0.0
     for c in range(ke):
         y_new[c] = tmp[c] + K[5, c]
@@ -161,7 +306,7 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     t_new, h, h_abs)``: not ok when the step size collapsed; ``h_abs`` the size to try next."""
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
-    jbuf, lu, piv, fx, ctl = L
+    jbuf, lu, piv, fx, ctl, order = L
     ke = y.shape[0]
     min_step = 10 * abs(np.nextafter(t, np.inf) - t)
     h_abs = min(h_abs, max_step)
@@ -177,12 +322,8 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
             t_new = t_end
         h = t_new - t
         h_abs = abs(h)
-        factor = 1.0 / (GAMMA * h)
-        for i in range(ke * ke):
-            lu[i] = -jbuf[i]
-        for i in range(ke):
-            lu[i * ke + i] += factor
-        error = _stages(m, k, t, h, rtol, atol, A, W, L, M) if lu_factor(lu, piv, ke) else np.inf
+        factored = _factor(jbuf, lu, piv, order, int(ctl[2]), ke, 1.0 / (GAMMA * h))
+        error = _stages(m, k, t, h, rtol, atol, A, W, L, M) if factored else np.inf
         h_next, h_acc, err_acc = rodas_control(error, h_abs, ctl[0], ctl[1], rejected)
         if error <= 1.0:
             ctl[0] = h_acc

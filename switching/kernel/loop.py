@@ -88,8 +88,8 @@ def _layout(n, n_automata, width, n_sides, samples, max_instant):
     ne = max(n, 1)
     w = max(width, 1)
     slots = S_STEP + samples + 2 + w * (samples + 3)
-    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 2
-    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + ne
+    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 4
+    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + 4 * ne
     bools = slots * (1 + w) + w
     return floats, ints, bools
 
@@ -169,7 +169,7 @@ def _carve(x0, M, samples, max_instant, work):
     o += ne * ne
     fx = wf[o:o + ne]
     o += ne
-    ctl = wf[o:o + 2]
+    ctl = wf[o:o + 4]
     o = 0
     target = wi[o:o + radix.shape[0]]
     o += radix.shape[0]
@@ -186,7 +186,9 @@ def _carve(x0, M, samples, max_instant, work):
     scan = wi[o:o + 1]
     scan[0] = 0
     o += 1
-    piv = wi[o:o + ne]
+    piv = wi[o:o + 3 * ne]
+    o += 3 * ne
+    perm = wi[o:o + ne]
     ptr = wb[:slots * width].reshape((slots, width))
     phd = wb[slots * width:slots * (width + 1)]
     q = wb[slots * (width + 1):slots * (width + 1) + width]
@@ -196,7 +198,7 @@ def _carve(x0, M, samples, max_instant, work):
     PT = (ptau, pmg, ptr, phd)
     SC = (order, ext, iscr, fscr, q, scan)
     R = (s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x)
-    L = (jbuf, lu, piv, fx, ctl)
+    L = (jbuf, lu, piv, fx, ctl, perm)
     return X, B, PT, SC, R, L
 
 
@@ -346,8 +348,9 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
     template, z, dbuf, s, tmp = E
     out_t, out_x, out_m, info = out[0], out[1], out[2], out[5]
     k = M.lengths[0][m]
-    L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet
+    L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet; its Jacobian's buffer and order not made
     L[4][1] = 0.0
+    L[4][3] = 0.0
     ke = y.shape[0]
     h_abs, pos, n_saved = _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC)
     stiff_run = 0

@@ -109,15 +109,18 @@ def test_the_step_control_bounds_and_rejections():
 
 @pytest.mark.parametrize("n", [1, 3, 7])
 def test_the_lu_solve_is_numpys_solve(n):
-    """Partial pivoting: a matrix with a zero leading entry, and random ones."""
+    """Partial pivoting: a matrix with a zero leading entry, random ones, and a sparse one (tridiagonal, its
+    leading entry zero: eliminated and solved over its nonzeros' extent)."""
     rng = np.random.default_rng(n)
-    for matrix in (rng.normal(size=(n, n)), np.roll(np.eye(n), 1, axis=0) + 0.1 * rng.normal(size=(n, n))):
+    sparse = np.diag(rng.normal(size=n)) + np.diag(np.ones(n - 1), 1) + np.diag(np.ones(n - 1), -1)
+    sparse[0, 0] = 0.0 if n > 1 else 1.0
+    for matrix in (rng.normal(size=(n, n)), np.roll(np.eye(n), 1, axis=0) + 0.1 * rng.normal(size=(n, n)), sparse):
         b = rng.normal(size=n)
-        lu, piv, x = matrix.ravel().copy(), np.zeros(n, dtype=np.int64), b.copy()
+        lu, piv, x = matrix.ravel().copy(), np.zeros(3 * n, dtype=np.int64), b.copy()
         assert implicit.lu_factor.py_func(lu, piv, n)
         implicit.lu_solve.py_func(lu, piv, n, x)
         np.testing.assert_allclose(x, np.linalg.solve(matrix, b), rtol=1e-10, atol=1e-12)
-    assert not implicit.lu_factor.py_func(np.zeros(n * n), np.zeros(n, dtype=np.int64), n)
+    assert not implicit.lu_factor.py_func(np.zeros(n * n), np.zeros(3 * n, dtype=np.int64), n)
 
 
 def _stiff_chain(N=3, zeta=10.0, k=1e8, m=1.0):
