@@ -222,6 +222,7 @@ class AutoChoice:
         self.model, self.method, self.reason, self.rtol = model, method, reason, rtol
         self.per_mode, self.span = per_mode, span
         self.verdicts: dict = dict(verdicts or {})
+        self.noted: set = set()  # modes whose Python flow switched to Radau (:meth:`note`)
 
     def classify(self, compiled, x, t) -> None:
         """Judge each mode of ``compiled`` not judged yet at the state ``x`` at ``t`` [s], and mark the stiff ones
@@ -240,20 +241,30 @@ class AutoChoice:
         self.verdicts[mode] = ModeStiffness(True, math.nan, why)
         compiled.mark_implicit({mode: True})
 
+    def note(self, mode, what: str) -> None:
+        """A flow in Python of ``mode`` switched to an implicit method (``what`` says which and why)."""
+        from .spectrum import ModeStiffness
+
+        self.verdicts[mode] = ModeStiffness(True, math.nan, what)
+        self.noted.add(mode)
+
     def report(self, wall: float, span: float) -> dict:
         """The stats entries of a finished run of ``span`` seconds that took
         ``wall`` seconds; a Python run stores its speed (wall seconds per
         simulated second at its rtol) in the disk cache."""
-        if self.method == "RK45" and span > 0 and wall >= 0:
+        if self.method == "RK45" and span > 0 and wall >= 0 and not self.noted:  # (a switched run is no measure)
             self.model.cache.write_record(_speed_key(self.model), {"rate": wall / span, "rtol": self.rtol})
         method = self.method
-        if self.per_mode and any(v.stiff for v in self.verdicts.values()):
+        if self.per_mode and any(v.stiff for m, v in self.verdicts.items() if m not in self.noted):
             method += " (rodas-jit in its stiff modes)"
+        if self.noted:
+            method += " (Radau in the modes its flows proved stiff)"
         stats = {"method chosen by auto": f"{method}: {self.reason}"}
-        if self.per_mode and self.verdicts:
+        shown = [(m, v) for m, v in self.verdicts.items() if self.per_mode or m in self.noted]
+        if shown:
             stats["method per mode (auto)"] = "; ".join(
-                f"{mode.describe()}: {'rodas-jit' if v.stiff else 'RK45-jit'} ({v.reason})"
-                for mode, v in self.verdicts.items())
+                f"{m.describe()}: " + (v.reason if m in self.noted else
+                                       f"{'rodas-jit' if v.stiff else 'RK45-jit'} ({v.reason})") for m, v in shown)
         return stats
 
 

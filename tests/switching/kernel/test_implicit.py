@@ -248,3 +248,17 @@ def test_auto_switches_a_mode_whose_explicit_flow_proves_stiff(monkeypatch):
     assert "rodas-jit (RK45's stiffness test fired at t = " in auto.stats["method per mode (auto)"]
     assert auto.stats["steps"] < 1000
     assert abs(auto.x[-1][0] - math.cos(T_END)) < 1e-8
+
+
+def test_auto_in_python_continues_a_flow_that_proves_stiff_with_radau(monkeypatch):
+    """Without the compiled kernel (as before its first compilation) ``auto`` flows in Python with RK45; where
+    RK45's stiffness test fires, the flow goes on from its last step with Radau instead of stopping."""
+    from switching.library import jit_model, spectrum
+
+    monkeypatch.setattr(spectrum, "STIFF_SPAN", 1e300)
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda: False)
+    auto = prothero_robinson(1e5).simulate(T_END, "auto", rtol=1e-8, atol=1e-11, output="events")
+    assert auto.stats["method"] == "RK45" and auto.stopped is None
+    assert "(Radau in the modes its flows proved stiff)" in auto.stats["method chosen by auto"]
+    assert "Radau in Python from t = " in auto.stats["method per mode (auto)"]
+    assert abs(auto.x[-1][0] - math.cos(T_END)) < 1e-7
