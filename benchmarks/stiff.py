@@ -18,9 +18,18 @@ and compiled) and ``auto`` (compiled: RK45 or RODAS4P per mode): "cold" is a
 new process with empty caches (``HBG_CACHE_DIR`` and ``NUMBA_CACHE_DIR``
 fresh temporary directories: the kernel, the modes' functions and Jacobians
 derived and compiled, as on a new installation), the time of its
-``simulate`` call; "warm" the same run again in this process.  The last
+``simulate`` call; "warm" the same run again in this process (``auto``'s cold
+run is a Python one: with the kernel not compiled yet and the balls apart at
+the start, not stiff, it takes RK45 in Python, going on with Radau where
+RK45's stiffness test fires; its warm runs are compiled).  The last
 column: the largest relative difference of the instants' times from
 Radau's (``-`` when the instants differ in number or modes).
+
+Measured (2 shared cores, rtol 1e-8, warm): ten balls, Radau 80–155 ms,
+rodas-jit 1.6 ms, 260 steps against 293, the same 11 instants (times within
+8e-8 of Radau's, the methods' own errors at this rtol; 3e-9 at rtol 1e-10);
+thirty balls, Radau 0.26 s, rodas-jit 16 ms.  Cold rodas-jit: 40–50 s (the
+kernel's compilation).
 """
 
 from __future__ import annotations
