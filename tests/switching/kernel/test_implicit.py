@@ -262,3 +262,59 @@ def test_auto_in_python_continues_a_flow_that_proves_stiff_with_radau(monkeypatc
     assert "(Radau in the modes its flows proved stiff)" in auto.stats["method chosen by auto"]
     assert "Radau in Python from t = " in auto.stats["method per mode (auto)"]
     assert abs(auto.x[-1][0] - math.cos(T_END)) < 1e-7
+
+
+# ---------------------------------------------------------------- the compiled Jacobian, called through its address
+
+
+def _call_jacobian(function, model, y, t, size):
+    """The compiled Jacobian ``function`` (op 6) at ``(t, y)`` through its address, as the kernel calls it."""
+    import numba
+
+    from switching.kernel import calls
+    from switching.library.jit_model import input_substitution
+
+    @numba.njit
+    def call(address, y, t, p, u, out, ints):
+        return calls.call(address, 6, 0, t, 0.0, 0.0, y, y, p, u, y, y, y, ints, ints, out)
+
+    out = np.full(size, np.nan)
+    u = input_substitution(model)[2]
+    u = u if len(u) else np.zeros(1)
+    assert call(function.address, np.array(y, dtype=float), float(t), model.parameter_array, u, out,
+                np.zeros(1, dtype=np.int64)) == 1
+    return out
+
+
+@pytest.mark.parametrize("contact", [False, True])
+def test_the_compiled_jacobian_is_the_derived_one_through_the_constraints(contact):
+    """The falling rod (trigonometric rates; in contact the tip's height is a constraint): the compiled
+    function's entries equal :class:`FlowJacobian`'s (sympy's derivatives, evaluated in Python) at random
+    states, zeros included."""
+    import models
+    from switching.library.jacobian import flow_jacobian
+    from switching.library.jit_jacobian import jacobian_function
+    from switching.model.modes import Mode
+
+    model = models.load("falling_rod").build()
+    mode = Mode(("contact" if contact else "free", "stuck"), ("contact", "friction"))
+    cm = model.compiled_mode(mode)
+    k = len(cm.independent)
+    function = jacobian_function(model, mode)
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        x = model.initial_state() + rng.normal(scale=0.3, size=len(model.states))
+        expected = flow_jacobian(model, cm, x).dense(0.0, x[cm.independent])
+        got = _call_jacobian(function, model, x[cm.independent], 0.0, k * k).reshape(k, k)
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12 * np.max(np.abs(expected)))
+
+
+def test_the_compiled_jacobian_of_a_driven_flow_carries_its_time_derivative():
+    """Prothero–Robinson: ``J = −λ`` and ``∂f/∂t = λ·u̇ = −λ·sin t − cos t`` after it."""
+    from switching.library.jit_jacobian import jacobian_function
+
+    lam, t = 1000.0, 0.7
+    model = prothero_robinson(lam)
+    out = _call_jacobian(jacobian_function(model, model.initial_mode), model, [0.3], t, 2)
+    assert out[0] == pytest.approx(-lam, rel=1e-14)
+    assert out[1] == pytest.approx(-lam * math.sin(t) - math.cos(t), rel=1e-14)
