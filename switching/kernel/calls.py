@@ -26,7 +26,8 @@ the next call by extending the record.  Per-mode operations (``op``):
                  ``y = x`` (row-major; units of ``ẏ_i/y_j``), from a
                  function of its own (``M.jfns``; address 0: none, the
                  kernel differences ``f``); ``g`` 1: the entries it does
-                 not write hold zeros already
+                 not write hold zeros already; 2: its pattern (1 at each
+                 structurally nonzero entry, else 0)
 ====  =========  ==========================================================
 
 The kernel's state travels in a few records (tuples of arrays from ``run``'s
@@ -147,8 +148,8 @@ def gparts(m, g, q, M):
 
 
 @inline
-def jac(m, y, t, M, out, zeroed):
-    call(M.jfns[m], 6, 1 if zeroed else 0, t, 0.0, 0.0, y, y, M.p, M.u, y, y, y, M.radix, M.radix, out)
+def jac(m, y, t, M, out, which):
+    call(M.jfns[m], 6, which, t, 0.0, 0.0, y, y, M.p, M.u, y, y, y, M.radix, M.radix, out)
 
 
 @dispatch

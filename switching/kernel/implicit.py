@@ -25,17 +25,21 @@ for ``k`` more: ``f_t`` from the compiled function) and the LU factors of
 ``E``'s block ``E_SS`` (below), the pivots, ``f_t``, the controller's memory
 ``ctl = (h_acc, err_acc)`` (the last accepted step and its error; 0 at a
 flow's start) with ``|S|`` and a flag after it (0 at a flow's start: ``J``'s
-buffer not zeroed, the order not made), and the states' order ``S`` then
-``Z``.
+buffer not zeroed, the order not made; 1: the order made from ``J``'s values;
+2: from the compiled function's pattern), and the states' order ``S`` then
+``Z`` (then the extents of ``Z``'s rows in ``J_ZS``: 3·k entries).
 
 The states no rate reads at ``(t, y)`` (``Z``: the columns of ``J`` that are
 zero, such as positions that only integrate velocities) are solved for
 without factoring: with the others ``S`` first, ``E = [[E_SS, 0], [−J_ZS,
 I/(γh)]]``, so ``E·x = b`` is ``E_SS·x_S = b_S`` (LU of ``|S| × |S|``) and
 ``x_Z = γh·(b_Z + J_ZS·x_S)``, exactly.  The order of ``S`` is made at the
-flow's first step (:func:`_narrow`: nearly banded for a sparse ``J``) and
-kept while the columns of ``Z`` stay zero (any order of ``S`` is exact; a
-column of ``Z`` that is no longer zero makes the order again).
+flow's first step (:func:`_narrow`: nearly banded for a sparse ``J``): from
+the compiled Jacobian's pattern (its structural nonzeros, so kept for the
+whole flow, with each row of ``J_ZS`` summed over its nonzeros' extent), or
+from the values of a differenced ``J``, kept while the columns of ``Z`` stay
+zero (any order of ``S`` is exact; a column of ``Z`` that is no longer zero
+makes the order again).
 """
 
 from __future__ import annotations
@@ -172,9 +176,11 @@ def _narrow(jbuf, ke, order, s, scratch):
 
 
 @inline
-def _partition(jbuf, ke, order, ctl, scratch):
+def _partition(jbuf, ke, order, ctl, scratch, structural):
     """The states' order: those whose column of ``J`` is not zero (``S``, narrowed: :func:`_narrow`), then the
-    others (``Z``); ``|S|`` into ``ctl[2]``."""
+    others (``Z``); ``|S|`` into ``ctl[2]``; for each row ``order[i]`` of ``Z`` the extent of its nonzeros in
+    ``J_ZS`` (positions in ``S``), ``order[ke + i]`` to ``order[2ke + i]`` — from ``jbuf`` when it holds the
+    pattern (``structural``), else all of ``S`` (a value may leave 0 later)."""
     s = 0
     z = ke
     for j in range(ke):
@@ -191,6 +197,19 @@ def _partition(jbuf, ke, order, ctl, scratch):
             order[z] = j
     ctl[2] = s
     _narrow(jbuf, ke, order, s, scratch)
+    for i in range(s, ke):
+        lo = 0
+        hi = s - 1
+        if structural:
+            lo = s
+            hi = -1
+            row = order[i] * ke
+            for j in range(s):
+                if jbuf[row + order[j]] != 0.0:
+                    lo = min(lo, j)
+                    hi = j
+        order[ke + i] = lo
+        order[2 * ke + i] = hi
 
 
 @inline
@@ -227,7 +246,7 @@ def _solve(jbuf, lu, piv, order, s, ke, gh, v, g):
         z = order[i]
         acc = v[z]
         row = z * ke
-        for j in range(s):
+        for j in range(order[ke + i], order[2 * ke + i] + 1):
             acc += jbuf[row + order[j]] * g[j]
         v[z] = gh * acc
 
@@ -235,27 +254,35 @@ def _solve(jbuf, lu, piv, order, s, ke, gh, v, g):
 @dispatch
 def jacobian(m, k, t, y, f, M, L, tmp, f1):
     """``J`` at ``(t, y)`` (rates ``f``) into ``L[0]``, and ``f_t`` into ``L[3]`` (0 unless the flow is driven
-    by inputs); ``tmp``, ``f1`` scratch."""
-    jbuf, fx, order = L[0], L[3], L[5]
+    by inputs); at the flow's first step the order of the states (from the compiled function's pattern: kept
+    for the whole flow; else from ``J``'s values: checked at each step); ``tmp``, ``f1`` scratch."""
+    jbuf, fx, order, ctl = L[0], L[3], L[5], L[4]
     ke = y.shape[0]
-    if k == 0:
-        jbuf[0] = 0.0
-    elif M.jfns[m] != 0:
-        jac(m, y, t, M, jbuf, L[4][3] != 0.0)  # (zeroed by the flow's first call)
+    if k > 0 and M.jfns[m] != 0:
+        if ctl[3] == 0.0:
+            jac(m, y, t, M, jbuf, 2)  # the pattern
+            _partition(jbuf, ke, order, ctl, L[2], True)
+            ctl[3] = 2.0
+            jac(m, y, t, M, jbuf, 0)
+        else:
+            jac(m, y, t, M, jbuf, 1)  # (the other entries hold zeros from the first call)
     else:
-        for i in range(ke):
-            tmp[i] = y[i]
-        for j in range(ke):
-            delta = _SQRT_EPS * max(abs(y[j]), 1e-5)
-            tmp[j] = y[j] + delta
-            delta = tmp[j] - y[j]
-            fun(m, t, tmp, k, M, f1)
+        if k == 0:
+            jbuf[0] = 0.0
+        else:
             for i in range(ke):
-                jbuf[i * ke + j] = (f1[i] - f[i]) / delta
-            tmp[j] = y[j]
-    if L[4][3] == 0.0 or not _still_zero(jbuf, ke, order, int(L[4][2])):
-        _partition(jbuf, ke, order, L[4], L[2])
-        L[4][3] = 1.0
+                tmp[i] = y[i]
+            for j in range(ke):
+                delta = _SQRT_EPS * max(abs(y[j]), 1e-5)
+                tmp[j] = y[j] + delta
+                delta = tmp[j] - y[j]
+                fun(m, t, tmp, k, M, f1)
+                for i in range(ke):
+                    jbuf[i * ke + j] = (f1[i] - f[i]) / delta
+                tmp[j] = y[j]
+        if ctl[3] == 0.0 or not _still_zero(jbuf, ke, order, int(ctl[2])):
+            _partition(jbuf, ke, order, ctl, L[2], False)
+            ctl[3] = 1.0
     for i in range(ke):
         fx[i] = 0.0
     if M.driven != 0 and k > 0 and M.jfns[m] != 0:  # the compiled Jacobian's ∂f/∂t, after J

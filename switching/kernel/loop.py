@@ -89,7 +89,7 @@ def _layout(n, n_automata, width, n_sides, samples, max_instant):
     w = max(width, 1)
     slots = S_STEP + samples + 2 + w * (samples + 3)
     floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 4
-    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + 4 * ne
+    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + 6 * ne
     bools = slots * (1 + w) + w
     return floats, ints, bools
 
@@ -188,7 +188,7 @@ def _carve(x0, M, samples, max_instant, work):
     o += 1
     piv = wi[o:o + 3 * ne]
     o += 3 * ne
-    perm = wi[o:o + ne]
+    perm = wi[o:o + 3 * ne]
     ptr = wb[:slots * width].reshape((slots, width))
     phd = wb[slots * width:slots * (width + 1)]
     q = wb[slots * (width + 1):slots * (width + 1) + width]

@@ -14,7 +14,9 @@ entries derived symbolically through the mode's constraints
 (:func:`switching.library.jacobian.jacobian_entries`, within the symbolic
 budget of :mod:`bondgraph.budget`), inputs given as expressions of ``t``
 substituted, the other entries 0 (zeroed unless the selector ``which_`` is 1:
-the kernel's buffer holds them from the flow's first call).  It is a function of its own, apart from
+the kernel's buffer holds them from the flow's first call).  With ``which_``
+2 it writes the pattern instead: 1 at each structurally nonzero entry, 0
+elsewhere (an entry outside it is 0 at every state and time).  It is a function of its own, apart from
 the mode's function (:mod:`.jit_model`), so that the explicit methods neither
 derive nor compile it.  A mode whose Jacobian runs past the budget has none
 (address 0): the kernel then differences ``f``.
@@ -40,7 +42,7 @@ from .jit_model import (GENERATOR_VERSION, MODE_DIALECT, generated_statements, i
 
 __all__ = ["JACOBIAN_FUNCTION_VERSION", "OP_JAC", "jacobian_function", "jacobian_function_source"]
 
-JACOBIAN_FUNCTION_VERSION = "2"  # part of the cache key: change it when the generated functions change
+JACOBIAN_FUNCTION_VERSION = "3"  # part of the cache key: change it when the generated functions change
 OP_JAC = 6  # switching.kernel.calls.OPS["jac"]
 
 
@@ -98,17 +100,20 @@ def jacobian_function_source(model, mode) -> str | None:
         docstring([f"Mode {label}: ``{P['op_']}`` {OP_JAC}: the flow's Jacobian ∂(dy/dt)/∂y at the independent "
                    f"states y (``{P['x_']}``, {k}) into ``{P['out_']}`` ({k}×{k}, row-major;",
                    "then ∂(dy/dt)/∂t when inputs drive the flow), the other entries zeroed first unless "
-                   f"``{P['which_']}`` is 1 (they hold zeros from a call before); returns 1 (0 for another "
-                   "operation).", f"Array sizes: K {k}, NPAR {n_par}, NU {n_u}."]),
+                   f"``{P['which_']}`` is 1 (they hold zeros from a call before); ``{P['which_']}`` 2: the "
+                   "pattern (1 at each structural nonzero); returns 1 (0 for another operation).",
+                   f"Array sizes: K {k}, NPAR {n_par}, NU {n_u}."]),
         f"    p = carray({P['p_']}, ({n_par},))",
         f"    u = carray({P['u_']}, ({n_u},))",
         f"    if {P['op_']} == {OP_JAC}:",
         f"        y = carray({P['x_']}, ({k},))",
         f"        out = carray({P['out_']}, ({size},))",
-        f"        if {P['which_']} == 0:",
+        f"        if {P['which_']} != 1:",
         f"            for k in range({size}):",
         "                out[k] = 0.0",
+        f"        if {P['which_']} == 2:",
     ]
+    lines += [f"            out[{j}] = 1.0" for j in sorted(set(place))] + ["            return 1"]
     lines += ["        " + line for line in statements]
     lines += ["        return 1", "    return 0"]
     return "\n".join(lines) + "\n"

@@ -267,21 +267,22 @@ def test_auto_in_python_continues_a_flow_that_proves_stiff_with_radau(monkeypatc
 # ---------------------------------------------------------------- the compiled Jacobian, called through its address
 
 
-def _call_jacobian(function, model, y, t, size):
-    """The compiled Jacobian ``function`` (op 6) at ``(t, y)`` through its address, as the kernel calls it."""
+def _call_jacobian(function, model, y, t, size, which=0):
+    """The compiled Jacobian ``function`` (op 6; ``which`` 2: its pattern) at ``(t, y)`` through its address,
+    as the kernel calls it."""
     import numba
 
     from switching.kernel import calls
     from switching.library.jit_model import input_substitution
 
     @numba.njit
-    def call(address, y, t, p, u, out, ints):
-        return calls.call(address, 6, 0, t, 0.0, 0.0, y, y, p, u, y, y, y, ints, ints, out)
+    def call(address, which, y, t, p, u, out, ints):
+        return calls.call(address, 6, which, t, 0.0, 0.0, y, y, p, u, y, y, y, ints, ints, out)
 
     out = np.full(size, np.nan)
     u = input_substitution(model)[2]
     u = u if len(u) else np.zeros(1)
-    assert call(function.address, np.array(y, dtype=float), float(t), model.parameter_array, u, out,
+    assert call(function.address, which, np.array(y, dtype=float), float(t), model.parameter_array, u, out,
                 np.zeros(1, dtype=np.int64)) == 1
     return out
 
@@ -290,7 +291,7 @@ def _call_jacobian(function, model, y, t, size):
 def test_the_compiled_jacobian_is_the_derived_one_through_the_constraints(contact):
     """The falling rod (trigonometric rates; in contact the tip's height is a constraint): the compiled
     function's entries equal :class:`FlowJacobian`'s (sympy's derivatives, evaluated in Python) at random
-    states, zeros included."""
+    states, zeros included; its pattern is the structural one."""
     import models
     from switching.library.jacobian import flow_jacobian
     from switching.library.jit_jacobian import jacobian_function
@@ -301,6 +302,9 @@ def test_the_compiled_jacobian_is_the_derived_one_through_the_constraints(contac
     cm = model.compiled_mode(mode)
     k = len(cm.independent)
     function = jacobian_function(model, mode)
+    pattern = _call_jacobian(function, model, model.initial_state()[cm.independent], 0.0, k * k, which=2)
+    sparsity = flow_jacobian(model, cm, model.initial_state()).sparsity
+    assert np.array_equal(pattern.reshape(k, k), sparsity.astype(float)) and 0 < sparsity.sum() < k * k
     rng = np.random.default_rng(3)
     for _ in range(4):
         x = model.initial_state() + rng.normal(scale=0.3, size=len(model.states))
