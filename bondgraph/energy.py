@@ -90,7 +90,7 @@ def energy_function(graph, states: Sequence[sp.Symbol], parameters: Mapping[sp.S
     def energy(x, t, u=()):
         x = np.asarray(x, dtype=float)
         single = x.ndim == 1
-        x = np.atleast_2d(x).reshape(-1, n)
+        x = x.reshape(1 if single else len(x), n)  # (rows given: a graph without storage has n = 0)
         t = np.broadcast_to(np.asarray(t, dtype=float), (len(x),))
         u = [np.broadcast_to(np.asarray(v, dtype=float), (len(x),)) for v in u]
         values = np.broadcast_to(np.asarray(fn(*x.T, t, *u), dtype=float), (len(x),)).copy()

@@ -16,6 +16,7 @@ by the comparison's round-off scale (:mod:`codegen.roundoff`): the rules of
 import math
 
 from .decision import OPS, band, finite_holds, pulse_decides, pulse_holds
+from .omega import wrightomega
 
 __all__ = ["Comparison", "Hyper", "PulseError", "H", "decide", "hyper"]
 
@@ -165,6 +166,7 @@ for _name in (
     "sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp log log10 log2 sqrt floor ceil"
 ).split():
     setattr(H, _name, staticmethod(_smooth(getattr(math, _name))))
+H.wrightomega = staticmethod(_smooth(wrightomega))
 
 
 def _code(op):

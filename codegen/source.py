@@ -9,6 +9,11 @@ functions, which run on :class:`codegen.runtime.Hyper` values).
 
 Only sanitized identifiers reach the source: symbol names such as
 ``rod/theta`` become ``rod_theta``.
+
+Lambert's W (the inverse of an exponential law in a loop) is printed
+through the Wright omega function: :func:`codegen.lambert.omega_form`
+rewrites it before printing, and generated code calls ``wrightomega``
+(:func:`codegen.omega.wrightomega`, in every namespace and dialect).
 """
 
 from __future__ import annotations
@@ -64,7 +69,7 @@ COPY_MIN = 16
 #: names a sanitized symbol never takes (``_`` appended): keywords, builtins, the math functions and the
 #: names of the generated module's own namespace (``out``, ``H``, ``np``, ...)
 _RESERVED = set(keyword.kwlist) | set(dir(builtins)) | {"out", "H", "np", "math", "inf", "nan", "pi", "e", "tau",
-                                                         "carray"}
+                                                         "carray", "wrightomega"}
 #: the arrays, selectors and loop variables of the compiled per-mode functions the callers generate
 _RESERVED |= {"x", "t", "p", "u", "y", "xp", "xq", "xdot", "d", "s", "post", "target", "g", "q", "k"}
 _RESERVED |= {name for name in dir(math) if not name.startswith("_")}
@@ -159,7 +164,7 @@ def _is_cheap(expr) -> bool:
     return False
 
 
-def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
+def common_subexpressions(outputs: list, symbols: set | None = None, kinds: set | None = None) -> list:
     """The subtrees met more than once in ``outputs``, each after the
     subtrees it contains (the order temporaries must be assigned in).
 
@@ -169,7 +174,8 @@ def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
     Unlike ``sympy.cse`` nothing is rebuilt — the printer substitutes the
     temporaries — so an expression is printed exactly as derived, and the
     cost stays linear in the size of the DAG.  ``symbols``, a set, receives
-    every symbol met (the free symbols of the outputs, from the same walk)."""
+    every symbol met (the free symbols of the outputs, from the same walk);
+    ``kinds``, a set, the class of every other node met (``sp.LambertW``...)."""
     seen, repeated, finished = set(), set(), []
     stack = [(expr, False) for expr in reversed(outputs)]
     while stack:  # depth first, arguments in order; a subtree is walked once, when first met
@@ -186,6 +192,8 @@ def common_subexpressions(outputs: list, symbols: set | None = None) -> list:
                 repeated.add(expr)
             continue
         seen.add(expr)
+        if kinds is not None:
+            kinds.add(type(expr))
         stack.append((expr, True))
         stack.extend((arg, False) for arg in reversed(expr.args))
     # post-order: a temporary after those it uses
@@ -354,9 +362,17 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
 
     outputs = [sp.sympify(o) for o in spec.outputs]
     copied = _copied_outputs(spec, outputs)
-    needed: set = set()
+    needed, kinds = set(), set()
     shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
-                                   needed)
+                                   needed, kinds)
+    if sp.LambertW in kinds:  # written with the Wright omega function, which never overflows (codegen.lambert)
+        from .lambert import omega_form
+
+        outputs = omega_form(outputs)
+        copied = _copied_outputs(spec, outputs)
+        needed = set()
+        shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
+                                       needed)
     if memo is None:
         temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
     else:
@@ -413,11 +429,14 @@ def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:
 
 def module_namespace(vectorized: bool = False) -> dict:
     """The globals generated code runs in: ``math`` functions (or their numpy
-    versions, so that whole arrays of samples pass at once), builtins, ``H``."""
+    versions, so that whole arrays of samples pass at once), builtins, ``H``,
+    and ``wrightomega`` (:func:`codegen.omega.wrightomega`; vectorized,
+    scipy's ufunc of the same function)."""
+    from .omega import wrightomega
     from .runtime import H
 
     namespace = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
-    namespace.update({"H": H, "abs": abs, "max": max, "min": min, "inf": math.inf})
+    namespace.update({"H": H, "abs": abs, "max": max, "min": min, "inf": math.inf, "wrightomega": wrightomega})
     if vectorized:
         import numpy as np
 
@@ -426,6 +445,8 @@ def module_namespace(vectorized: bool = False) -> dict:
                 continue
             if hasattr(np, name) and callable(getattr(np, name)):
                 namespace[name] = getattr(np, name)
+        from scipy.special import wrightomega as wrightomega_ufunc
+
         namespace.update({"abs": np.abs, "max": np.maximum, "min": np.minimum, "atan2": np.arctan2,
-                          "copysign": np.copysign})
+                          "copysign": np.copysign, "wrightomega": wrightomega_ufunc})
     return namespace

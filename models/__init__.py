@@ -47,6 +47,7 @@ MODELS = (
     "two_tanks",
     "vibrating_table",
     "current_mode_converter",
+    "rimless_wheel",
 )
 
 

@@ -55,8 +55,14 @@ impulses included — a switch opening on an inductor's current gives, with
 the diode off, a pulse ``v_D = +∞`` that turns the diode on (the paper's
 mythical mode).  Both comparisons are *strict*: a diode at ``v_D = v_f``
 with ``i_D = 0`` (every diode of a circuit at rest at t = 0) stays where it
-is; with inclusive ``>=``/``<=`` such a diode turns on, finds ``i_D <= 0``
-and turns off again at the same instant, a divergence of time.
+is until the flow carries ``v_D`` above ``v_f``, and a diode turning off
+against a capacitor (``i_D < 0`` at the located crossing, ``v_D = v_f``
+after it) stays off.  With inclusive ``>=``/``<=`` the diode at rest would
+turn on, find ``i_D <= 0`` and turn off again — a cycle of switches each
+enabled only at a tie, which takes none of them and rests
+(:mod:`switching.rules.instants`) — but the one turning off would find
+``v_D >= v_f`` at a tie after a switch beyond its band: a divergence of
+time.
 
 Ideal switches (:meth:`Circuit.switch`, states ``open``/``closed``) follow
 a condition on time, parameters or signals (``closed_when="t < t_open"``),
@@ -78,10 +84,12 @@ Example — a capacitor charged through a resistor::
 Limitations: a mode where every diode and switch around a group of nodes
 blocks leaves those nodes floating (their voltage, and the voltage across
 each blocking element, is undefined: a full bridge rectifier with every
-diode off); such a mode is refused when it is reached with a
+diode off); a circuit with such a mode is refused when it is built, with a
 :class:`~bondgraph.errors.FloatingPartError` that names the mode and the
 floating nodes (their 0-junctions ``node_<n>``) and says it is
-under-determined.  ``build(gmin=1e-12)`` puts a leak conductance across
+under-determined (:func:`floating_modes` checks every mode of the diodes and
+switches; ``build(allow_floating=True)`` skips the check, and a run that
+reaches such a mode stops there with the same error).  ``build(gmin=1e-12)`` puts a leak conductance across
 every diode and switch (SPICE's ``GMIN``; explicit, off by default): no node
 then floats, and the leaks divide the network's voltage over the blocking
 elements as it would divide over equal reverse resistances, so each diode
@@ -103,6 +111,7 @@ switch needs integrator steps shorter than its shortest on or off interval
 from __future__ import annotations
 
 import difflib
+import itertools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -112,13 +121,15 @@ import sympy as sp
 from scipy.optimize import brentq
 
 from bondgraph import GY, TF, C, I, One, R, Se, Sf, Zero
-from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
+from bondgraph.errors import (DuplicateNameError, FloatingPartError, InvalidGraphError, MissingParameterError,
+                              UnknownNameError)
+from bondgraph.floating import floating_part
 from switching import Automaton, HybridModel
 
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
                       parameter_name, source_value, units_by_prefix)
 
-__all__ = ["Circuit", "Input", "PWM", "GROUND"]
+__all__ = ["Circuit", "Input", "PWM", "GROUND", "floating_modes", "FLOATING_CHECK_MODES"]
 
 #: the ground node (0 V)
 GROUND = REFERENCE
@@ -331,7 +342,8 @@ class Circuit(Netlist):
     # ------------------------------------------------------------ building
 
     def build(self, parameters: Mapping | None = None, name: str | None = None,
-              inputs: Mapping[str, Callable] | None = None, *, gmin=None, **options) -> HybridModel:
+              inputs: Mapping[str, Callable] | None = None, *, gmin=None, allow_floating: bool = False,
+              **options) -> HybridModel:
         """The :class:`~switching.HybridModel` of the netlist.
 
         ``parameters`` gives values to the parameter names used and overrides
@@ -352,11 +364,54 @@ class Circuit(Netlist):
         diode's ``v_D`` is the share of the network's voltage it actually
         takes and turns it on when that share exceeds ``v_f``: the leak moves
         the instants by a relative O(gmin·R) of the circuit's resistances and
-        adds none."""
+        adds none.
+
+        Without ``gmin``, a circuit that leaves nodes floating in some mode
+        of its diodes and switches (a bridge's load with all four diodes
+        blocking) is refused here, with a
+        :class:`~bondgraph.errors.FloatingPartError` naming the mode, the
+        floating nodes and the fixes (:func:`floating_modes`; checked over
+        every mode of up to :data:`FLOATING_CHECK_MODES` modes).
+        ``allow_floating=True`` builds it all the same, for a circuit whose
+        floating modes are never reached (a run that reaches one stops with
+        that error then)."""
         self._check_topology()
         builder = _Builder(self, dict(parameters or {}), inputs or {})
         builder.gmin = gmin
-        return builder.model(name or self.name, options)
+        model = builder.model(name or self.name, options)
+        if gmin is None and not allow_floating:
+            floating = floating_modes(model)
+            if floating:
+                mode, error = floating[0]
+                others = f" (and in {len(floating) - 1} other mode(s))" if len(floating) > 1 else ""
+                raise FloatingPartError(
+                    f"circuit {self.name!r} floats in mode {mode.describe()}{others}: {error} Build it with "
+                    "gmin=1e-12 (a leak across every diode and switch), or with allow_floating=True if no run "
+                    "reaches such a mode.", error.elements, error.cut, error.configuration, error.kind)
+        return model
+
+
+#: the most modes :func:`floating_modes` checks (beyond, the check is skipped)
+FLOATING_CHECK_MODES = 1024
+
+
+def floating_modes(model) -> list:
+    """``[(mode, FloatingPartError), ...]``: every mode of ``model``'s
+    automata whose configuration leaves part of the graph under-determined
+    (:func:`bondgraph.floating.floating_part`: nodes no conducting element
+    ties to a known voltage, or a loop of ideal conductors), in the order of
+    the automata's states; empty when none does, or when the automata have
+    more than :data:`FLOATING_CHECK_MODES` modes (not checked)."""
+    states = [tuple(a.states) for a in model.automata]
+    if math.prod(len(s) for s in states) > FLOATING_CHECK_MODES:
+        return []
+    found = []
+    for combination in itertools.product(*states):
+        mode = model.mode(dict(zip((a.name for a in model.automata), combination)))
+        error = floating_part(model.graph, dict(model.configuration_of(mode)))
+        if error is not None:
+            found.append((mode, error))
+    return found
 
 
 def _components(nodes, edges) -> dict:

@@ -185,6 +185,65 @@ NOTEBOOKS = {
         "draw_bond_graph(tanks.graph, tanks.configuration_of(tanks.initial_mode));"),
         py("run = tanks.simulate(**two_tanks.RUN)\nprint(run.summary())\nplot_trajectory(run, list(two_tanks.SIGNALS));"),
     ],
+    "periodic_orbits": [
+        md("# Periodic orbits through jumps: steady state, stability, bifurcations\n\n"
+           "`periodic_orbit` finds a switching system's periodic steady state by Newton shooting on its period map, "
+           "with the monodromy matrix from forward sensitivities carried through every jump (saltation matrices at "
+           "state events).  Its eigenvalues, the Floquet multipliers, say whether the orbit is stable; "
+           "`continue_orbit` follows the orbit along a parameter and locates where a multiplier leaves the unit "
+           "circle through −1 (period doubling) or +1 (a fold)."),
+        py(SETUP + "\nimport math, time\nfrom switching import periodic_orbit, continue_orbit"),
+        md("## A boost converter's steady state in one call\n\nFixed duty D = 0.4, switching period T = 100 µs: "
+           "the clock switches, so the period is T.  Shooting lands on the orbit in a few Newton steps (here one: in "
+           "continuous conduction the period map is affine); waiting for "
+           "the transient to die takes hundreds of periods (a multiplier of modulus 0.98)."),
+        py("from models import boost_converter\nT = 1 / boost_converter.DEFAULTS['f_sw']\n"
+           "boost = boost_converter.build(D=0.4)\nstarted = time.perf_counter()\n"
+           "orbit = periodic_orbit(boost, period=T, rtol=1e-10, atol=1e-12, max_step=0.3 * T)\n"
+           "print(f'{time.perf_counter() - started:.3f} s, {orbit.iterations} Newton iterations')\n"
+           "print('x0 =', dict(zip(boost.state_names, orbit.x0)))\n"
+           "print('modes over a period:', ' → '.join(orbit.mode_names))\n"
+           "print('multipliers:', np.round(orbit.multipliers, 6), '  |μ| =', np.round(np.abs(orbit.multipliers), 6), "
+           "'  stable:', orbit.stable)\n"
+           "print(f\"mean v_C = {np.mean(orbit.trajectory.signal('v_C')):.4f} V (ideal Vin/(1 − D) = {12 / 0.6:.4f} V)\")\n"
+           "orbit.trajectory.plot(['i_L', 'v_C']);"),
+        md("The orbit's small-signal model: how a perturbation of the state, the input voltage or the duty at one "
+           "period start moves the next (a discrete-time state space with dt = T; `to_control()` gives the same "
+           "as a python-control system for Bode plots and controller design)."),
+        py("print(orbit.small_signal(inputs=['Vin', 'D'], outputs=['v_C']))"),
+        md("## Peak-current-mode control: the period-doubling route\n\nThe clock turns the switch on, the inductor "
+           "current reaching i_ref turns it off.  With the output held, the current's multiplier is "
+           "−m₂/m₁ = −D/(1 − D): the orbit loses stability at D = 0.5, here at Vout = 2·Vin = 24 V.  "
+           "`switch_branch=True` follows the doubled orbit beyond it."),
+        py("from models import current_mode_converter\nTc = 1 / current_mode_converter.DEFAULTS['f_sw']\n"
+           "held = current_mode_converter.build(load='source', Vin=12.0, Vout=16.0, i_ref=3.0)\n"
+           "route = continue_orbit(held, 'Vout', [16.0, 19.0, 22.0, 25.0, 28.0], period=Tc, x0=[2.5e-3],\n"
+           "                       max_step=0.02 * Tc, switch_branch=True, signals=['i_L'])\n"
+           "for point in route.points:\n"
+           "    D = 1 - 12.0 / point.value\n"
+           "    print(f'Vout = {point.value:4.1f} V   μ = {point.multipliers[0].real:+.6f}   −D/(1 − D) = {-D / (1 - D):+.6f}'\n"
+           "          f'   stable: {point.stable}')\n"
+           "for flip in route.bifurcations:\n    print(flip)\n"
+           "route.plot('i_L');"),
+        md("## A ball on a vibrating table: its bifurcation diagram\n\nThe table moves as A sin ωt; the ball bounces "
+           "with restitution e = 0.5 relative to it.  The period-1 orbit (one impact per table period) exists "
+           "for Γ = Aω²/g ≥ π(1 − e)/(1 + e) and doubles its period at "
+           "Γ² = π²(1 − e)²/(1 + e)² + 4(1 + e²)²/(1 + e)⁴.  The orbit is found from its apex, where the ball is "
+           "at rest half a period after the impact."),
+        py("from models import vibrating_table\ne, g, omega = 0.5, 9.81, vibrating_table.DEFAULTS['omega']\n"
+           "Tt = 2 * math.pi / omega\n"
+           "gamma_flip = math.sqrt((math.pi * (1 - e) / (1 + e))**2 + 4 * (1 + e * e)**2 / (1 + e)**4)\n"
+           "A_flip = gamma_flip * g / omega**2\n"
+           "theta = math.acos(math.pi * g * (1 - e) / (A_flip * omega**2 * (1 + e)))  # the impact phase\n"
+           "t0, y0 = theta / omega + Tt / 2, A_flip * math.sin(theta) + g * Tt**2 / 8  # the apex\n"
+           "values = A_flip * np.linspace(0.8, 1.2, 9)\n"
+           "table = vibrating_table.build(A=values[0], e=e)\n"
+           "diagram = continue_orbit(table, 'A', values, period=Tt, t0=t0, x0=[0.0, y0], rtol=1e-10, atol=1e-13,\n"
+           "                         tol=1e-9, switch_branch=True)\n"
+           "for flip in diagram.bifurcations:\n"
+           "    print(flip, f'   closed form: A = {A_flip:.10f} m')\n"
+           "diagram.plot('y', what='x0');"),
+    ],
     "fitting": [
         md("# Sensitivities through jumps, and fitting parameters\n\n"
            "`simulate(..., sensitivities=[...])` also integrates ∂x/∂p for model parameters p (and `x0:<state>` "

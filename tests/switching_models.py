@@ -1,6 +1,7 @@
 """Small hybrid models used by the switching tests (built here, independently
 of the model library, so the tests check the semantics, not the library)."""
 
+import numpy as np
 import sympy as sp
 
 from bondgraph import BondGraph, C, I, One, R, Se, Sf, Zero
@@ -166,3 +167,15 @@ def rc_relay_exact(t_end, R1=1.0, R2=0.5, C_=1.0, V=1.0, v_hi=0.8, v_lo=0.3):
         v = v_hi if charging else v_lo
         charging = not charging
         events.append(t)
+
+
+def phase(A, b, tau):
+    """``(E, c)`` of ``x(τ) = E x(0) + c`` for the affine flow ``ẋ = A x + b`` over ``τ`` [s]: the
+    top-left block and last column of the exponential of ``[[A, b], [0, 0]] τ``."""
+    from scipy.linalg import expm
+
+    n = len(b)
+    Z = np.zeros((n + 1, n + 1))
+    Z[:n, :n], Z[:n, n] = A, b
+    E = expm(Z * tau)
+    return E[:n, :n], E[:n, n]

@@ -60,7 +60,6 @@ from .errors import (
 from .part import LAW_NAMES, InModeSpec, Part, build_part
 from .source import Source, did_you_mean, is_number, kind_of
 from ..language.parsing import parse_condition, parse_expression
-from ..model.annotations import MAX_UNIT_LENGTH
 
 __all__ = ["FORMAT_KEY", "FORMAT_VERSION", "Part", "InModeSpec", "Reader", "read_text"]
 
@@ -239,9 +238,6 @@ class Reader:
         units = src.table(data.get("units", {}), ("units",), "[units]", example='theta = "rad"')
         for key, unit in units.items():
             src.text_value(unit, ("units", key), "a unit", f"unit of {key!r}")
-            if not unit.strip() or not unit.isprintable() or len(unit) > MAX_UNIT_LENGTH:
-                raise src.error(f"the unit {unit!r} must be one printable line of at most {MAX_UNIT_LENGTH} "
-                                "characters", ("units", key), f"unit of {key!r}")
         settings["units"] = dict(units)
         return settings
 

@@ -11,7 +11,12 @@ numerical (nonlinear) jump map, a pulse in a side that is not affine in
 ``ẋ``, a mode repeating in a mythical chain or a pinnacle repeating its
 state (a divergence of time, which Python reports in full), the cap on steps
 per instant — returns -1: Python resolves that instant (deterministically,
-so the results are the same).
+so the results are the same).  The mode functions' ``fire`` does not tell a
+guard holding only at a tie from one holding strictly, so every firing
+reaches the rule as strict (:data:`~switching.rules.instants.FIRED`): a
+cycle of ties is a repeat here, and Python rests it by the same rule
+(``JUMP_AT_TIE``); the flow after such a rest runs in Python, counting a
+guard only once it holds strictly (``switching.simulate.driver``).
 """
 
 from __future__ import annotations

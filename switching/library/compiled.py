@@ -43,14 +43,14 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
 from codegen import decision
 from codegen.roundoff import larger, roundoff_scale
-from codegen.runtime import Comparison, Hyper, decide
+from codegen.runtime import Comparison, Hyper, decide, hyper
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
 from ..rules.jumps import jump_pulse
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
-           "decide_tree", "guard_parts", "mode_source_and_meta", "shifted_tree"]
+           "decide_tree", "guard_parts", "holds_strictly", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
 MODE_SOURCE_VERSION = "11"
@@ -140,6 +140,51 @@ def decide_tree(tree, sides, rtol, atol, record=None, fixed=None) -> bool:
     comparison = Comparison.of(text, op, left, right, rtol, atol, scale)
     record.append(comparison)
     return comparison.result
+
+
+#: a guard with more comparisons at their edge than this is taken to hold strictly (2**n decisions to try)
+EDGE_COMPARISONS_TRIED = 10
+
+
+def _at_edge(tree, sides, rtol, atol, found) -> None:
+    """The comparisons of ``tree`` at their edge into ``found``: no impulse
+    decides them and their finite sides differ by no more than their band."""
+    kind = tree[0]
+    if kind in ("and", "or"):
+        for sub in tree[1]:
+            _at_edge(sub, sides, rtol, atol, found)
+    elif kind == "not":
+        _at_edge(tree[1], sides, rtol, atol, found)
+    elif kind != "const":
+        k = tree[1]
+        left, right, scale = hyper(sides[3 * k]), hyper(sides[3 * k + 1]), sides[3 * k + 2]
+        if decision.pulse_decides(left.impulse, right.impulse):
+            return
+        width = decision.band(left.finite, right.finite, scale, rtol, atol)
+        if abs(left.finite - right.finite) <= width:
+            found.add(k)
+
+
+def holds_strictly(tree, sides, rtol, atol) -> bool:
+    """Does the guard ``tree`` hold however its comparisons at their edge are
+    decided?  A comparison is at its edge when no impulse decides it and its
+    finite sides differ by no more than its band (:func:`codegen.decision.band`:
+    equality up to round-off); a guard that holds, but not strictly, holds at
+    a *tie* (``v_D >= 0`` at ``v_D = 0``; :mod:`switching.rules.instants`).
+    Every decision of the comparisons at their edge is tried (a guard with
+    more than :data:`EDGE_COMPARISONS_TRIED` of them counts as holding
+    strictly: no tie is claimed that was not checked)."""
+    edge: set = set()
+    _at_edge(tree, sides, rtol, atol, edge)
+    if not edge:
+        return decide_tree(tree, sides, rtol, atol)
+    if len(edge) > EDGE_COMPARISONS_TRIED:
+        return decide_tree(tree, sides, rtol, atol)
+    edge = sorted(edge)
+    for bits in range(1 << len(edge)):
+        if not decide_tree(tree, sides, rtol, atol, fixed={k: bool(bits >> i & 1) for i, k in enumerate(edge)}):
+            return False
+    return True
 
 
 def comparison_triples(me, relations) -> list:

@@ -1,7 +1,8 @@
 """Export of generated per-mode functions to one standalone module.
 
 The module holds the run-time support (:mod:`codegen.runtime`: ``Hyper``,
-``H``, ``decide``, with the rules of :mod:`codegen.decision`), the guard-tree evaluator, and for every exported mode its
+``H``, ``decide``, with the rules of :mod:`codegen.decision` and the Wright
+omega function of :mod:`codegen.omega`), the guard-tree evaluator, and for every exported mode its
 functions (renamed ``m<k>_phi``, ``m<k>_rates``, …) and metadata; ``MODES``
 maps each mode label to them.  ``STATES``, ``PARAMETERS`` (names, in the
 order of the ``x`` and ``p`` arrays) and ``PARAMETER_VALUES`` complete it.
@@ -22,7 +23,7 @@ _FUNCTIONS = ("phi", "rates", "sides", "sides_raw", "jump")
 
 
 def export_module(model, path, modes="visited") -> list:
-    from codegen import decision, runtime
+    from codegen import decision, omega, runtime
 
     from . import compiled
 
@@ -52,8 +53,11 @@ def export_module(model, path, modes="visited") -> list:
         "",
         "# ---- the guards' comparison (from codegen.decision)",
         _strip_module_header(inspect.getsource(decision)),
+        "# ---- the Wright omega function (from codegen.omega)",
+        _strip_module_header(inspect.getsource(omega)),
         "# ---- run-time support (from codegen.runtime)",
-        re.sub(r"^from \.decision import .*\n", "", _strip_module_header(inspect.getsource(runtime)), flags=re.M),
+        re.sub(r"^from \.(decision|omega) import .*\n", "", _strip_module_header(inspect.getsource(runtime)),
+               flags=re.M),
         "",
         "# ---- guard trees",
         inspect.getsource(compiled.decide_tree),

@@ -83,6 +83,7 @@ def jacobian_function_source(model, mode) -> str | None:
     statements = [re.sub(r"\bout\[(\d+)\]", lambda found: f"out[{place[int(found.group(1))]}]", line)
                   for line in statements]
     P = parameter_names({"jac": statements + ["for k in range(1):"]})
+    omega = any(re.search(r"\bwrightomega\(", line) for line in statements)
     label = mode.describe()
     n_par = max(len(model.parameter_symbols), 1)
     n_u = max(len(input_parameters), 1)
@@ -93,6 +94,7 @@ def jacobian_function_source(model, mode) -> str | None:
         "from math import *",
         "import numpy as np",
         "from numba import carray",
+        *(["from codegen.compiled_omega import wrightomega"] if omega else []),  # (Lambert's W, where called)
         "",
         "",
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "

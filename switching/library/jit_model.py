@@ -505,10 +505,11 @@ def _returning_int(line: str) -> str:
 
 
 #: what a mode function's module holds besides arithmetic (and all :mod:`codegen.safety` lets it hold):
-#: its imports and ``for k in range(...)`` loops
+#: its imports (the Wright omega function when its expressions call it) and ``for k in range(...)`` loops
 MODE_DIALECT = Dialect(imports=(("math", None, None), ("math", "*", None), ("numpy", None, "np"),
                                 ("numba", "carray", None), ("switching.kernel.loop", "decide", "_dec"),
-                                ("switching.kernel.loop", "larger", "_larger")), loops=True)
+                                ("switching.kernel.loop", "larger", "_larger"),
+                                ("codegen.compiled_omega", "wrightomega", None)), loops=True)
 
 
 def mode_function_source(model, mode) -> str:
@@ -530,6 +531,8 @@ def mode_function_source(model, mode) -> str:
     label = mode.describe()
     # the function's parameters, renamed (…_, …__) where a local name of the statements takes theirs
     P = parameter_names(branches)
+    # ω (Lambert's W, codegen.lambert) imported where it is called: a user's symbol never takes its name
+    omega = any(re.search(r"\bwrightomega\(", line) for lines in branches.values() for line in lines)
     lines = [
         docstring([f"Compiled function of mode {label} of model {model.name!r} (generated; do not edit)."], ""),
         "import math",
@@ -538,6 +541,7 @@ def mode_function_source(model, mode) -> str:
         "from numba import carray",
         "",
         "from switching.kernel.loop import decide as _dec, larger as _larger",
+        *(["from codegen.compiled_omega import wrightomega"] if omega else []),
         "",
         "",
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
@@ -599,7 +603,7 @@ def parameter_names(branches: dict) -> dict:
     return names
 
 
-MODE_FUNCTION_VERSION = "6"  # part of the cache key of the per-mode functions: change it when they change
+MODE_FUNCTION_VERSION = "7"  # part of the cache key of the per-mode functions: change it when they change
 
 
 def _mode_key(model, mode) -> str:
@@ -626,8 +630,10 @@ def mode_signature() -> Signature:
 
 def mode_calls() -> tuple:
     """The functions a mode's function calls besides math and numpy (its imports
-    from the kernel): a translating backend translates them with it."""
-    return kernel().decide, kernel().larger
+    from the kernel, and the Wright omega function): a translating backend translates them with it."""
+    from codegen.compiled_omega import wrightomega
+
+    return kernel().decide, kernel().larger, wrightomega
 
 
 def mode_function(model, mode):

@@ -22,10 +22,7 @@ from bondgraph.errors import UnknownNameError, did_you_mean
 
 from ..errors import ModelDefinitionError
 
-__all__ = ["Annotations", "annotations", "MAX_UNIT_LENGTH"]
-
-#: the longest unit text accepted [characters]
-MAX_UNIT_LENGTH = 40
+__all__ = ["Annotations", "annotations"]
 
 
 @dataclass(frozen=True)
@@ -42,35 +39,32 @@ class Annotations:
     def label(self, name: str) -> str:
         """``"name [unit]"``, or ``name`` alone without a unit: an axis or column label."""
         unit = self.units.get(name)
-        return f"{name} [{unit}]" if unit else name
+        return f"{name} [{' '.join(unit.split())}]" if unit else name  # (on one line)
 
 
-def _text(value, what: str, name: str, longest: int | None) -> str:
+def _text(value, what: str, name: str) -> str:
     if not isinstance(value, str) or not value.strip():
         raise ModelDefinitionError(f"the {what} of {name!r} must be a non-empty text, got {value!r}", [name])
-    if not value.isprintable() or (longest is not None and len(value) > longest):
-        raise ModelDefinitionError(
-            f"the {what} of {name!r} is {value!r}: give one printable line"
-            + (f" of at most {longest} characters" if longest else ""), [name])
-    return value.strip()
+    return value
 
 
 def annotations(model, units: Mapping | None, descriptions: Mapping | None) -> Annotations:
     """The checked :class:`Annotations` of ``model``: every name must be one
     of its parameters, states, signals or inputs (:class:`UnknownNameError`
-    with the closest names otherwise), every text one printable line.
+    with the closest names otherwise), every unit and description a
+    non-empty text (kept as given: it is shown, never run).
     Signals defined as a single state or parameter inherit its unit."""
     known = ({s.name for s in model.parameter_symbols} | {s.name for s in model.initial_parameters}
              | set(model.signal_names) | {s.name for s in model.states} | set(model.graph.inputs))
     checked = {}
-    for kind, table, longest in (("unit", units, MAX_UNIT_LENGTH), ("description", descriptions, None)):
+    for kind, table in (("unit", units), ("description", descriptions)):
         out = {}
         for name, value in dict(table or {}).items():
             name = name.name if isinstance(name, sp.Symbol) else str(name)
             if name not in known:
                 raise UnknownNameError(f"{kind} given for {name!r}, which is no parameter, state, signal or input "
                                        f"of model {model.name!r}{did_you_mean(name, known)}", name)
-            out[name] = _text(value, kind, name, longest)
+            out[name] = _text(value, kind, name)
         checked[kind] = out
     for name, expr in model.signal_definitions.items():
         if name not in checked["unit"] and isinstance(expr, sp.Symbol) and expr.name in checked["unit"]:

@@ -44,6 +44,7 @@ from .inputs import InputValues
 from .law_automata import branches_at, law_automaton, starting_mode
 from .mode_space import ModeSpace
 from .services import SERVICES
+from .simulate_doc import SIMULATE_DOC
 
 __all__ = ["HybridModel", "InitialStateProjected", "Tolerance", "InMode"]
 
@@ -80,11 +81,10 @@ class HybridModel:
     """A bond graph with controlled junctions driven by local automata.
 
     The model is the definition (graph, automata, parameters, signals,
-    inputs) and its validation; what is derived and generated from it mode
-    by mode — equations, code, the code generator's memos, the fingerprint —
-    lives in its mode library, :attr:`library` (:mod:`switching.library.mode_library`),
-    whose methods the model's own (:meth:`mode_equations`,
-    :meth:`compiled_mode`, ...) call.
+    inputs) and its validation; what is derived and generated from it mode by
+    mode — equations, code, memos, the fingerprint — lives in its mode library,
+    :attr:`library` (:mod:`switching.library.mode_library`), which the model's
+    own methods (:meth:`mode_equations`, :meth:`compiled_mode`, ...) call.
 
     Parameters
     ----------
@@ -399,12 +399,10 @@ class HybridModel:
         self.library = library
 
     def set_parameter_values(self, values: Mapping, initial: Mapping | None = None) -> None:
-        """Give every parameter its value (name → number), in place: the
-        structure, and so the derived modes and generated code, which read
-        the values at every call, stay.  ``initial``: the values of the
-        parameters only the initial state uses (``theta0``; default: as
-        before).  The given initial state is evaluated anew from
-        :attr:`initial_expressions` and projected again when next asked."""
+        """Give every parameter its value (name → number), in place: the structure, and so the derived
+        modes and generated code (which read the values at every call), stay.  ``initial``: the values of
+        the parameters only the initial state uses (``theta0``; default: as before).  The given initial
+        state is evaluated anew from :attr:`initial_expressions` and projected again when next asked."""
         self.parameter_values = definition.parameter_values(self, values)
         self.parameter_array = np.array([self.parameter_values[s] for s in self.parameter_symbols], dtype=float)
         if initial is not None:
@@ -441,97 +439,6 @@ class HybridModel:
         return SERVICES.resolve_instant(self, np.asarray(x, dtype=float), mode, float(t), max_steps or self.max_steps_per_instant)
 
     def simulate(self, t_end: float, method: str = "RK45", **options):
-        """Simulate from the initial state (or ``x0=``) to ``t_end``; returns a
-        :class:`~switching.simulate.trajectory.Trajectory`.
-
-        ``method``: ``"euler"`` or ``"rk4"`` with step ``dt=``; ``"RK45"``,
-        ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
-        ``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``);
-        ``"euler-jit"``, ``"rk4-jit"``, ``"RK45-jit"``: the same in one
-        compiled kernel (numba; compiled once per installation, each mode's
-        functions compiled on first use), see :meth:`compiled_model`
-        (``progress`` is then called at each return of the kernel, not at
-        every step; inputs must be expressions of ``t``, ExpressionInput);
-        ``"rodas-jit"``: the implicit Rosenbrock method RODAS4P (order 4) in
-        that kernel, with each mode's Jacobian derived symbolically, for
-        stiff scenes (``rtol=``, ``atol=``);
-        ``"auto"``: the compiled kernel when its compilation is cached, paid
-        for by the run's expected length, or the initial mode is stiff — RK45
-        in each mode, RODAS4P in the modes whose Jacobian's spectrum says
-        stiff — else ``"RK45"`` (``"Radau"`` for a stiff initial mode;
-        ``stats`` says which and why).
-
-        Output (the trajectory's rows; ``trajectory.sampling`` says which):
-
-        * default, ``output="steps"``: every integrator step, the start, the
-          end, and every instant's two rows (just before, just after) — the
-          solver's own steps, so few on a smooth flow (read a peak between
-          them with ``samples=`` or ``t_eval=``); ``output="events"``: only
-          the start, the instants' rows and the end;
-        * ``t_eval=ts`` (times [s] in ``[t0, t_end]``): exactly one row per
-          requested time, ``trajectory.t
-          == np.sort(ts)``, the states there read from the steps' dense
-          output (as scipy's ``solve_ivp``), for the Python and compiled
-          methods alike.  A time equal to an instant's gets the state just
-          after it (right-continuous: the instant has happened at its time);
-          the states just before and after every instant are
-          ``trajectory.at_instants()`` (and ``trajectory.events``).  A run
-          that stops before ``t_end`` (``on_zeno="stop"``, or the partial
-          run of an error) has the times it reached, then the state where it
-          stopped;
-        * ``samples=N`` (``hbg run``'s default, ``N = 500``): the ``N``
-          times ``linspace(t0, t_end, N)`` as with ``t_eval``, and every
-          instant's before and after rows, in time order (at a time on an
-          instant: before, after, then the time's row, equal to after) —
-          dense uniform rows with the jumps upright, for plots;
-          ``trajectory.without_instants()`` leaves the ``N`` times.  ``hbg run
-          --samples N --with-instants`` writes exactly these rows, ``hbg run
-          --samples N`` their ``N`` times (``t_eval=linspace(0, t_end, N)``).
-
-        ``on_zeno="raise"`` (default) or ``"stop"``.
-        ``progress``: a callable receiving the time after every step, or
-        ``True`` for a progress bar on stderr once the run takes over 2 s.
-        ``keep_instants=False`` keeps neither the instants' records nor their
-        samples (only their count, ``trajectory.instant_count``, and the time
-        spent in each mode, ``time_in_modes()``): with ``t_eval`` or
-        ``output="events"`` the memory of a long run then stays bounded.
-        ``t_end`` and ``t_eval`` must be finite, ``t_eval`` inside the run;
-        ``samples`` a whole number ≥ 2, not together with ``t_eval``.
-        ``max_steps`` (default 10 000 000) bounds the steps of a run: options
-        implying more (``(t_end − t0)/dt``, ``(t_end − t0)/max_step``), a
-        step below the resolution of ``t`` (``t + dt == t``), too many guard
-        samples or sample times are refused before anything runs
-        (:class:`~switching.errors.WorkLimitError`), and a run that takes
-        more steps stops with :class:`~switching.errors.StepLimitError`.
-        Every option is checked, its kind and bounds, before anything runs
-        (:mod:`switching.simulate.run_options` lists them with their units).
-        A failed run raises a :class:`~switching.errors.SimulationError`
-        carrying the trajectory computed so far (``error.trajectory``);
-        Ctrl-C raises :class:`~switching.errors.SimulationInterrupted`, a
-        ``KeyboardInterrupt`` that carries it too.  A flow that would start
-        from non-finite rates or guard sides (a zero inductance) raises
-        :class:`~switching.errors.NonFiniteStateError` naming them at once.
-        ``event_samples`` (default 3): guards are also tested at this many
-        interior points of every step, and searched between them (an
-        extremum of a comparison that comes within reach of its threshold,
-        two comparisons of one guard changing truth), so a guard holding only
-        briefly inside a step is still found — by the Python methods and the
-        ``*-jit`` kernels alike.
-        ``stiffness_check=False`` turns off the stiffness tests of the
-        explicit methods (the run then goes on whatever the stability of the
-        step; Python and compiled methods alike).
-        Discontinuous element laws (``sign``, ``Heaviside``, ``Piecewise``)
-        are law switches (:mod:`switching.model.law_automata`): their crossings are
-        located as events and a state held on a surface slides on it.
-        ``sensitivities=["e", "x0:y"]``: also the forward sensitivities
-        ``∂x/∂p`` of the run through its instants, with respect to model
-        parameters and (``x0:<state>``) initial states
-        (:mod:`switching.analysis.sensitivity`; ``sensitivity_rtol=``,
-        ``sensitivity_atol=`` set the tolerances of their integration,
-        default 1e-10 and 1e-12): ``trajectory.sensitivity(name, p)``,
-        ``trajectory.event_time_sensitivity(k, p)``.  Python methods only.
-        See :func:`switching.simulate.driver.simulate`.
-        """
         SERVICES.check_option_names(options)
         sensitivities = options.pop("sensitivities", None)
         rtol, atol = options.pop("sensitivity_rtol", None), options.pop("sensitivity_atol", None)
@@ -539,6 +446,8 @@ class HybridModel:
         if sensitivities is not None:
             return SERVICES.simulate_with_sensitivities(self, t_end, method, sensitivities, options, rtol, atol)
         return SERVICES.simulate(self, t_end, method, **options)
+
+    simulate.__doc__ = SIMULATE_DOC
 
     def verify(self, samples: int = 20, seed: int = 0, max_modes: int = 200, scale: float | None = None):
         """Static divergence-of-time check from sampled states on each

@@ -14,7 +14,8 @@ An instant begins in the mode the flow ran in, with the a priori state
 2. a transition fired: ``m`` is *mythical* — the state stays ``x`` and the
    next pass is in the mode the fired transitions reach.  That mode already
    passed in this chain of mythical modes is a divergence of time
-   (:data:`REPEATS_IN_CHAIN`; ``detail`` is its place in the chain);
+   (:data:`REPEATS_IN_CHAIN`; ``detail`` is its place in the chain) —
+   unless the cycle is a *tie* (below);
 3. none fired: the state takes ``x⁺`` and the caller decides every guard of
    ``m`` on ``x⁺`` as during flow (no jump from here):
    * none fires: ``m`` is the continuous mode, the instant ends
@@ -24,6 +25,39 @@ An instant begins in the mode the flow ran in, with the a priori state
      mode with the same state (within ``10⁻¹²`` relative, among that mode's
      last :data:`PINNACLES_COMPARED` pinnacles) is a divergence of time
      (:data:`PINNACLE_REPEATS`; ``detail`` is the earlier pinnacle's place).
+
+**Ties at the edge.**  A comparison is *at its edge* when its sides differ
+by no more than its tolerance band (equality up to round-off,
+:mod:`codegen.decision`; no impulse deciding it); a guard holds *strictly*
+when it holds however its comparisons at their edge are decided, and a
+pass fired *at a tie* (:data:`FIRED_AT_TIE`) when every transition it fired
+holds, but none strictly — an inclusive comparison (``>=``, ``<=``, ``==``)
+holding within its band: ``v_D >= 0`` at ``v_D = 0``.  When the chain of
+mythical modes returns to a mode ``chain[j]`` and every pass of the cycle
+``chain[j:]`` fired at a tie, no switch of the cycle is taken (no switching
+on a tie): the instant rests in ``chain[j]``, the mode where the cycle
+began — the caller jumps in it, takes ``x = x⁺`` and decides its guards as
+in flow, strictly (:data:`JUMP_AT_TIE`): none holding strictly, it is the
+continuous mode (:data:`CONTINUOUS`, ``detail`` = ``j``); one holding
+strictly, it is a pinnacle as in 3.  This is physical: at equality the
+modes of the cycle describe one and the same state at this instant (an
+ideal diode at rest, off with ``v_D = 0`` or on with ``i_D = 0``), so each
+is consistent and resting in the first leaves the state consistent; the
+flow then decides, each guard holding at its edge counted only once it
+holds strictly (``switching.simulate.events.GuardScan``, ``strict``), so the
+diode turns on when ``v_D`` becomes positive, off when ``i_D`` becomes
+negative, as with strict guards.  A cycle with one pass that fired
+strictly (a comparison holding beyond its band) is a divergence of time,
+as before (DESIGN §6): the paper's diode with a holding current above its
+current, its colliding balls without a separating condition (touching, the
+collision guard holds at a tie after a separation that holds strictly).
+That holds even where the mode left only at a tie would be a consistent
+rest: an ideal diode with ``v_D >= 0`` to turn on, turning off against a
+capacitor (``i_D < 0`` at the located crossing, ``v_D = 0`` after it), loops
+off → on → off; ``switching.simulate.resolution`` names such switches and
+says to write them strictly (``v_D > 0``), as ``models.circuits`` does.
+The compiled kernel reports every firing as strict (it does not tell ties
+apart), so a tie's cycle reaches Python, which resolves it by this rule.
 
 More than ``max_steps`` passes end the instant with :data:`TOO_MANY_STEPS`.
 
@@ -36,18 +70,22 @@ with no room for another pinnacle the rule answers :data:`NO_ROOM`.
 In Python::
 
     state = instant_begin(mode, chain)
-    while state[0] in (JUMP_AND_DECIDE, DECIDE_AS_FLOW):
+    while state[0] in (JUMP_AND_DECIDE, DECIDE_AS_FLOW, JUMP_AT_TIE):
         ...  # the caller's step, as state[0] says, in mode state[2]
         state = instant_next(state, fired, target, x, max_steps, chain, pin_modes, pin_x)
 
+``fired``: 0 (``False``) none fired, 1 (``True``, :data:`FIRED`) a
+transition fired, :data:`FIRED_AT_TIE` transitions fired, all at a tie.
 ``state`` is the tuple ``(action, passes, mode, chain length, pinnacles,
-detail)`` of integers.
+detail, ties from)`` of integers, ``ties from`` the first place in the
+chain from which every pass fired at a tie.
 """
 
 from __future__ import annotations
 
-__all__ = ["CONTINUOUS", "DECIDE_AS_FLOW", "JUMP_AND_DECIDE", "NO_ROOM", "PINNACLES_COMPARED", "PINNACLE_REPEATS",
-           "REPEATS_IN_CHAIN", "RULES", "TOO_MANY_STEPS", "decides_as_in_flow", "instant_begin", "instant_next"]
+__all__ = ["CONTINUOUS", "DECIDE_AS_FLOW", "FIRED", "FIRED_AT_TIE", "JUMP_AND_DECIDE", "JUMP_AT_TIE", "NO_ROOM",
+           "PINNACLES_COMPARED", "PINNACLE_REPEATS", "REPEATS_IN_CHAIN", "RULES", "TOO_MANY_STEPS",
+           "decides_as_in_flow", "instant_begin", "instant_next"]
 
 RULES = ("instant_begin", "instant_next", "decides_as_in_flow")
 
@@ -65,6 +103,14 @@ PINNACLE_REPEATS = 4
 TOO_MANY_STEPS = 5
 #: no room left in ``pin_modes`` / ``pin_x`` for another pinnacle
 NO_ROOM = 6
+#: the caller: a cycle of ties began at ``state[2]`` (``chain[state[5]]``): jump in it, take ``x = x⁺`` and decide
+#: every guard as in flow, counting only those that hold strictly; report what fired
+JUMP_AT_TIE = 7
+
+#: ``fired``: a transition fired, holding strictly (beyond the band of a comparison it needs)
+FIRED = 1
+#: ``fired``: every transition that fired holds only at a tie (some comparison within its band)
+FIRED_AT_TIE = 2
 
 #: a pinnacle's state is compared with this many earlier pinnacles of its mode (bounded work
 #: per pinnacle; a longer cycle ends at the cap on steps)
@@ -77,7 +123,7 @@ def instant_begin(mode, chain):
     """The state of an instant beginning in ``mode`` (``chain[0] = mode``):
     its first pass jumps and decides (:data:`JUMP_AND_DECIDE`)."""
     chain[0] = mode
-    return (JUMP_AND_DECIDE, 1, mode, 1, 0, -1)
+    return (JUMP_AND_DECIDE, 1, mode, 1, 0, -1, 0)
 
 
 def decides_as_in_flow(state, pulse_free):
@@ -88,21 +134,28 @@ def decides_as_in_flow(state, pulse_free):
 
 def instant_next(state, fired, target, x, max_steps, chain, pin_modes, pin_x):
     """The state after the caller's step: ``fired`` whether a transition of
-    mode ``state[2]`` fired, ``target`` the mode the fired transitions reach,
-    ``x`` the state after the step (``x⁺`` after :data:`DECIDE_AS_FLOW`)."""
-    action, passes, mode, n_chain, n_pin = state[0], state[1], state[2], state[3], state[4]
+    mode ``state[2]`` fired (0, :data:`FIRED` or :data:`FIRED_AT_TIE`),
+    ``target`` the mode the fired transitions reach, ``x`` the state after
+    the step (``x⁺`` after :data:`DECIDE_AS_FLOW` and :data:`JUMP_AT_TIE`)."""
+    action, passes, mode, n_chain, n_pin, ties_from = state[0], state[1], state[2], state[3], state[4], state[6]
     if action == JUMP_AND_DECIDE:
         if not fired:
-            return (DECIDE_AS_FLOW, passes, mode, n_chain, n_pin, -1)
+            return (DECIDE_AS_FLOW, passes, mode, n_chain, n_pin, -1, ties_from)
+        if fired != FIRED_AT_TIE:  # the pass at chain[n_chain - 1] fired strictly
+            ties_from = n_chain
         for j in range(n_chain):  # mythical
             if chain[j] == target:
-                return (REPEATS_IN_CHAIN, passes, target, n_chain, n_pin, j)
+                if j < ties_from:
+                    return (REPEATS_IN_CHAIN, passes, target, n_chain, n_pin, j, ties_from)
+                if passes >= max_steps:  # a cycle of ties: rest where it began
+                    return (TOO_MANY_STEPS, passes, mode, n_chain, n_pin, -1, ties_from)
+                return (JUMP_AT_TIE, passes + 1, target, n_chain, n_pin, j, ties_from)
         if passes >= max_steps:
-            return (TOO_MANY_STEPS, passes, mode, n_chain, n_pin, -1)
+            return (TOO_MANY_STEPS, passes, mode, n_chain, n_pin, -1, ties_from)
         chain[n_chain] = target
-        return (JUMP_AND_DECIDE, passes + 1, target, n_chain + 1, n_pin, -1)
+        return (JUMP_AND_DECIDE, passes + 1, target, n_chain + 1, n_pin, -1, ties_from)
     if not fired:
-        return (CONTINUOUS, passes, mode, n_chain, n_pin, -1)
+        return (CONTINUOUS, passes, mode, n_chain, n_pin, state[5] if action == JUMP_AT_TIE else -1, ties_from)
     compared = 0  # a pinnacle
     for j in range(n_pin - 1, -1, -1):
         if pin_modes[j] == mode:
@@ -112,16 +165,16 @@ def instant_next(state, fired, target, x, max_steps, chain, pin_modes, pin_x):
                     same = False
                     break
             if same:
-                return (PINNACLE_REPEATS, passes, mode, n_chain, n_pin, j)
+                return (PINNACLE_REPEATS, passes, mode, n_chain, n_pin, j, ties_from)
             compared += 1
             if compared == PINNACLES_COMPARED:
                 break
     if n_pin >= pin_modes.shape[0]:
-        return (NO_ROOM, passes, mode, n_chain, n_pin, -1)
+        return (NO_ROOM, passes, mode, n_chain, n_pin, -1, ties_from)
     pin_modes[n_pin] = mode
     for i in range(x.shape[0]):
         pin_x[n_pin, i] = x[i]
     if passes >= max_steps:
-        return (TOO_MANY_STEPS, passes, mode, n_chain, n_pin + 1, -1)
+        return (TOO_MANY_STEPS, passes, mode, n_chain, n_pin + 1, -1, ties_from)
     chain[0] = target
-    return (JUMP_AND_DECIDE, passes + 1, target, 1, n_pin + 1, -1)
+    return (JUMP_AND_DECIDE, passes + 1, target, 1, n_pin + 1, -1, 0)

@@ -12,6 +12,7 @@ from ..library.jit_model import STATUS as KERNEL_STATUS
 from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
 from .integrators import StiffnessDetected
 from .methods import METHOD_CLASSES
+from .preflight import nonfinite_at_start
 from .resolution import CompiledInstant
 
 __all__ = ["run_kernel"]
@@ -39,6 +40,7 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
     while True:
         if steps >= steps_left:
             raise step_limit(o, t, t_end, mode, x, steps)
+        start = (t, x, mode)  # (a flow that cannot start there is named with its rates, below)
         dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
         if kind == AUTO_KIND:
             auto.classify(compiled, x, t)
@@ -78,6 +80,12 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             continue
         if status == "resolve":
             return (t, x), t, x, mode, steps, False
+        # a flow that cannot start where this call began (a zero inductance: NaN rates, which the RK45 step
+        # control sees as a collapsing step): the run ends there, its rates and the parameters they read named
+        # (the driver checks only the guard sides before the kernel runs)
+        problem = nonfinite_at_start(model, model.compiled_mode(start[2]), start[1], start[0])
+        if problem:
+            raise FlowFailure(NonFiniteStateError, problem, start[0], start[1], steps, start[2])
         if status == "collapsed":
             raise FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
                                f"step size collapsed (stiff here? {stiff_advice(method)})", t, x, steps, mode)

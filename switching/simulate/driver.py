@@ -11,7 +11,12 @@ The guard test during location is the one the instant's resolution uses
 (tolerance band included): the located time is the first at which the
 resolution sees the guard hold, so a located event fires, and an event never
 re-triggers itself — after resolution no guard holds, and flow must make one
-hold again before it can fire.
+hold again before it can fire.  The one exception is an instant that rested
+at a tie (:mod:`switching.rules.instants`: a cycle of switches each enabled
+only by an inclusive comparison at its edge, none taken): a guard may hold
+there at its edge, and the flow from it — in Python, also for a compiled
+method — counts a guard only once it holds strictly
+(:class:`~switching.simulate.events.GuardScan`, ``strict``).
 
 Failures raise a :class:`~switching.errors.SimulationError` subclass that
 carries the trajectory computed so far.
@@ -284,13 +289,20 @@ class HybridRun:
         if not initial_in_kernel:
             self.initial_instant()
         elif not model.compiled_mode(self.mode).holds(self.x, self.t, self.rtol_g, self.atol_g):
-            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t)  # the kernel flows
+            # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
+            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t, rates=False)
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
         if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
             x = self.x
             self.recorder.dense(self.t - 1.0, self.t, lambda tau: x.copy(), self.mode)
         return initial_in_kernel
+
+    def _at_tie(self) -> bool:
+        """Does a guard hold as the flow starts?  Only after an instant that rested at a tie: that flow counts a
+        guard only once it holds strictly."""
+        cm = self.model.compiled_mode(self.mode)
+        return bool(cm.guards) and cm.holds(self.x, self.t, self.rtol_g, self.atol_g)
 
     def _run(self) -> Status:
         """Flows and instants up to ``t_end``."""
@@ -300,7 +312,8 @@ class HybridRun:
         while self.t < self.t_end:
             steps_left = settings.max_steps - self.n_steps  # a run stops after max_steps steps
             try:
-                if compiled is not None and compiled.covers(self.mode):
+                tie = not initial_in_kernel and self._at_tie()
+                if compiled is not None and compiled.covers(self.mode) and not tie:
                     event, self.t, self.x, self.mode, steps, stop = run_kernel(
                         model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
                         self.recorder, self.after_event, initial_in_kernel, auto=self.auto)
@@ -319,7 +332,7 @@ class HybridRun:
                     method = METHOD_CLASSES["Radau"] if self.mode in self.implicit_python else self.flow_method
                     event, self.t, self.x, steps = flow_python(model, cm, self.mode, method, self.x, self.t,
                                                                self.t_end, settings, steps_left, self.recorder,
-                                                               _LIST_STATES)
+                                                               _LIST_STATES, tie)
             except FlowFailure as failure:
                 self.t, self.x = failure.t, failure.x
                 self.mode = failure.mode or self.mode

@@ -42,7 +42,12 @@ class _GuardForm:
       has two parts, one per side of its band; ``!=`` one part, tracked but
       never refined): ``margins`` — ``±(left − right) ± band``, ≥ 0
       (inclusive) or > 0 (strict) exactly where the part holds — and
-      ``truths``."""
+      ``truths``;
+
+    and ``evaluate_strict`` the same with every part strict (its margin
+    ``±(left − right) − band`` > 0): a guard holds there when it holds
+    however its comparisons within their band are decided
+    (:func:`switching.library.compiled.holds_strictly`)."""
 
     def __init__(self, cm):
         parts, of_parts, terms, ops = guard_parts([guard["tree"] for guard in cm.guards])
@@ -53,31 +58,48 @@ class _GuardForm:
         namespace = execute(source, {}, "<hbg guards of their parts>")
         self.guard_of_parts = [namespace[f"guard_{g}"] for g in range(len(of_parts))]
         ops = [ops.get(k) for k in range(cm.n_relations)]
+        self.source = self._source("evaluate", ops, False, " or ".join(terms) or "False")
+        namespace = execute(self.source, {"band": band}, "<hbg guard parts>", also=frozenset({"band"}))
+        self.evaluate = namespace["evaluate"]
+        strict = self._source("evaluate_strict", ops, True, " or ".join(of_parts) or "False")
+        namespace = execute(strict, {"band": band}, "<hbg strict guard parts>", also=frozenset({"band"}))
+        self.evaluate_strict = namespace["evaluate_strict"]
+        self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+
+    def _source(self, name: str, ops: list, strict: bool, holds: str) -> str:
+        """The source of ``name(s, rtol, atol) -> (margins, truths, holds)``
+        (the class docstring); ``strict``: every part strict, and ``holds``
+        from the parts' truths ``q``."""
         truth = {"<=": "d{k} <= b{k}", "<": "d{k} < -b{k}", ">=": "d{k} >= -b{k}", ">": "d{k} > b{k}",
                  "==": "abs(d{k}) <= b{k}", "!=": "abs(d{k}) > b{k}"}
-        lines = ["def evaluate(s, rtol, atol):"]
+        lines = [f"def {name}(s, rtol, atol):"]
         for k, op in enumerate(ops):
             if op is None:
                 continue
             # the band of the rule codegen.decision.band, widened by the round-off scale s[3k + 2]
             lines.append(f"    d{k} = s[{3 * k}] - s[{3 * k + 1}]; "
                          f"b{k} = band(s[{3 * k}], s[{3 * k + 1}], s[{3 * k + 2}], rtol, atol)")
-            lines.append(f"    r{k} = " + truth[op].format(k=k))
+            if not strict:
+                lines.append(f"    r{k} = " + truth[op].format(k=k))
         margins, truths = [], []
         for i, (k, sign, inclusive) in enumerate(self.parts):
             if sign:
-                lines.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} {'+' if inclusive else '-'} b{k}")
+                widened = inclusive and not strict
+                lines.append(f"    m{i} = {'' if sign > 0 else '-'}d{k} {'+' if widened else '-'} b{k}")
                 margins.append(f"m{i}")
-                truths.append(f"m{i} {'>=' if inclusive else '>'} 0.0")
+                truths.append(f"m{i} {'>=' if widened else '>'} 0.0")
             else:
                 margins.append("None")
                 truths.append(f"abs(d{k}) > b{k}")
-        lines.append(f"    return ({', '.join(margins)}{',' if len(margins) == 1 else ''}), "
-                     f"({', '.join(truths)}{',' if len(truths) == 1 else ''}), {' or '.join(terms) or 'False'}")
-        namespace = execute("\n".join(lines), {"band": band}, "<hbg guard parts>", also=frozenset({"band"}))
-        self.evaluate = namespace["evaluate"]
-        self.source = "\n".join(lines)
-        self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+
+        def tuple_of(items):
+            return f"({', '.join(items)}{',' if len(items) == 1 else ''})"
+
+        if strict:
+            lines += [f"    q = {tuple_of(truths)}", f"    return {tuple_of(margins)}, q, {holds}"]
+        else:
+            lines.append(f"    return {tuple_of(margins)}, {tuple_of(truths)}, {holds}")
+        return "\n".join(lines)
 
     @classmethod
     def of(cls, cm):
@@ -115,12 +137,21 @@ class GuardScan:
       them is seen.
 
     ``first_hold`` returns the first pair ``(a, b)`` of times with no guard
-    holding at ``a`` and one holding at ``b`` (for :func:`locate_event`)."""
+    holding at ``a`` and one holding at ``b`` (for :func:`locate_event`).
 
-    def __init__(self, cm, sides, stepper, state_at, t0, x0, rtol, atol, samples):
+    ``strict``: a guard counts only where it holds strictly, however its
+    comparisons within their band are decided (``_GuardForm.evaluate_strict``)
+    — the flow from an instant that rested at a tie, where a guard holds at
+    the edge of an inclusive comparison (``v_D >= 0`` at ``v_D = 0``,
+    :mod:`switching.rules.instants`): that guard fires once the flow carries
+    its comparison beyond the band, as a strict one (``v_D > 0``) would."""
+
+    def __init__(self, cm, sides, stepper, state_at, t0, x0, rtol, atol, samples, strict=False):
         self.cm, self.stepper, self.state_at = cm, stepper, state_at
         self.rtol, self.atol, self.samples = rtol, atol, samples
         self.form = _GuardForm.of(cm)
+        self.strict = strict
+        self.evaluate = self.form.evaluate_strict if strict else self.form.evaluate
         self.sides = sides  # sides(x, t): the guards' comparison sides, a list of floats
         self.start = self.point(t0, x0)
         self.before = None  # the previous step's last point before its end
@@ -132,11 +163,18 @@ class GuardScan:
 
     def point(self, tau, x=None) -> _Point:
         sides = self.sides(self.state(tau) if x is None else x, tau)
-        return _Point(tau, *self.form.evaluate(sides, self.rtol, self.atol))
+        return _Point(tau, *self.evaluate(sides, self.rtol, self.atol))
+
+    def holds(self, x, tau) -> bool:
+        """Does a guard hold at ``(tau, x)``: :meth:`CompiledMode.holds`
+        itself, or strictly (``strict``)."""
+        if self.strict:
+            return self.evaluate(self.sides(x, tau), self.rtol, self.atol)[2]
+        return self.cm.holds(x, tau, self.rtol, self.atol)
 
     def margin(self, i, tau) -> float:
         """The margin of part ``i`` at ``tau``."""
-        return self.form.evaluate(self.sides(self.state(tau), tau), self.rtol, self.atol)[0][i]
+        return self.evaluate(self.sides(self.state(tau), tau), self.rtol, self.atol)[0][i]
 
     # ------------------------------------------------------------ the step
 
@@ -186,8 +224,8 @@ class GuardScan:
 
     def verified(self, a, b, lo, tau):
         """The bracket ``(lo, tau)`` for :func:`locate_event`, ``tau`` checked with
-        ``CompiledMode.holds`` itself (else the plain bracket ``(a, b)``)."""
-        if self.cm.holds(self.state(tau), tau, self.rtol, self.atol):
+        ``CompiledMode.holds`` itself (:meth:`holds`; else the plain bracket ``(a, b)``)."""
+        if self.holds(self.state(tau), tau):
             return lo.tau, tau
         return a.tau, b.tau
 
@@ -280,7 +318,7 @@ class GuardScan:
                 break
             if sign:
                 margin = self.margin(i, mid)
-                truth = margin >= 0.0 if inclusive else margin > 0.0
+                truth = margin >= 0.0 if inclusive and not self.strict else margin > 0.0
             else:
                 truth = self.point(mid).truths[i]
             if truth == truth_lo:
@@ -301,14 +339,15 @@ def _peak(f, a, b) -> float:
     return state[-1]
 
 
-def locate_event(cm, stepper, state_at, a, b, rtol, atol) -> float:
+def locate_event(holds, stepper, state_at, a, b) -> float:
     """The first time in ``(a, b]`` at which a guard holds on the interpolant
-    (bisection down to adjacent floating-point numbers)."""
+    (``holds(x, t)``: :meth:`GuardScan.holds`; bisection down to adjacent
+    floating-point numbers)."""
     for _ in range(BISECTIONS):
         more, mid = halve(a, b)
         if not more:
             break
-        if cm.holds(state_at(mid, stepper.interpolate(mid)), mid, rtol, atol):
+        if holds(state_at(mid, stepper.interpolate(mid)), mid):
             b = mid
         else:
             a = mid

@@ -96,8 +96,6 @@ class Output:
 
 #: the groups, in the order of :class:`RunOptions`
 GROUPS = (Start, Stepping, Events, Limits, Output)
-#: each group with the names of its fields (read once: ``dataclasses.fields`` costs microseconds per call)
-_GROUP_FIELDS = tuple((group, tuple(f.name for f in fields(group))) for group in GROUPS)
 
 
 def keyword_names() -> tuple:
@@ -129,6 +127,9 @@ class RunOptions:
     @classmethod
     def from_keywords(cls, method: str, t_end: float, keywords: dict) -> RunOptions:
         """The groups of ``keywords`` (``simulate``'s, checked; ``mode`` among them)."""
-        start, stepping, events, limits, output = (
-            group(**{name: keywords[name] for name in names}) for group, names in _GROUP_FIELDS)
-        return cls(method, t_end, start, stepping, events, limits, output)
+        k = keywords  # (written out: this runs at every simulate call, a generator of dicts costs microseconds)
+        return cls(method, t_end, Start(k["t0"], k["x0"], k["mode"]),
+                   Stepping(k["dt"], k["rtol"], k["atol"], k["max_step"], k["first_step"], k["stiffness_check"]),
+                   Events(k["event_samples"], k["on_zeno"], k["zeno_window"], k["zeno_min_gap"]),
+                   Limits(k["max_steps"], k["max_events"]),
+                   Output(k["output"], k["t_eval"], k["keep_instants"], k["progress"], k.get("samples")))

@@ -46,12 +46,21 @@ def _parameters_read(model, expr) -> str:
     return f"; it reads {text}"
 
 
-def nonfinite_at_start(model, cm, x, t) -> str | None:
+def nonfinite_at_start(model, cm, x, t, rates: bool = True) -> str | None:
     """A message naming every non-finite rate ``dx_k/dt`` and guard side of
     the mode of ``cm`` at the state ``x`` (n,) and time ``t`` [s], or ``None``
     when all are finite.  Round-off scales of the sides are not checked (they
-    may be infinite where a derivative is, e.g. ``acos`` at ±1)."""
+    may be infinite where a derivative is, e.g. ``acos`` at ±1).  With
+    ``rates=False`` only the guard sides are checked first (the compiled
+    kernel tells non-finite rates itself, and its failure then asks for the
+    whole message): the rates are evaluated only when a side is not finite."""
     x = np.asarray(x, dtype=float)
+    if not rates and cm.n_sides:
+        with np.errstate(all="ignore"):
+            if np.isfinite(np.asarray(cm.sides(x, t), dtype=float)).all():
+                return None
+    elif not rates:
+        return None
     with np.errstate(all="ignore"):  # numpy's math: inf or NaN where Python floats would raise
         try:
             rates = np.asarray(cm.on_numpy("rates")(x, np.float64(t), model.parameter_array, model.input_values(t),

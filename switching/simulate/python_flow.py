@@ -18,21 +18,22 @@ from .integrators import StepFailed, StiffnessDetected
 __all__ = ["flow_python"]
 
 
-def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, list_states):
+def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, list_states, strict=False):
     """Flow in one mode with the integrator of ``method`` (a Python method's
     class) from ``(t, x)`` until ``t_end`` [s] or an event, at most
     ``steps_left`` steps (``o``: the run's flow settings); a flow of at most
     ``list_states`` independent states gives the integrator the rates on
     lists of floats (the fixed-step methods step on them: faster than small
-    arrays).  Returns ``(event or None, t, x, steps)``, ``event = (t_ev,
-    x_ev)``."""
+    arrays); ``strict``: a guard counts only once it holds strictly (the
+    flow from an instant that rested at a tie, :class:`GuardScan`).
+    Returns ``(event or None, t, x, steps)``, ``event = (t_ev, x_ev)``."""
     fun, state_at, y0 = flow_functions(model, cm, x)
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= list_states else None
     jac = flow_jacobian(model, cm, x) if method.stiff else None  # the implicit methods' J, derived
     stepper = method.stepper(fun, t, y0, t_end, autonomous=not model.input_symbols, fun_list=on_lists,
                              jac=jac, **o.stepping.integrator_options())
-    scan = (GuardScan(cm, sides_function(model, cm), stepper, state_at, t, x, o.rtol_g, o.atol_g, o.samples)
-            if cm.guards else None)
+    scan = (GuardScan(cm, sides_function(model, cm), stepper, state_at, t, x, o.rtol_g, o.atol_g, o.samples,
+                      strict) if cm.guards else None)
     save = recorder.output == "steps"
     dense = recorder.t_eval is not None
     progress = o.progress
@@ -64,7 +65,7 @@ def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, l
         if scan is not None:
             bracket = scan.first_hold(t_prev, t_new, x_new)
             if bracket is not None:
-                t_ev = locate_event(cm, stepper, state_at, *bracket, o.rtol_g, o.atol_g)
+                t_ev = locate_event(scan.holds, stepper, state_at, *bracket)
                 # the state the guard was seen to hold on: the step's end itself, or the interpolant
                 x_ev = x_new if t_ev == t_new else state_at(t_ev, stepper.interpolate(t_ev))
                 if dense:

@@ -14,6 +14,14 @@ From an a priori state ``x`` in mode α:
    otherwise β is *continuous* and the instant ends.  A repeated
    (mode, x) pair among pinnacles, or more steps than the cap, is an error.
 
+A mythical chain that returns to a mode through transitions that all fired
+at a *tie* (each guard holding, but not strictly: an inclusive comparison
+within its band, ``v_D >= 0`` at ``v_D = 0``) takes none of them: the instant
+rests in the mode where the cycle began (the rule of
+:mod:`switching.rules.instants`; the cycle's steps are recorded with kind
+``"tie"``), and the flow from there counts a guard only once it holds
+strictly (:class:`switching.simulate.events.GuardScan`).
+
 A candidate reached only by transitions marked ``pulses=False`` (a jump that
 abstracts a continuous approach) judges its a posteriori guards without the
 jump's Dirac pulses.  Where no pulse is involved — the mode the instant began
@@ -25,26 +33,29 @@ a guard holding at once.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from bondgraph.errors import FloatingPartError, HybridBondGraphError
-from codegen.runtime import PulseError, hyper
+from codegen.runtime import PulseError
 
 from ..model.automaton import A_POSTERIORI
-from ..library.compiled import decide_tree
+from ..library.compiled import decide_tree, holds_strictly
 from ..errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
 from ..model.modes import Mode
-from ..rules.instants import (CONTINUOUS, DECIDE_AS_FLOW, JUMP_AND_DECIDE, NO_ROOM, PINNACLE_REPEATS,
-                              REPEATS_IN_CHAIN, decides_as_in_flow, instant_begin, instant_next)
+from ..rules.instants import (CONTINUOUS, DECIDE_AS_FLOW, FIRED, FIRED_AT_TIE, JUMP_AND_DECIDE, JUMP_AT_TIE, NO_ROOM,
+                              PINNACLE_REPEATS, REPEATS_IN_CHAIN, decides_as_in_flow, instant_begin, instant_next)
 
 __all__ = ["Instant", "CompiledInstant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
 
 
 @dataclass(frozen=True)
 class FiredGuard:
-    """A transition whose guard held, with the values of its comparisons."""
+    """A transition whose guard held, with the values of its comparisons;
+    ``strict``: it holds however its comparisons at their edge are decided
+    (:func:`switching.library.compiled.holds_strictly`), else it fired at a tie."""
 
     automaton: str
     source: str
@@ -53,6 +64,7 @@ class FiredGuard:
     when: str
     comparisons: tuple  # codegen.runtime.Comparison: text, left, right, result, band, margin
     pulses: bool = True  # False: the transition's jump abstracts a continuous approach (no Dirac pulses)
+    strict: bool = True
 
     @property
     def near_edge(self) -> list:
@@ -70,7 +82,9 @@ class Step:
     """One mode passed at an instant.
 
     ``kind``: ``"start"`` (the mode the instant began in, left without a
-    jump), ``"mythical"``, ``"pinnacle"`` or ``"continuous"``.  ``x_before`` /
+    jump), ``"mythical"``, ``"pinnacle"``, ``"continuous"``, or ``"tie"``
+    (a mode of a cycle of ties: its transitions, fired at a tie, were not
+    taken).  ``x_before`` /
     ``x_after``: the state on entering and leaving the mode (equal unless it
     was real and jumped); ``fired``: the guards that made it leave.
     """
@@ -169,7 +183,7 @@ class Instant:
 
 
 def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_in_flow: bool = False,
-                    pulses: bool = True) -> list:
+                    pulses: bool = True, strict: bool = False) -> list:
     """The first holding transition of each automaton in compiled mode ``cm``.
 
     A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
@@ -179,7 +193,8 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
     located event is seen to hold by the same arithmetic that located it).
     ``pulses=False``: a posteriori guards see the finite values only (the
     mode was entered by transitions whose jump abstracts a continuous
-    approach, :meth:`Automaton.add_transition`)."""
+    approach, :meth:`Automaton.add_transition`).  ``strict``: only guards
+    that hold strictly count (the first of each automaton's)."""
     fired = []
     done = set()
     prior = post = None
@@ -203,12 +218,15 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
                 prior = cm.sides(x, t)
             sides = prior
         if decide_tree(guard["tree"], sides, rtol, atol):
+            firm = holds_strictly(guard["tree"], sides, rtol, atol)
+            if strict and not firm:
+                continue
             comparisons: list = []  # the figures of a guard that fired, for the record (decided alike again)
             decide_tree(guard["tree"], sides, rtol, atol, comparisons)
             done.add(guard["automaton"])
             fired.append(
                 FiredGuard(guard["automaton"], guard["source"], guard["target"], guard["text"], guard["when"],
-                           tuple(comparisons), guard.get("pulses", True))
+                           tuple(comparisons), guard.get("pulses", True), firm)
             )
     return fired
 
@@ -317,47 +335,30 @@ def _loop_message(t, numbered, kind_text, detail=(), advice=_ADVICE) -> str:
     return "\n".join(lines)
 
 
-def _at_edge(c) -> bool:
-    """Whether the inclusive comparison ``c`` (``>=``, ``<=``) held only
-    because it counts its edge: ``|left − right|`` within its band, where the
-    strict comparison (``>``, ``<``) fails."""
-    if c.op not in (">=", "<=") or not c.result or c.margin is None:
-        return False
-    left, right = hyper(c.left), hyper(c.right)
-    if left.impulse or right.impulse:
-        return False
-    return abs(left.finite - right.finite) <= c.band
-
-
-def _strict_text(text: str) -> str:
-    return text.replace(">=", ">").replace("<=", "<")
-
-
-def _tie_detail(loop):
-    """``(detail lines, advice)`` when a chain of mythical modes repeats only
-    because every guard of the loop holds at the edge of an inclusive
-    comparison (:func:`_at_edge`: an ideal diode at rest, ``v_D = 0`` and
-    ``i_D = 0``, with ``v_D >= 0`` to turn on and ``i_D <= 0`` to turn off:
-    each mode's guard sends it to the other), else ``None``."""
-    fired = [f for step in loop for f in step.fired]
-    if not fired or not all(any(_at_edge(c) for c in f.comparisons) for f in fired):
+def _tie_detail(numbered):
+    """``(detail lines, advice)`` for a loop that passed some switches only at
+    a tie (a guard holding, but not strictly: :attr:`FiredGuard.strict`) and
+    some beyond their band — not a cycle of ties, so it diverges — else
+    ``None``: name those switches and how to write them so that equality
+    does not switch (a capacitor's ideal diode turning off with ``v_D >= 0``
+    to turn on: off finds ``v_D = 0``)."""
+    ties = [(number, step, f) for number, step in numbered for f in step.fired if not f.strict]
+    if not ties:
         return None
-    ties = [(f, c) for f in fired for c in f.comparisons if _at_edge(c)]
-    shown = "; ".join(f"{f.automaton}: {c.text} at {c.left} vs {c.right}" for f, c in ties)
-    strict = ", ".join(dict.fromkeys(f"{_strict_text(f.guard)} for {f.guard}" for f in fired))
-    detail = [
-        f"A tie at the edge: every guard of the loop holds only because an inclusive comparison (>= or <=) counts "
-        f"the edge of its tolerance band as holding ({shown}). At this state the modes' guards overlap — an ideal "
-        "diode or switch at rest (zero voltage and zero current) is both blocking and conducting — so each mode "
-        "sends to the other at the same instant."
-    ]
-    advice = (
-        f"Write these comparisons strictly ({strict}; models.circuits' diodes do: off → on when v_D > v_f, "
-        "on → off when i_D < 0): at the edge both guards then fail, the element stays in its mode, and the flow "
-        "carries the state off the edge and fires the guard that becomes true there. Inclusive comparisons hold "
-        "within the band around their edge, so with them the tie recurs until the state leaves the band."
-    )
-    return detail, advice
+    lines = []
+    for number, step, f in ties:
+        shown = "; ".join(f"{c.text}: {c.left} vs {c.right}" for c in f.comparisons)
+        lines.append(f"Step {number} left {step.mode.describe()} only at a tie: {f.automaton}'s guard [{f.guard}] "
+                     f"holds only within the tolerance band of a comparison ({shown}), where the mode is consistent "
+                     "too; the loop's other switches hold beyond their bands, so this is no cycle of ties (which "
+                     "would rest where it began).")
+    strict = ", ".join(dict.fromkeys(f"{f.guard.replace('>=', '>').replace('<=', '<')} for {f.guard}"
+                                     for _, _, f in ties if ">=" in f.guard or "<=" in f.guard))
+    advice = ("Write the guards that switched only at a tie strictly" + (f" ({strict})" if strict else "")
+              + ": at equality the mode is then kept, and the flow switches it once the comparison holds beyond its "
+              "band (models.circuits' diodes are written so: off → on when v_D > v_f, on → off when i_D < 0). "
+              + _ADVICE)
+    return lines, advice
 
 
 def _pinnacle_repeat_message(model, t, steps, first: int, x: np.ndarray) -> str:
@@ -428,6 +429,13 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet, pulses=pulses)
             if fired:
                 steps.append(Step(current, "start" if quiet else "mythical", x, x, tuple(fired)))
+        elif action == JUMP_AT_TIE:  # a cycle of ties from chain[state[5]]: none of its switches is taken
+            for k in range(chain_start + state[5], len(steps)):
+                steps[k] = dataclasses.replace(steps[k], kind="tie")
+            cm = model.compiled_mode(current)
+            x_before, x = x, cm.jump(x, t)
+            fired = evaluate_guards(model, cm, x, x, t, as_in_flow=True, strict=True)
+            steps.append(Step(current, "pinnacle" if fired else "continuous", x_before, x, tuple(fired)))
         elif action == DECIDE_AS_FLOW:
             x_before, x = x, x_plus
             if not np.all(np.isfinite(x)):
@@ -443,7 +451,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             first = state[5]
             loop = steps[chain_start + first:]
             numbered = [(chain_start + first + k + 1, s) for k, s in enumerate(loop)]
-            detail, advice = _tie_detail(loop) or ((), _ADVICE)
+            detail, advice = _tie_detail(numbered) or ((), _ADVICE)
             raise DivergenceOfTimeError(
                 _loop_message(t, numbered, f"mode {modes[state[2]].describe()} repeats in a chain of mythical modes",
                               detail, advice),
@@ -455,11 +463,14 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         else:
             raise TooManyStepsError(_too_many_message(model, t, steps, max_steps), loop=steps[-10:], instant=instant)
         target = _next_mode(model, current, fired) if fired else current
+        how = 0  # what fired: nothing, a transition holding strictly, or (passing mythical modes) only ties
+        if fired:
+            how = FIRED_AT_TIE if action == JUMP_AND_DECIDE and not any(f.strict for f in fired) else FIRED
         if target not in number:
             number[target] = len(modes)
             modes.append(target)
         while True:
-            following = instant_next(state, bool(fired), number[target], x, max_steps, chain, pin_modes, pin_x)
+            following = instant_next(state, how, number[target], x, max_steps, chain, pin_modes, pin_x)
             if following[0] != NO_ROOM:
                 break
             pin_modes = np.concatenate([pin_modes, np.zeros_like(pin_modes)])
@@ -468,7 +479,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             pin_steps.append(len(steps) - 1)
         if fired and following[0] == JUMP_AND_DECIDE:
             pulses = any(f.pulses for f in fired)
-            if action == DECIDE_AS_FLOW:
+            if action != JUMP_AND_DECIDE:  # a pinnacle: a new chain
                 chain_start = len(steps)
         state = following
 

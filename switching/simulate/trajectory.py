@@ -48,6 +48,7 @@ STEP_KINDS = {
     "mythical": "passed through without its jump (its constraints never held)",
     "pinnacle": "jumped into and left at once",
     "continuous": "the mode the flow went on in",
+    "tie": "in a cycle of switches each enabled only at a tie (equality up to round-off), none of them taken",
 }
 
 #: relative round-off band of the energy ledger: a gain below this fraction of
@@ -321,7 +322,8 @@ class Trajectory:
         model = self._needs_model()
         times = np.atleast_1d(np.asarray(times, dtype=float))
         inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
-        return _energy_evaluator(model)(np.asarray(x, dtype=float).reshape(len(times), -1), times, inputs)
+        x = np.asarray(x, dtype=float).reshape(len(times), len(model.states))
+        return _energy_evaluator(model)(x, times, inputs)
 
     def energy(self) -> np.ndarray:
         """The energy stored in the C and I elements at every sample [J]

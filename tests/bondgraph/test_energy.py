@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from bondgraph import C, I, BondGraph, EnergyGainWarning, HybridBondGraphError, One, PhysicalRangeWarning
+from bondgraph import C, I, R, BondGraph, EnergyGainWarning, HybridBondGraphError, One, PhysicalRangeWarning, Se
 from bondgraph import energy_function, storage_energy, stored_energy
 from models import ball_chain, bouncing_ball, parallel_capacitors
 
@@ -161,3 +161,21 @@ def test_a_loss_within_round_off_is_printed_as_zero_with_its_bound():
     scale = max(max(abs(r.before), abs(r.after)) for r in ledger)
     assert abs(sum(r.lost for r in ledger)) <= 1e-9 * scale  # a perfectly elastic ball loses nothing
     assert "energy lost at instants: 0 J (within round-off, |ΔE| ≤ " in run.summary()
+
+
+@pytest.mark.parametrize("method, options", [("RK45", {}), ("rk4", {"dt": 0.1}), ("euler", {"dt": 0.1})])
+def test_a_model_without_storage_runs_stores_nothing_and_summarises(method, options):
+    """No C or I: no state (n = 0); the energy watch and the summary still work, the stored energy is 0,
+    the resistor takes v²/R of the source's v = sin t."""
+    from bondgraph.symbols import t as time
+    from switching import HybridModel
+
+    g = BondGraph("resistive")
+    loop = g.add(One("loop"))
+    g.connect(Se("V", sp.sin(time)), loop)
+    g.connect(loop, R("R", 2.0))
+    run = HybridModel(g, [], {}, signals={"v": "e_R"}).simulate(1.0, method, **options)
+    assert run.x.shape == (len(run.t), 0)
+    assert np.all(run.energy() == 0.0)
+    assert run.signal("v") == pytest.approx(np.sin(run.t), abs=1e-15)
+    assert "0 instants" in run.summary()

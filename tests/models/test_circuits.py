@@ -235,8 +235,8 @@ def test_nonlinear_law_keeps_its_meaning_with_the_first_terminal_at_ground():
 def test_the_readme_diode_law_in_numbers_builds_simulates_and_settles_on_the_newton_solution():
     """Issue 28: ``R("D", flow_law=lambda e: Is*(sp.exp(e/VT) - 1))`` with Is, VT = 1e-12, 0.025 A, V.
 
-    Fed by V through R with a capacitor across it (the source alone in series with the law is an algebraic
-    loop whose solution is a Lambert W, which the code generator does not compute), the capacitor's voltage
+    Fed by V through R with a capacitor across it (the source alone in series with the law would be a
+    static algebraic loop, its solution a Lambert W, with no state to integrate), the capacitor's voltage
     settles where its current vanishes: V = R·i + VT·ln(1 + i/Is), the diode's current solved here by
     Newton's method.  The fast time constant is C times the diode's small-signal resistance VT/i ≈ 6 Ω:
     stiff, so Radau; 10 ms is over a thousand time constants, what is left is the integration's rtol."""
@@ -364,8 +364,28 @@ def bridge(load_capacitance=None, **build):
 
 
 @pytest.mark.parametrize("load_capacitance", [None, 100e-6])
-def test_bridge_with_every_diode_blocking_is_refused_as_floating_naming_the_load_nodes(load_capacitance):
-    model = bridge(load_capacitance)
+def test_bridge_that_floats_with_every_diode_blocking_is_refused_when_built(load_capacitance):
+    with pytest.raises(FloatingPartError) as info:
+        bridge(load_capacitance)
+    message = str(info.value)
+    assert message.startswith("circuit 'bridge' floats in mode D1=off, D2=off, D3=off, D4=off: the graph is "
+                              "under-determined, not over-determined")
+    assert "other mode" not in message  # one diode conducting ties the load to the source
+    assert set(info.value.elements) == {"node_p", "node_n"} and set(info.value.cut) == {"D1", "D2", "D3", "D4"}
+    assert "gmin=1e-12" in message and "allow_floating=True" in message
+
+
+def test_floating_modes_lists_every_mode_that_floats():
+    from models.circuits import floating_modes
+
+    model = bridge(allow_floating=True)
+    assert [mode.describe() for mode, _ in floating_modes(model)] == ["D1=off, D2=off, D3=off, D4=off"]
+    assert floating_modes(bridge(gmin=1e-12)) == []
+
+
+@pytest.mark.parametrize("load_capacitance", [None, 100e-6])
+def test_bridge_built_allowing_floating_modes_stops_when_it_reaches_one_naming_the_load_nodes(load_capacitance):
+    model = bridge(load_capacitance, allow_floating=True)
     with pytest.raises(FloatingPartError) as info:   # at t = 0 every diode blocks (v_D = 0, not > 0)
         model.simulate(0.01, "RK45")
     message = str(info.value)
@@ -457,7 +477,7 @@ def test_a_floating_mode_met_during_a_run_is_refused_at_its_instant_with_the_run
     c.R("Rload", "p", "n", 100.0)
     w = 2 * math.pi * 50
     with pytest.raises(FloatingPartError) as info:
-        c.build(parameters={"Vm": 10.0, "w": w}).simulate(0.05, "RK45", **RUN)
+        c.build(parameters={"Vm": 10.0, "w": w}, allow_floating=True).simulate(0.05, "RK45", **RUN)
     t_off = (math.pi - math.atan(w * 100.0 * 100e-6)) / w    # D1 and D4 stop conducting: the load floats
     assert f"at t = {t_off:.6g}" in str(info.value)[:20]
     run = info.value.trajectory                                 # the run up to the instant is kept

@@ -49,10 +49,10 @@ import math
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
 
 from models import current_mode_converter
 from switching import continue_orbit, periodic_orbit
+from switching_models import phase  # the exact affine phase: a matrix exponential
 
 T = 1e-4  # 1/f_sw [s]
 #: the output held at Vout by a source; i_ref = 3 A keeps every orbit below in continuous conduction
@@ -236,15 +236,6 @@ def test_a_two_cycle_found_directly_alternates_a_comparator_and_a_blanked_turn_o
 # ------------------------------------------------------------------ the RC load
 
 RC = dict(Vin=12.0, L=1e-3, C=100e-6, R_load=20.0, f_sw=1 / T, i_ref=2.0, m_c=3000.0, w_clock=0.05)
-
-
-def phase(A, b, tau):
-    """``(E, c)`` of ``x(τ) = E x(0) + c`` for ``ẋ = A x + b``: the exponential of ``[[A, b], [0, 0]] τ``."""
-    n = len(b)
-    Z = np.zeros((n + 1, n + 1))
-    Z[:n, :n], Z[:n, n] = A, b
-    E = expm(Z * tau)
-    return E[:n, :n], E[:n, n]
 
 
 def rc_period(x, p=RC):

@@ -33,10 +33,13 @@ from models import (
     falling_rod,
     load,
     parallel_capacitors,
+    rimless_wheel,
     two_tanks,
     vibrating_table,
 )
+from bondgraph.errors import ParameterValueError
 from switching import DivergenceOfTimeError, StepSizeError, StiffnessError, ZenoError
+from test_model_rimless_wheel import fixed_point, passes_vertical, stance_time, steady_level  # closed forms
 
 
 def grid(*axes) -> list:
@@ -635,3 +638,48 @@ def test_current_mode_converter_with_the_output_held(i_ref, m_c, regimes):
     [1.0, 100.0], [1e-5, 1e-2], [1e-6, 1e-3], [2.0, 2000.0], [1e3, 1e5], [0.1, 10.0], [0.0, 1e5], [0.01, 0.2]))
 def test_current_mode_converter_full_grid(Vin, L, C, R_load, f_sw, i_ref, m_c, w):
     _check_current_mode(Vin, L, i_ref, m_c, R_load, C, f_sw, w)
+
+
+# ================================================================== rimless wheel
+
+
+def _check_wheel(alpha, gamma, l, g):
+    """Started at the steady gait (``θ = −α``, ``ω⁺*``): every stance lasts the closed-form
+    ``T(ω⁺*)`` and every impact returns ``ω⁺*``; a gait whose spoke would pull is refused
+    (ParameterValueError); one too slow to pass the vertical rocks back to a Zeno accumulation."""
+    omega_plus = fixed_point(alpha, gamma, l, g)[1]
+    if l * steady_level(alpha, gamma, l, g) >= 3 * g * math.cos(alpha + gamma):
+        documented(rimless_wheel, ParameterValueError)
+        with pytest.raises(ParameterValueError, match="leave the ground"):
+            rimless_wheel.build(alpha=alpha, gamma=gamma, l=l, g=g, omega0=omega_plus)
+        return
+    model = rimless_wheel.build(alpha=alpha, gamma=gamma, l=l, g=g, omega0=omega_plus)
+    atol = 1e-12 * math.sqrt(g * l)  # momenta m l ω ~ sqrt(g l) (m = 1)
+    if not passes_vertical(omega_plus, alpha, gamma, l, g):
+        documented(rimless_wheel, ZenoError)
+        with pytest.raises(ZenoError):
+            model.simulate(100 * math.sqrt(l / g), "RK45", rtol=1e-10, atol=atol)
+        return
+    T = stance_time(omega_plus, alpha, gamma, l, g)
+    t_end = 3.5 * T
+    trajectory = run(model, t_end, "RK45", rtol=1e-10, atol=atol)
+    reaches_end(trajectory, t_end)
+    np.testing.assert_allclose(trajectory.event_times, [T, 2 * T, 3 * T], rtol=1e-8)
+    instants = trajectory.at_instants()
+    after = [rimless_wheel.stance(x, mode, l, 1.0)[1] for x, mode in zip(instants.x_after, instants.modes_after)]
+    np.testing.assert_allclose(after, omega_plus, rtol=1e-8)
+    assert trajectory.signal("normal_force").min() > 0
+
+
+@pytest.mark.parametrize("alpha, gamma, l, g", [(math.pi / 8, 0.08, 1.0, 9.81), (math.pi / 12, 0.2, 1e-3, 9.81),
+                                                (math.pi / 5, 0.2, 1e3, 1.62), (math.pi / 8, 0.01, 1.0, 274.0),
+                                                (math.pi / 20, 0.2, 1.0, 9.81)])
+def test_rimless_wheel(alpha, gamma, l, g):
+    _check_wheel(alpha, gamma, l, g)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("alpha, gamma, l, g", grid([math.pi / 20, math.pi / 12, math.pi / 8, math.pi / 5],
+                                                    [0.01, 0.08, 0.2, 0.3], [1e-3, 1.0, 1e3], [1.62, 9.81, 274.0]))
+def test_rimless_wheel_full_grid(alpha, gamma, l, g):
+    _check_wheel(alpha, gamma, l, g)

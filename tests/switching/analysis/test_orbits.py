@@ -71,28 +71,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
 
 import models
 import switching
 from models import boost_converter, two_tanks
 from switching import GrazingError, ModeSequenceChangedError, OrbitConvergenceError, periodic_orbit
+from switching_models import phase  # the exact affine phase: a matrix exponential
 
 BOOST = dict(Vin=12.0, L=1e-3, R_L=0.1, C=100e-6, R_load=20.0, f_sw=10e3, D=0.4)
 T = 1.0 / BOOST["f_sw"]
 
 
-def phase(A, b, tau):
-    """``(E, c)`` of ``x(τ) = E x(0) + c`` for ``ẋ = A x + b``."""
-    n = len(b)
-    Z = np.zeros((n + 1, n + 1))
-    Z[:n, :n], Z[:n, n] = A, b
-    E = expm(Z * tau)
-    return E[:n, :n], E[:n, n]
-
-
 def boost_exact(D=BOOST["D"], R=BOOST["R_load"]):
-    """The orbit's start ``x*`` (i_L, v_C) and the monodromy ``Φ = E_off·E_on`` at duty ``D`` and load ``R``."""
+    """The orbit's start ``x* = (p_L, q_C)`` [V·s, C] and the monodromy ``Φ = E_off·E_on`` at duty ``D`` and load ``R``."""
     L, C, R_L, V = (BOOST[k] for k in ("L", "C", "R_L", "Vin"))
     A_on = np.array([[-R_L / L, 0.0], [0.0, -1.0 / (C * R)]])
     A_off = np.array([[-R_L / L, -1.0 / C], [1.0 / L, -1.0 / (C * R)]])

@@ -29,6 +29,12 @@ def _rc(**options):
     return HybridModel(g, [], {"V": 1.0, "R": 1.0, "C": 1.0}, signals={"v": "q_C/C", "q": "q_C"}, **options)
 
 
+def test_a_unit_is_shown_on_one_line_and_kept_as_given():
+    model = _rc(units={"v": "k\nV"})
+    assert model.annotations.unit("v") == "k\nV" and model.annotations.label("v") == "v [k V]"
+    assert dict(loads_model(dumps_model(model)).annotations.units) == {"v": "k\nV"}
+
+
 def test_units_label_names_and_a_signal_that_is_a_state_takes_its_unit():
     model = _rc(units={"q_C": "C", "v": "V", "R": "Ω"}, descriptions={"R": "the resistor"})
     notes = model.annotations
@@ -40,8 +46,7 @@ def test_units_label_names_and_a_signal_that_is_a_state_takes_its_unit():
 @pytest.mark.parametrize("units, error, words", [
     ({"vv": "V"}, UnknownNameError, "did you mean 'v'"),
     ({"v": ""}, ModelDefinitionError, "non-empty"),
-    ({"v": "V\nA"}, ModelDefinitionError, "printable"),
-    ({"v": "x" * 41}, ModelDefinitionError, "at most 40"),
+    ({"v": " "}, ModelDefinitionError, "non-empty"),
     ({"v": 3}, ModelDefinitionError, "text"),
 ])
 def test_bad_units_are_refused_naming_the_name(units, error, words):

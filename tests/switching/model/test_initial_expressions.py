@@ -85,7 +85,7 @@ def test_the_sensitivity_to_a_parameter_the_start_is_written_with_follows_the_st
     ("bouncing_ball", "y0", 2.5), ("diode_circuit", "i0", 3.0), ("falling_rod", "theta0", 0.5),
     ("colliding_balls", "v1_0", 2.0), ("ball_chain", "distance", 0.3), ("parallel_capacitors", "V2", 3.0),
     ("boost_converter", "v_C0", 20.0), ("two_tanks", "h1_0", 0.4), ("vibrating_table", "gap0", 0.2),
-    ("current_mode_converter", "v_C0", 15.0),
+    ("current_mode_converter", "v_C0", 15.0), ("rimless_wheel", "omega0", 1.2),
 ])
 def test_a_saved_shipped_model_keeps_the_parameters_of_its_start(name, parameter, value, tmp_path):
     module = models.load(name)
@@ -118,7 +118,8 @@ def test_the_rod_saved_with_a_new_angle_runs_from_that_angle():
 CLI_CASES = [("bouncing-ball", "y0=2.5"), ("diode-circuit", "i0=3"), ("falling-rod", "theta0=0.5"),
              ("falling-rod", "impact_law=newton-coulomb"), ("colliding-balls", "v1_0=2"),
              ("ball-chain", "distance=0.3"), ("parallel-capacitors", "V2=3"), ("boost-converter", "v_C0=20"),
-             ("two-tanks", "h1_0=0.4"), ("vibrating-table", "gap0=0.2")]
+             ("two-tanks", "h1_0=0.4"), ("vibrating-table", "gap0=0.2"),
+             ("rimless-wheel", "omega0=1.2")]
 
 
 @pytest.mark.parametrize("name, setting", CLI_CASES)

@@ -132,6 +132,20 @@ def test_a_zero_storage_parameter_is_named_at_once(build, setting, culprit):
     assert trajectory is not None and len(trajectory.t) >= 1 and trajectory.t[-1] == info.value.t
 
 
+@pytest.mark.parametrize("method", ["RK45-jit", "rk4-jit"])
+def test_a_zero_storage_parameter_is_named_at_once_by_the_compiled_methods(method):
+    """The kernel tells the non-finite rates itself (no evaluation in Python before it); its failure
+    names them as the Python path does."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicalRangeWarning)
+        model = diode_circuit.build(L=0.0)
+    with pytest.raises(NonFiniteStateError) as info:
+        model.simulate(1e-3, method, **({"dt": 1e-4} if method == "rk4-jit" else {}))
+    message = str(info.value)
+    assert message.startswith("non-finite values where a flow starts, at t = 0 s") and "L = 0" in message
+    assert info.value.t == 0.0 and info.value.trajectory.t[-1] == 0.0
+
+
 def test_a_guard_that_is_not_finite_at_the_start_is_named():
     model = relay("v/k >= v_hi", parameters={"k": 0.0})
     with pytest.raises(NonFiniteStateError) as info:

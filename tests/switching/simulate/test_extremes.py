@@ -788,12 +788,13 @@ def test_plastic_chain_separating_threshold_to_zero():
     assert info.value.trajectory.t[-1] == pytest.approx(0.1, abs=1e-13)
 
 
-@pytest.mark.parametrize("approach, e", [("", 0.0), ("", 0.8), ("v{i} - v{j} >= v_th", 0.0)])
+@pytest.mark.parametrize("approach, e", [("", 0.8)])
 def test_contact_without_a_strict_approach_condition_is_a_divergence_of_time(approach, e):
-    """The paper's section 4.2: with only the overlap condition (or a
-    non-strict approach condition at v_th = 0 after a plastic impact) the
-    balls still touch after the jump and ``free → collide`` fires again at
-    the same instant.  The error shows the two-mode loop at the impact time."""
+    """The paper's section 4.2: with only the overlap condition the balls
+    still touch after the jump and ``free → collide`` fires again at the same
+    instant (at a tie, the gap 0), and ``collide → free`` with room to spare
+    (they separate): no cycle of ties.  The error shows the two-mode loop at
+    the impact time."""
     model = ball_row([1.0, 2.0], e, v_th=0.0, approach=approach)
     with pytest.raises(DivergenceOfTimeError, match="divergence of time at t = 0.1") as info:
         model.simulate(0.3, "RK45")
@@ -801,6 +802,24 @@ def test_contact_without_a_strict_approach_condition_is_a_divergence_of_time(app
     labels = [step.mode.label for step in info.value.loop]
     assert set(labels) == {"free", "collide"} and len(labels) == 2
     assert info.value.trajectory.t[-1] == pytest.approx(0.1, abs=1e-13)
+
+
+@pytest.mark.parametrize("approach", ["", "v{i} - v{j} >= v_th"])
+def test_a_plastic_impact_without_a_strict_approach_condition_rests_at_the_tie(approach):
+    """After a plastic impact the balls touch (gap 0) with equal velocities:
+    ``free → collide`` (gap ``<= 0``, and ``v1 − v2 >= 0``) and ``collide →
+    free`` (``v1 <= v2``) both hold only at a tie, a cycle of ties
+    (switching.rules.instants): the instant rests in free, where it began,
+    and the balls move on together at the common velocity m1·v0/(m1 + m2),
+    touching, with no further instant."""
+    model = ball_row([1.0, 2.0], 0.0, v_th=0.0, approach=approach)
+    trajectory = model.simulate(0.3, "RK45")
+    (instant,) = trajectory.events
+    assert instant.t == pytest.approx(0.1, abs=1e-13)
+    assert instant.kinds == ["start", "pinnacle", "tie", "tie", "continuous"]
+    assert instant.mode_after.label == "free"
+    assert trajectory.signal("v1")[-1] == pytest.approx(1 / 3, rel=1e-14)
+    assert trajectory.signal("v2")[-1] == pytest.approx(1 / 3, rel=1e-14)
 
 
 # ==================================================  5. grazing, simultaneity, ends

@@ -105,3 +105,15 @@ def test_the_step_options_reach_the_integrator_of_every_flow(spy):
                        for o in spy)
     np.testing.assert_array_equal(  # the same results as the method it wraps
         ball.simulate(1.5, "spy-RK45", rtol=1e-7).x, ball.simulate(1.5, "RK45", rtol=1e-7).x)
+
+
+def test_from_keywords_puts_every_keyword_in_its_own_field():
+    from switching.simulate.option_groups import GROUPS, RunOptions, group_of, keyword_names
+
+    values = {name: object() for name in keyword_names()}  # a distinct value per keyword
+    options = RunOptions.from_keywords("RK45", 1.0, values)
+    groups = {type(getattr(options, attribute)): getattr(options, attribute)
+              for attribute in ("start", "stepping", "events", "limits", "output")}
+    assert set(groups) == set(GROUPS)
+    for name, value in values.items():
+        assert getattr(groups[group_of(name)], name) is value, name

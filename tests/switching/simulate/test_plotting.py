@@ -83,9 +83,9 @@ def test_the_command_line_draws_jumps_upright(tmp_path, monkeypatch):
 
 def test_a_trajectory_plots_itself(ball_run):
     fig = ball_run.plot(["y", "v"], title="ball")
-    assert [ax.get_ylabel() for ax in fig.axes] == ["y", "v"] and fig.axes[0].get_title() == "ball"
+    assert [ax.get_ylabel() for ax in fig.axes] == ["y [m]", "v [m/s]"] and fig.axes[0].get_title() == "ball"
     # default: the declared signals, then the states none of them renames (issue 29: the rod drew 12 panels)
-    assert [ax.get_ylabel() for ax in ball_run.plot().axes] == ["v", "p", "y"]
+    assert [ax.get_ylabel() for ax in ball_run.plot().axes] == ["v [m/s]", "p [N·s]", "y [m]"]
 
 
 def test_mode_colours_stay_with_their_modes_whatever_the_run_met_first():
@@ -104,14 +104,14 @@ def test_signals_share_a_panel_a_window_is_drawn_and_round_off_is_drawn_flat(bal
     from matplotlib.legend import Legend
 
     legends = [a for a in fig.axes[0].artists if isinstance(a, Legend)] + [fig.axes[0].get_legend()]
-    assert [[t.get_text() for t in legend.get_texts()] for legend in legends][0] == ["y", "v"]  # then the modes
+    assert [[t.get_text() for t in legend.get_texts()] for legend in legends][0] == ["y [m]", "v [m/s]"]  # then modes
     drawn = [line for line in fig.axes[1].lines if len(set(line.get_xdata())) > 1]
     assert drawn and drawn[0].get_xdata().min() >= 0.5 and drawn[0].get_xdata().max() <= 1.5
     from models import ball_chain
 
     chain = ball_chain.build(N=3, distance=0.5).simulate(0.2, "RK45")  # ball 3 at rest all along: v3 = 0
     fig = plot_trajectory(chain, ["v3"])
-    assert fig.axes[0].get_ylabel() == "v3 (constant: 0)" and fig.axes[0].get_ylim() == (-1.0, 1.0)
+    assert fig.axes[0].get_ylabel() == "v3 [m/s] (constant: 0)" and fig.axes[0].get_ylim() == (-1.0, 1.0)
 
 
 def test_a_long_switching_run_is_drawn_as_an_envelope_not_aliased_lines():
