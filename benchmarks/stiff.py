@@ -25,11 +25,12 @@ RK45's stiffness test fires; its warm runs are compiled).  The last
 column: the largest relative difference of the instants' times from
 Radau's (``-`` when the instants differ in number or modes).
 
-Measured (2 shared cores, rtol 1e-8, warm): ten balls, Radau 80–155 ms,
-rodas-jit 1.6 ms, 260 steps against 293, the same 11 instants (times within
-8e-8 of Radau's, the methods' own errors at this rtol; 3e-9 at rtol 1e-10);
-thirty balls, Radau 0.26 s, rodas-jit 16 ms.  Cold rodas-jit: 40–50 s (the
-kernel's compilation).
+Measured (2 cores shared with other jobs, warm, fastest of 5): ten balls at
+rtol 1e-8, Radau 80–110 ms, rodas-jit 1.3–1.4 ms (260 steps against 293), the
+same 11 instants, their times within 8e-8 of Radau's (the methods' own errors
+at this rtol); at rtol 1e-10, Radau 120–130 ms, rodas-jit 1.9 ms, times within
+3e-9; thirty balls (rtol 1e-8), Radau 0.26–0.29 s, rodas-jit 9 ms.  Cold
+rodas-jit: 40–80 s (the kernel's compilation, on a loaded machine).
 """
 
 from __future__ import annotations
