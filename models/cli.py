@@ -1015,8 +1015,9 @@ def _add_run(sub) -> None:
     p.add_argument("--t-end", type=float, dest="t_end", metavar="T", help="end time of the run in s (default: the "
                    "model's)")
     p.add_argument("--method", help="integration method (default: the model's, else auto); 'auto': the compiled "
-                   "RK45-jit when numba is installed and its kernel is cached or the run is long enough, else RK45 "
-                   "(the summary says which it chose and why)")
+                   "kernel when numba is installed and its kernel is cached, the run is long enough or the initial "
+                   "mode is stiff (RK45-jit in each mode, rodas-jit where a mode is stiff), else RK45 (Radau for a "
+                   "stiff start; the summary says which it chose and why)")
     _add_steps(p)
     p.add_argument("--plot", metavar="FILE.png", help="plot the signals (PNG, SVG or PDF by the extension)")
     p.add_argument("--csv", metavar="FILE", help="write the samples of the signals as CSV (time, mode, signals)")

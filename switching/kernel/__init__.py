@@ -12,6 +12,7 @@ module             what
                    compiled, the stamp of the kernel's disk cache
 :mod:`.calls`      the model record and the calls of its per-mode functions
 :mod:`.flow`       the steps of the methods, their interpolants, stiffness
+:mod:`.implicit`   the implicit method (RODAS4P) and its linear algebra
 :mod:`.events`     event location within a step
 :mod:`.instants`   the resolution of an instant
 :mod:`.loop`       the entry :func:`.loop.run`: the run by phase, its
@@ -20,7 +21,7 @@ module             what
 """
 
 #: the kernel's modules, in the order they import one another
-MODULES = ("compiler", "calls", "flow", "events", "instants", "loop")
+MODULES = ("compiler", "calls", "flow", "implicit", "events", "instants", "loop")
 
 # the entry and the names of round 2's switching.kernel module (it was one module then)
 from .loop import (  # noqa: E402

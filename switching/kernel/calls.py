@@ -22,6 +22,12 @@ the next call by extending the record.  Per-mode operations (``op``):
                  the flow's own sides, as *holds* computes them, on
                  ``y = x_i`` gathered into ``d``'s room)
  5    gparts     guard ``g`` from its parts' truths ``q``
+ 6    jac        ``out[:k·k]`` = the flow's Jacobian ``∂(dy/dt)/∂y`` at
+                 ``y = x`` (row-major; units of ``ẏ_i/y_j``), from a
+                 function of its own (``M.jfns``; address 0: none, the
+                 kernel differences ``f``); ``g`` 1: the entries it does
+                 not write hold zeros already; 2: its pattern (1 at each
+                 structurally nonzero entry, else 0)
 ====  =========  ==========================================================
 
 The kernel's state travels in a few records (tuples of arrays from ``run``'s
@@ -55,9 +61,9 @@ from numba.extending import intrinsic
 from .compiler import dispatch, inline, stamp_with_rules
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "argmax_abs", "call", "finite", "fire", "full", "fun", "fy",
-           "gparts", "holds", "holds_at", "jump", "phi"]
+           "gparts", "holds", "holds_at", "jac", "jump", "phi"]
 
-OPS = {"fy": 0, "phi": 1, "holds": 2, "jump": 3, "fire": 4, "gparts": 5}
+OPS = {"fy": 0, "phi": 1, "holds": 2, "jump": 3, "fire": 4, "gparts": 5, "jac": 6}
 
 _f8p = types.CPointer(types.float64)
 # int64 mode(op, g, t, rtol, atol, x, xp, p, u, d, s, post, target, q, out)
@@ -75,6 +81,9 @@ Model = namedtuple("Model", [
     "codes",  # int64[3, modes]: sorted mode codes, their mode numbers, each mode's code
     "n_sides",  # int64: the most comparison sides (3 per comparison) of any mode
     "at_once",  # float64: the fixed-step stiffness rule's single-step factor (1.25; inf with inputs)
+    "jfns",  # int64[modes]: address of each mode's compiled Jacobian (MODE_SIGNATURE, op 6); 0: none
+    "implicit",  # int64[modes]: 1 where method "auto" flows with the implicit method (kind 3), 0 with RK45
+    "driven",  # int64: 1 when inputs drive the flow (the implicit method then needs ∂f/∂t)
 ])
 Model.__doc__ = """A model as the kernel sees it (see :func:`switching.library.jit_model.CompiledModel.record`)."""
 
@@ -136,6 +145,11 @@ def fire(m, x, xp, t, M, d, s, post, rtol, atol, target, quiet):
 @inline
 def gparts(m, g, q, M):
     return call(M.fns[m], 5, g, 0.0, 0.0, 0.0, M.p, M.p, M.p, M.u, M.p, M.p, M.p, M.radix, q, M.p) != 0
+
+
+@inline
+def jac(m, y, t, M, out, which):
+    call(M.jfns[m], 6, which, t, 0.0, 0.0, y, y, M.p, M.u, y, y, y, M.radix, M.radix, out)
 
 
 @dispatch

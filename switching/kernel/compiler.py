@@ -21,11 +21,12 @@ from numba import njit
 from codegen import decision
 
 from .. import rules
-from ..rules import bracket, instants, jumps, maximize, steppers, stiffness
+from ..rules import bracket, instants, jumps, maximize, rosenbrock, steppers, stiffness
 
 __all__ = ["band", "decides_as_in_flow", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
            "inline", "instant_begin", "instant_next", "jit", "jump_pulse", "maximize_begin", "maximize_next", "parabola_peak", "peak_in_reach",
-           "pulse_decides", "pulse_holds", "rk4_combine", "stamp_with_rules", "worth_refining"]
+           "pulse_decides", "pulse_holds", "rk4_combine", "rodas_control", "rodas_dense", "stamp_with_rules",
+           "worth_refining"]
 
 jit = njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 entry = njit(cache=True, error_model="numpy")  # the functions Python calls
@@ -45,6 +46,8 @@ rk4_combine = inline(steppers.rk4_combine)
 hermite_cubic = inline(steppers.hermite_cubic)
 jump_pulse = inline(jumps.jump_pulse)
 fixed_stiffness = inline(stiffness.fixed_stiffness)
+rodas_dense = inline(rosenbrock.rodas_dense)
+rodas_control = inline(rosenbrock.rodas_control)
 instant_begin = inline(instants.instant_begin)
 instant_next = inline(instants.instant_next)
 decides_as_in_flow = inline(instants.decides_as_in_flow)

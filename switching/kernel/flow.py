@@ -21,7 +21,8 @@ import math
 import numpy as np
 
 from .calls import argmax_abs, fun
-from .compiler import euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, stamp_with_rules
+from .compiler import (euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, rodas_dense,
+                       stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
            "initial_step", "interp"]
@@ -75,7 +76,8 @@ def _stiff_verdict(power4, limit, at_once, streak, h, component, info):
 
 @inline
 def interp(kind, t_old, h, A, tau, out):
-    """The step's interpolant: linear (Euler), cubic Hermite (RK4), scipy's RK45 dense output."""
+    """The step's interpolant: linear (Euler, kind 0), cubic Hermite (RK4, kind 1), scipy's RK45 dense output
+    (kind 2), RODAS4P's continuous extension (kind 3: ``Q[:, 0]``, ``Q[:, 1]`` its coefficients ``q₁``, ``q₂``)."""
     y_old, f_old, y_new, f_new, Q = A
     if kind == 0:
         dt = tau - t_old
@@ -85,6 +87,10 @@ def interp(kind, t_old, h, A, tau, out):
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
             out[i] = hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta)
+    elif kind == 3:
+        theta = (tau - t_old) / h
+        for i in range(out.shape[0]):
+            out[i] = rodas_dense(y_old[i], y_new[i], Q[i, 0], Q[i, 1], theta)
     else:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):

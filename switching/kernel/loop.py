@@ -1,11 +1,13 @@
 """The hybrid kernel of the compiled methods (``euler-jit``, ``rk4-jit``,
-``RK45-jit``): one model-independent numba function, :func:`run`, compiled
+``RK45-jit``, ``rodas-jit``): one model-independent numba function, :func:`run`, compiled
 once per installation and kept by numba's disk cache (``cache=True``).
 
 :func:`run` integrates a whole hybrid run in compiled code, by phase:
 
 * the flow in the current mode (:mod:`.flow`): Euler (kind 0), classical RK4
-  (kind 1) with fixed ``dt``, or scipy's RK45 (kind 2);
+  (kind 1) with fixed ``dt``, scipy's RK45 (kind 2), or the implicit RODAS4P
+  (kind 3, :mod:`.implicit`); kind 4 (``auto``) flows with RODAS4P in the
+  modes the record marks implicit (``M.implicit``), with RK45 in the others;
 * at every accepted step, event detection (:mod:`.events`, the translation
   of the Python path's ``switching.simulate.events.GuardScan``);
 * the instant's resolution (:mod:`.instants`, the paper's selMode, DESIGN
@@ -63,6 +65,7 @@ from .flow import RK_C as RK_C
 from .flow import RK_E as RK_E
 from .flow import RK_P as RK_P
 from .flow import adaptive_step, dense_coefficients, fixed_step, hairer, initial_step, interp
+from .implicit import rosenbrock_step
 from .instants import resolve
 
 __all__ = ["COLLAPSED", "DONE", "FULL", "MODE_SIGNATURE", "Model", "NONFINITE", "OPS", "RESOLVE", "RK_A", "RK_B",
@@ -85,8 +88,8 @@ def _layout(n, n_automata, width, n_sides, samples, max_instant):
     ne = max(n, 1)
     w = max(width, 1)
     slots = S_STEP + samples + 2 + w * (samples + 3)
-    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w
-    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1
+    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 4
+    ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + 6 * ne
     bools = slots * (1 + w) + w
     return floats, ints, bools
 
@@ -102,7 +105,7 @@ def _carve(x0, M, samples, max_instant, work):
     """The workspaces ``work = (wf, wi, wb)``, carved in the order of _layout's sums into the run's arrays;
     zeroed where a slot may be read before written; the template is ``x0``.  Returns ``(X, B, PT, SC, R)``:
     ``X = (template, z, x_out, xa)`` full states, ``B = (dbuf, ybuf, fbuf, tmpbuf, ynbuf, fnbuf, errbuf, K, Q,
-    s)`` the flow's buffers, and the records of :mod:`.calls`."""
+    s)`` the flow's buffers, and the records of :mod:`.calls` and :mod:`.implicit` (``L``)."""
     wf, wi, wb = work
     n = x0.shape[0]
     radix = M.radix
@@ -158,7 +161,15 @@ def _carve(x0, M, samples, max_instant, work):
     pmg = wf[o:o + slots * width].reshape((slots, width))
     o += slots * width
     fscr = wf[o:o + width]
+    o += width
     wf[zeroed:o] = 0.0  # K, Q, the sides and the points' slots
+    jbuf = wf[o:o + ne * ne + ne]
+    o += ne * ne + ne
+    lu = wf[o:o + ne * ne]
+    o += ne * ne
+    fx = wf[o:o + ne]
+    o += ne
+    ctl = wf[o:o + 4]
     o = 0
     target = wi[o:o + radix.shape[0]]
     o += radix.shape[0]
@@ -174,6 +185,10 @@ def _carve(x0, M, samples, max_instant, work):
     o += 2 * width
     scan = wi[o:o + 1]
     scan[0] = 0
+    o += 1
+    piv = wi[o:o + 3 * ne]
+    o += 3 * ne
+    perm = wi[o:o + 3 * ne]
     ptr = wb[:slots * width].reshape((slots, width))
     phd = wb[slots * width:slots * (width + 1)]
     q = wb[slots * (width + 1):slots * (width + 1) + width]
@@ -183,7 +198,8 @@ def _carve(x0, M, samples, max_instant, work):
     PT = (ptau, pmg, ptr, phd)
     SC = (order, ext, iscr, fscr, q, scan)
     R = (s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x)
-    return X, B, PT, SC, R
+    L = (jbuf, lu, piv, fx, ctl, perm)
+    return X, B, PT, SC, R, L
 
 
 @inline
@@ -205,7 +221,8 @@ def run(M, ints, floats, x0, te, out, work):
     """A hybrid run of the model ``M`` (:class:`Model`) from ``(t0, mode, x0)`` until ``t_end`` (see the module
     docstring).  Returns ``(status, n_saved, n_events, t, mode, steps, n_te)``.
 
-    ints[8]: kind (0 euler, 1 rk4, 2 RK45), mode (its number in M), samples (guard samples per step),
+    ints[8]: kind (0 euler, 1 rk4, 2 RK45, 3 RODAS4P, 4 auto: RODAS4P in the modes M.implicit marks, else
+          RK45), mode (its number in M), samples (guard samples per step),
           max_instant (step cap per instant), save (0 events only, 1 every step, 2 the requested times te,
           sorted; those consumed are counted in the returned ``n_te``), max_steps (step cap of this call),
           resolve_first (1: resolve the instant at t0 first), stiffness_check (0: no stiffness test, the
@@ -234,7 +251,7 @@ def run(M, ints, floats, x0, te, out, work):
         return WORKSPACE, 0, 0, t0, mode, 0, 0
     for i in range(5):
         info[i] = 0.0
-    X, B, PT, SC, R = _carve(x0, M, samples, max_instant, work)
+    X, B, PT, SC, R, L = _carve(x0, M, samples, max_instant, work)
     template, z, x_out, xa = X
     dbuf, ybuf, fbuf, tmpbuf, ynbuf, fnbuf, errbuf, Kbuf, Qbuf, s = B
     m = mode
@@ -263,7 +280,7 @@ def run(M, ints, floats, x0, te, out, work):
         W = (tmpbuf[:ke], errbuf[:ke], Kbuf)  # an interpolated or stage y, the error estimate, the stages
         E = (template, z, dbuf, s, W[0])
         code, t, steps, pos, n_saved = flow_in_mode(m, t, steps, pos, n_saved, F, setting, stiffness_check, te, out,
-                                                    x_out, A, E, W, M, PT, SC)
+                                                    x_out, A, E, W, L, M, PT, SC)
         if code != _EVENT:
             return _stop(info, z, code, n_saved, n_ev, t, m, steps, pos)
         # an event at t with a priori state x_out: resolve it here if no symbolic work is needed
@@ -283,7 +300,7 @@ def run(M, ints, floats, x0, te, out, work):
 def _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC):
     """The flow's start in mode m at t: ``y`` from the template, its rates, the requested output times at t (the
     state itself, after the instant if any), the guards at the start (no previous step yet), RK45's first step
-    size (``first_step``, or scipy's selection).  Returns ``(h_abs, pos, n_saved)``."""
+    size (``first_step``, or scipy's selection; also RODAS4P's).  Returns ``(h_abs, pos, n_saved)``."""
     t_end, dt, rtol, atol, max_step, first_step, rtol_g, atol_g = F
     kind, samples, max_steps, save = setting
     y, f, y_new, f_new, Q = A
@@ -307,7 +324,7 @@ def _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC):
         point(np.int64(S_START), t, np.bool_(True), y, kind, m, k, t, 0.0, (y, f, y, f, Q), E, M, rtol_g, atol_g,
               PT)
     h_abs = 0.0
-    if kind == 2:
+    if kind >= 2:
         if first_step > 0.0:
             h_abs = min(first_step, abs(t_end - t))
         else:
@@ -316,7 +333,7 @@ def _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC):
 
 
 @dispatch
-def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A, E, W, M, PT, SC):
+def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A, E, W, L, M, PT, SC):
     """The flow in mode m from t (the state in the template) until an event, ``t_end`` or a stop: steps of the
     method (``setting = (kind, samples, max_steps, save)``; ``F = (t_end, dt, rtol, atol, max_step, first_step,
     rtol_g, atol_g)``), the guards on each, the outputs.  Returns ``(code, t, steps, pos, n_saved)``: ``code``
@@ -324,10 +341,16 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
     state in ``z``."""
     t_end, dt, rtol, atol, max_step, first_step, rtol_g, atol_g = F
     kind, samples, max_steps, save = setting
+    if kind == 4:  # auto: the method of this mode
+        kind = 3 if M.implicit[m] != 0 else 2
+        setting = (kind, samples, max_steps, save)
     y, f, y_new, f_new, Q = A
     template, z, dbuf, s, tmp = E
     out_t, out_x, out_m, info = out[0], out[1], out[2], out[5]
     k = M.lengths[0][m]
+    L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet; its Jacobian's buffer and order not made
+    L[4][1] = 0.0
+    L[4][3] = 0.0
     ke = y.shape[0]
     h_abs, pos, n_saved = _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC)
     stiff_run = 0
@@ -343,6 +366,11 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
             if streak < 0:
                 full(m, y, k, t, E, M)
                 return STIFF, t, steps, pos, n_saved
+        elif kind == 3:
+            ok, t_new, h, h_abs = rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M)
+            if not ok:
+                full(m, y, k, t, E, M)
+                return COLLAPSED, t, steps, pos, n_saved
         else:
             ok, t_new, h, h_abs = adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M)
             if not ok:

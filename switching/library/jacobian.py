@@ -29,7 +29,8 @@ from codegen.cache import fingerprint
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
 
-__all__ = ["FlowJacobian", "JACOBIAN_SOURCE_VERSION", "SPARSE_FROM", "flow_jacobian", "real_gradient"]
+__all__ = ["FlowJacobian", "JACOBIAN_SOURCE_VERSION", "SPARSE_FROM", "flow_jacobian", "flow_rate", "jacobian_entries",
+           "real_gradient"]
 
 #: part of the cache key of a generated Jacobian: raise it when the generated text changes
 JACOBIAN_SOURCE_VERSION = "1"
@@ -52,25 +53,43 @@ def real_gradient(expression, variables) -> list:
     return [sp.diff(e, real[v]).xreplace(back) if v in free else sp.S.Zero for v in variables]
 
 
-def _source(model, mode, independent) -> str:
-    """The generated module: ``META`` (the nonzero entries' rows and
-    columns, the size ``k``) and ``jac(x, t, p, u, out)`` writing those
-    entries in that order."""
-    me = model.mode_equations(mode)
+def flow_rate(me, state):
+    """The rate of the independent ``state`` in the flow of the mode of
+    ``me`` (its :class:`ModeEquations`): ``f`` with the dependent states'
+    constraints substituted (a function of the independent states, ``t``,
+    the parameters and the inputs)."""
     constraints = me.equations.constraints
+    rate = me.f[state]
+    for _ in range(len(constraints) + 1):  # (a constraint may name another dependent state)
+        if not rate.free_symbols & constraints.keys():
+            break
+        rate = rate.xreplace(constraints)
+    return rate
+
+
+def jacobian_entries(model, mode, independent) -> tuple[list, list, list]:
+    """``(rows, cols, entries)``: the structurally nonzero entries of the
+    flow's Jacobian in ``mode`` (sympy expressions of the independent states
+    ``independent``, indices into the states, of ``t``, the parameters and
+    the inputs), row by row."""
+    me = model.mode_equations(mode)
     states = [model.states[i] for i in independent]
     rows, cols, entries = [], [], []
     for i, state in enumerate(states):
-        rate = me.f[state]
-        for _ in range(len(constraints) + 1):  # (a constraint may name another dependent state)
-            if not rate.free_symbols & constraints.keys():
-                break
-            rate = rate.xreplace(constraints)
-        for j, derivative in enumerate(real_gradient(rate, states)):
+        for j, derivative in enumerate(real_gradient(flow_rate(me, state), states)):
             if derivative != 0:
                 rows.append(i)
                 cols.append(j)
                 entries.append(derivative)
+    return rows, cols, entries
+
+
+def _source(model, mode, independent) -> str:
+    """The generated module: ``META`` (the nonzero entries' rows and
+    columns, the size ``k``) and ``jac(x, t, p, u, out)`` writing those
+    entries in that order."""
+    rows, cols, entries = jacobian_entries(model, mode, independent)
+    states = [model.states[i] for i in independent]
     arguments = (
         Argument("x", tuple(model.states), doc="state vector"),
         Argument("t", (model.time,), scalar=True, doc="time [s]"),

@@ -86,7 +86,8 @@ __all__ = ["KINDS", "STATUS", "AutoChoice", "CompiledModel", "KernelResult", "ch
            "mode_calls", "mode_function", "mode_function_source", "mode_signature", "model_tables", "native_enabled",
            "native_signature", "remember_modes", "remembered_modes"]
 
-KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2}
+KINDS = {"euler-jit": 0, "rk4-jit": 1, "RK45-jit": 2, "rodas-jit": 3}
+AUTO_KIND = 4  # the kernel's kind for "auto": RODAS4P in the modes the record marks implicit, RK45 in the others
 # the kernel's return codes (switching.kernel.loop)
 STATUS = {0: "done", 2: "full", 3: "collapsed", 4: "nonfinite", 5: "resolve", 6: "stiff", 7: "workspace"}
 _MAX_CODE = 2**62
@@ -155,7 +156,7 @@ def input_substitution(model) -> tuple[dict, tuple, np.ndarray]:
     return substitution, tuple(symbols), np.array(values, dtype=float)
 
 
-def _inputs_key(model) -> list:
+def inputs_key(model) -> list:
     """The inputs as compiled into the per-mode functions (part of their cache keys; their parameters' values are
     not: they are the ``u`` array of each call)."""
     return [f"{symbol} = {expression}" for symbol, expression in input_substitution(model)[0].items()]
@@ -163,7 +164,7 @@ def _inputs_key(model) -> list:
 
 def _modes_key(model) -> str:
     """The cache key of the record of ``model``'s compiled modes."""
-    return fingerprint(model.fingerprint, "compiled modes", GENERATOR_VERSION, *_inputs_key(model))
+    return fingerprint(model.fingerprint, "compiled modes", GENERATOR_VERSION, *inputs_key(model))
 
 
 def remembered_modes(model) -> set:
@@ -211,18 +212,60 @@ def mode_compile_seconds(model) -> float:
 class AutoChoice:
     """What ``method="auto"`` chose (:attr:`method`) and why (:attr:`reason`);
     :meth:`report` gives the run's stats entry and measures the Python path's
-    speed for the next choice."""
+    speed for the next choice.  On the compiled path (``per_mode``) the
+    kernel flows with RK45 or, in the modes :func:`.spectrum.mode_stiffness`
+    finds stiff, with RODAS4P (:meth:`classify`; :attr:`verdicts` each mode's
+    verdict)."""
 
-    def __init__(self, model, method: str, reason: str, rtol: float):
+    def __init__(self, model, method: str, reason: str, rtol: float, per_mode: bool = False, span: float = 0.0,
+                 verdicts: dict | None = None):
         self.model, self.method, self.reason, self.rtol = model, method, reason, rtol
+        self.per_mode, self.span = per_mode, span
+        self.verdicts: dict = dict(verdicts or {})
+        self.noted: set = set()  # modes whose Python flow switched to Radau (:meth:`note`)
+
+    def classify(self, compiled, x, t) -> None:
+        """Judge each mode of ``compiled`` not judged yet at the state ``x`` at ``t`` [s], and mark the stiff ones
+        for the kernel (:meth:`CompiledModel.mark_implicit`)."""
+        from .spectrum import mode_stiffness
+
+        for mode in compiled.modes:
+            if mode not in self.verdicts:
+                self.verdicts[mode] = mode_stiffness(self.model, mode, x, t, self.span)
+        compiled.mark_implicit({mode: self.verdicts[mode].stiff for mode in compiled.modes})
+
+    def switch(self, compiled, mode, why: str) -> None:
+        """Flow in ``mode`` with the implicit method from now on (the explicit method's stiffness test fired)."""
+        from .spectrum import ModeStiffness
+
+        self.verdicts[mode] = ModeStiffness(True, math.nan, why)
+        compiled.mark_implicit({mode: True})
+
+    def note(self, mode, what: str) -> None:
+        """A flow in Python of ``mode`` switched to an implicit method (``what`` says which and why)."""
+        from .spectrum import ModeStiffness
+
+        self.verdicts[mode] = ModeStiffness(True, math.nan, what)
+        self.noted.add(mode)
 
     def report(self, wall: float, span: float) -> dict:
-        """The stats entry of a finished run of ``span`` seconds that took
+        """The stats entries of a finished run of ``span`` seconds that took
         ``wall`` seconds; a Python run stores its speed (wall seconds per
         simulated second at its rtol) in the disk cache."""
-        if self.method == "RK45" and span > 0 and wall >= 0:
+        if self.method == "RK45" and span > 0 and wall >= 0 and not self.noted:  # (a switched run is no measure)
             self.model.cache.write_record(_speed_key(self.model), {"rate": wall / span, "rtol": self.rtol})
-        return {"method chosen by auto": f"{self.method}: {self.reason}"}
+        method = self.method
+        if self.per_mode and any(v.stiff for m, v in self.verdicts.items() if m not in self.noted):
+            method += " (rodas-jit in its stiff modes)"
+        if self.noted:
+            method += " (Radau in the modes its flows proved stiff)"
+        stats = {"method chosen by auto": f"{method}: {self.reason}"}
+        shown = [(m, v) for m, v in self.verdicts.items() if self.per_mode or m in self.noted]
+        if shown:
+            stats["method per mode (auto)"] = "; ".join(
+                f"{m.describe()}: " + (v.reason if m in self.noted else
+                                       f"{'rodas-jit' if v.stiff else 'RK45-jit'} ({v.reason})") for m, v in shown)
+        return stats
 
 
 def _speed_key(model) -> str:
@@ -245,53 +288,86 @@ def mode_compiled(model, mode) -> bool:
     return is_compiled(f"hbg_mode_{_mode_key(model, mode)}", directory)
 
 
-def choose_method(model, t0, t_end, rtol, dt=None) -> AutoChoice:
-    """``method="auto"``: the compiled RK45 (``"RK45-jit"``) when numba is
-    installed, the model's inputs can run compiled, and what it would compile
-    first is paid for: nothing (the kernel and the functions of the modes it
-    would cover — the initial mode, those visited, those remembered — are
-    cached), or less than a Python run is expected to take (expected from the
-    speed of this model's last Python run chosen by ``auto``, scaled by
-    ``rtol^(-1/5)``; compiling estimated as :data:`KERNEL_COMPILE_SECONDS`
-    for the kernel, :func:`mode_compile_seconds` per mode).  With the speed
-    not known yet: compiled when the kernel is cached and a mode's function
-    is cheap (:data:`CHEAP_MODE_SECONDS`), else ``"RK45"``, which measures it."""
+def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoChoice:
+    """``method="auto"``: the compiled kernel when numba is installed, the
+    model's inputs can run compiled, and what it would compile first is paid
+    for: nothing (the kernel and the functions of the modes it would cover —
+    the initial mode, those visited, those remembered — are cached), or less
+    than a Python run is expected to take (expected from the speed of this
+    model's last Python run chosen by ``auto``, scaled by ``rtol^(-1/5)``;
+    compiling estimated as :data:`KERNEL_COMPILE_SECONDS` for the kernel,
+    :func:`mode_compile_seconds` per mode), or the initial mode's flow is
+    stiff (:func:`.spectrum.mode_stiffness` at ``x0``, ``mode``: the
+    initial state and mode unless given), which an explicit Python run would
+    crawl through.  With the speed not known yet: compiled when the kernel
+    is cached and a mode's function is cheap (:data:`CHEAP_MODE_SECONDS`),
+    else ``"RK45"``, which measures it.  The compiled kernel flows with RK45
+    in each mode, or with RODAS4P where the mode is stiff
+    (:meth:`AutoChoice.classify`); without it, a stiff initial mode takes
+    ``"Radau"``."""
     from codegen.jit import available
 
     from ..errors import SimulationError
+    from .spectrum import mode_stiffness
 
     if dt is not None:
         raise SimulationError("method 'auto' chooses between 'RK45' and 'RK45-jit' (adaptive): give rtol/atol, not dt")
+    span = float(t_end) - float(t0)
+    start = model.initial_mode if mode is None else mode
+    initial = mode_stiffness(model, start, model.initial_state() if x0 is None else x0, t0, span)
+    stiff = f"the initial mode {start.describe()} is stiff ({initial.reason})"
+    python = ("Radau", stiff) if initial.stiff else ("RK45", None)
+
+    def compiled(reason):
+        return AutoChoice(model, "RK45-jit", reason, rtol, True, span, {start: initial})
+
+    def interpreted(reason):
+        return AutoChoice(model, python[0], f"{python[1]}; {reason}" if python[1] else reason, rtol)
+
     if not available():
-        return AutoChoice(model, "RK45", "numba is not installed (pip install '.[fast]' for the compiled path)", rtol)
+        return interpreted("numba is not installed (pip install '.[fast]' for the compiled path)")
     problem = input_problem(model, "RK45-jit")
     if problem:
-        return AutoChoice(model, "RK45", "inputs that compiled code cannot call: " + problem, rtol)
+        return interpreted("inputs that compiled code cannot call: " + problem)
     modes = {model.initial_mode, *model.visited_modes, *remembered_modes(model)}
     ready = kernel_compiled()
     missing = sum(not mode_compiled(model, m) for m in modes)
     if ready and not missing:
-        return AutoChoice(model, "RK45-jit", f"the kernel and the functions of its {len(modes)} mode(s) are "
-                          "compiled (cached)", rtol)
+        return compiled(f"the kernel and the functions of its {len(modes)} mode(s) are compiled (cached)")
     per_mode = mode_compile_seconds(model)
     cost = (0.0 if ready else KERNEL_COMPILE_SECONDS) + per_mode * missing
     what = (("" if ready else "the kernel and ") + f"the functions of {missing} mode(s)") if missing else "the kernel"
+    if initial.stiff:
+        return compiled(f"{stiff}: compiling {what} (≈ {cost:g} s) pays for itself")
     speed = model.cache.record(_speed_key(model))
     try:
-        expected = speed["rate"] * (float(t_end) - float(t0)) * (speed["rtol"] / float(rtol)) ** 0.2
+        expected = speed["rate"] * span * (speed["rtol"] / float(rtol)) ** 0.2
     except (TypeError, KeyError, ValueError, ZeroDivisionError, OverflowError):
         if ready and per_mode <= CHEAP_MODE_SECONDS:
-            return AutoChoice(model, "RK45-jit", f"the kernel is cached; compiling {what} costs ≈ {cost:g} s", rtol)
+            return compiled(f"the kernel is cached; compiling {what} costs ≈ {cost:g} s")
         if ready:
-            return AutoChoice(model, "RK45", f"compiling a mode's function of this model costs ≈ {per_mode:.2g} s "
-                              "and its Python speed is not known yet (this run measures it)", rtol)
-        return AutoChoice(model, "RK45", "the compiled kernel is not cached yet and this model's Python speed is not "
-                          "known yet (this run measures it)", rtol)
+            return interpreted(f"compiling a mode's function of this model costs ≈ {per_mode:.2g} s and its Python "
+                               "speed is not known yet (this run measures it)")
+        return interpreted("the compiled kernel is not cached yet and this model's Python speed is not known yet "
+                           "(this run measures it)")
     if expected > cost:
-        return AutoChoice(model, "RK45-jit", f"a Python run is expected to take ≈ {expected:.3g} s, more than "
-                          f"compiling {what} (≈ {cost:g} s)", rtol)
-    return AutoChoice(model, "RK45", f"a Python run is expected to take ≈ {expected:.3g} s, less than compiling "
-                      f"{what} (≈ {cost:g} s)", rtol)
+        return compiled(f"a Python run is expected to take ≈ {expected:.3g} s, more than compiling {what} "
+                        f"(≈ {cost:g} s)")
+    return interpreted(f"a Python run is expected to take ≈ {expected:.3g} s, less than compiling {what} "
+                       f"(≈ {cost:g} s)")
+
+
+def generated_statements(inputs: dict, name: str, arguments, outputs, out: str = "out") -> list:
+    """The statements of a generated function (no def, docstring or return) computing ``outputs`` of
+    ``arguments`` into ``out[0], out[1], …``, the inputs (``inputs``: symbol → expression of ``t``,
+    :func:`input_substitution`) substituted."""
+    if inputs:
+        outputs = [sp.sympify(o).xreplace(inputs) for o in outputs]
+    lines = function_source(FunctionSpec(name, arguments, tuple(outputs))).splitlines()
+    end = next(k for k in range(1, len(lines)) if lines[k].rstrip().endswith('"""') and
+               (k > 1 or lines[k].count('"""') == 2))
+    statements = [line[4:] for line in lines[end + 1:] if line.strip() != "return out"]
+    return [re.sub(r"\bout\[", f"{out}[", line) for line in statements]
 
 
 def _mode_functions(model, me, i: int) -> tuple[dict, int]:
@@ -335,14 +411,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
         return sp.sympify(expr).xreplace(phi) if phi else expr
 
     def body(name, arguments, outputs, out="out"):
-        """The statements of a generated function (no def, docstring or return), writing ``out``."""
-        if inputs:
-            outputs = [sp.sympify(o).xreplace(inputs) for o in outputs]
-        lines = function_source(FunctionSpec(name, arguments, tuple(outputs))).splitlines()
-        end = next(k for k in range(1, len(lines)) if lines[k].rstrip().endswith('"""') and
-                   (k > 1 or lines[k].count('"""') == 2))
-        statements = [line[4:] for line in lines[end + 1:] if line.strip() != "return out"]
-        return [re.sub(r"\bout\[", f"{out}[", line) for line in statements]
+        return generated_statements(inputs, name, arguments, outputs, out)
 
     y_args = (Argument("y", tuple(independent)),) + base[1:]
     xp_args = (Argument("xp", tuple(states)),) + base[1:] + (Argument("d", pulses),)
@@ -461,7 +530,7 @@ def mode_function_source(model, mode) -> str:
              "NU": max(len(input_substitution(model)[1]), 1)}
     label = mode.describe()
     # the function's parameters, renamed (…_, …__) where a local name of the statements takes theirs
-    P = _parameter_names(branches)
+    P = parameter_names(branches)
     # ω (Lambert's W, codegen.lambert) imported where it is called: a user's symbol never takes its name
     omega = any(re.search(r"\bwrightomega\(", line) for lines in branches.values() for line in lines)
     lines = [
@@ -518,7 +587,7 @@ def mode_function_source(model, mode) -> str:
 _PARAMETERS = ("op_", "which_", "x_", "xp_", "p_", "u_", "d_", "s_", "post_", "target_", "q_", "out_")
 
 
-def _parameter_names(branches: dict) -> dict:
+def parameter_names(branches: dict) -> dict:
     """The name of each pointer and selector parameter of a mode's function:
     its usual name (``x_``, ``op_``, …), with ``_`` appended while a local
     name of the statements (a state or parameter sanitized, e.g. a momentum
@@ -539,7 +608,7 @@ MODE_FUNCTION_VERSION = "7"  # part of the cache key of the per-mode functions: 
 
 def _mode_key(model, mode) -> str:
     return fingerprint(model.fingerprint, "mode function", MODE_FUNCTION_VERSION, GENERATOR_VERSION, mode.label,
-                       *_inputs_key(model))
+                       *inputs_key(model))
 
 
 def native_signature() -> tuple[list, str]:
@@ -644,9 +713,12 @@ class CompiledModel:
         self.modes: list = []  # numbered in the order added (a mode keeps its number)
         self.ids: dict = {}
         self.functions: list = []  # each mode's CompiledFunction (kept alive: the kernel calls their addresses)
+        self.jacobians: list = []  # each mode's compiled Jacobian (None: none) once an implicit method needs them
+        self.jacobian_compiler = None  # what compiles them (switching.library.jit_jacobian.jacobian_function)
+        self.implicit: dict = {}  # mode → does "auto" flow in it with the implicit method (absent: no)
         self.refused: set = set()  # modes numba could not compile (they flow in Python)
         self._inputs_seen = model._inputs  # the inputs compiled into the functions (see covers)
-        self._inputs_key = _inputs_key(model)
+        self._inputs_key = inputs_key(model)
         self._u = input_substitution(model)[2]  # their parameters' values
         self.n = len(model.states)
         self._record = None
@@ -674,10 +746,28 @@ class CompiledModel:
             self.ids[mode] = len(self.modes)
             self.modes.append(mode)
             self.functions.append(function)
+            if self.jacobian_compiler is not None:
+                self.jacobians.append(self.jacobian_compiler(self.model, mode))
         if new:
             self._record = None
             self._workspaces.clear()  # the sizes depend on the modes' guards
             remember_modes(self.model, self.modes)  # a new process covers them from its first run
+
+    def need_jacobians(self, compiler) -> None:
+        """Compile the Jacobians of the modes in the set, and of those added later, with ``compiler(model,
+        mode)`` (:func:`switching.library.jit_jacobian.jacobian_function`: a function, or ``None`` for none):
+        an implicit method runs."""
+        if self.jacobian_compiler is not None:
+            return
+        self.jacobian_compiler = compiler
+        self.jacobians = [compiler(self.model, mode) for mode in self.modes]
+        self._record = None
+
+    def mark_implicit(self, marks: dict) -> None:
+        """Set which modes ``auto`` flows in with the implicit method (``marks``: mode → bool)."""
+        if any(self.implicit.get(m) != v for m, v in marks.items()):
+            self.implicit.update(marks)
+            self._record = None
 
     def covers(self, mode) -> bool:
         """Does the kernel run ``mode``?  A mode not in the set yet is compiled
@@ -686,11 +776,12 @@ class CompiledModel:
         call runs them all."""
         if self.model._inputs is not self._inputs_seen:  # a sweep moved another run's values onto the model
             self._inputs_seen = self.model._inputs
-            key = _inputs_key(self.model)
+            key = inputs_key(self.model)
             self._u = input_substitution(self.model)[2]  # (the record takes them: see record)
             if key != self._inputs_key:  # other input expressions: the modes' functions are compiled anew
                 self._inputs_key = key
                 self.modes, self.ids, self.functions, self.refused = [], {}, [], set()
+                self.jacobians = []
                 self._record = None
                 self._workspaces.clear()
         visited = self.model.visited_modes
@@ -714,7 +805,12 @@ class CompiledModel:
                 fns=np.array([f.address for f in self.functions], dtype=np.int64),
                 p=_kernel_array(self.model.parameter_array), u=self._u, tables=t["TABLES"],
                 lengths=t["LENGTHS"], mstates=t["MSTATES"], radix=t["RADIX"], codes=t["CODES"], n_sides=int(n_sides),
-                at_once=math.inf if self.model.input_symbols else AT_ONCE)
+                at_once=math.inf if self.model.input_symbols else AT_ONCE,
+                jfns=np.array([0 if j is None else j.address for j in self.jacobians] + [0] * (len(self.modes)
+                                                                                              - len(self.jacobians)),
+                              dtype=np.int64),
+                implicit=np.array([int(bool(self.implicit.get(m))) for m in self.modes], dtype=np.int64),
+                driven=int(bool(self.model.input_symbols)))
         return self._record
 
     def buffers(self, save, capacity: int = 4096, event_capacity: int = 256) -> tuple:
@@ -750,6 +846,8 @@ class CompiledModel:
         ``stiffness_check=False``: no stiffness test (see :func:`switching.simulate`).
         The result's arrays are views of reused buffers: valid until the next call."""
         model = self.model
+        if kind >= KINDS["rodas-jit"] and self.jacobian_compiler is None:
+            raise RuntimeError("the implicit kernel needs the modes' Jacobians: call need_jacobians first")
         tol = model.tolerance
         max_instant = int(model.max_steps_per_instant)
         if t_eval is not None:

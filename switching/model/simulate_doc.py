@@ -13,9 +13,14 @@ compiled kernel (numba; compiled once per installation, each mode's
 functions compiled on first use), see :meth:`compiled_model`
 (``progress`` is then called at each return of the kernel, not at
 every step; inputs must be expressions of ``t``, ExpressionInput);
-``"auto"``: ``"RK45-jit"`` when its compilation is cached or paid for
-by the run's expected length, else ``"RK45"`` (``stats`` says which
-and why).
+``"rodas-jit"``: the implicit Rosenbrock method RODAS4P (order 4) in
+that kernel, with each mode's Jacobian derived symbolically, for
+stiff scenes (``rtol=``, ``atol=``);
+``"auto"``: the compiled kernel when its compilation is cached, paid
+for by the run's expected length, or the initial mode is stiff — RK45
+in each mode, RODAS4P in the modes whose Jacobian's spectrum says
+stiff — else ``"RK45"`` (``"Radau"`` for a stiff initial mode, and
+where a flow of RK45 proves stiff; ``stats`` says which and why).
 
 Output (the trajectory's rows; ``trajectory.sampling`` says which):
 

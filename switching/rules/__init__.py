@@ -27,6 +27,7 @@ module                          rules
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
 :mod:`.bracket`                 event bracketing: which margins to refine, bisection to adjacent floats
 :mod:`.stiffness`               the fixed-step methods' stiffness verdict on an estimate of ``|h·λ|``
+:mod:`.rosenbrock`              RODAS4's tableau, its continuous extension and its step-size control
 :mod:`.instants`                the resolution of an instant: mythical modes, pinnacles, divergence of time
 :mod:`codegen.decision`         the guards' comparison: its round-off band and decision, the larger scale
 ==============================  ===============================================
@@ -38,8 +39,9 @@ from . import bracket as bracket
 from . import instants as instants
 from . import jumps as jumps
 from . import maximize as maximize
+from . import rosenbrock as rosenbrock
 from . import steppers as steppers
 from . import stiffness as stiffness
 
 #: the rule modules (each with its ``RULES``)
-MODULES = (maximize, bracket, steppers, jumps, stiffness, instants, decision)
+MODULES = (maximize, bracket, steppers, jumps, stiffness, rosenbrock, instants, decision)

@@ -6,7 +6,8 @@ from __future__ import annotations
 import functools
 
 from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
-from ..library.jit_model import KINDS
+from ..library.jit_jacobian import jacobian_function
+from ..library.jit_model import AUTO_KIND, KINDS
 from ..library.jit_model import STATUS as KERNEL_STATUS
 from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
 from .integrators import StiffnessDetected
@@ -19,21 +20,30 @@ __all__ = ["run_kernel"]
 _KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
 
 
-def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False):
+def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False,
+               auto=None):
     """Calls of the compiled kernel from ``(t, mode, x)``: flows, events and
     restarts in compiled code, each instant recorded (and checked) by
     ``after_event``; with ``initial``, the instant at ``t`` is resolved first.
+    ``auto`` (a :class:`~switching.library.jit_model.AutoChoice` on the
+    compiled path): the kernel flows with RK45 or RODAS4P per mode, each mode
+    judged before the call that may enter it; a mode where RK45's stiffness
+    test fires flows with RODAS4P from there on.
     Returns ``(event or None, t, x, mode, steps, stop)``: ``event = (t_ev,
     x_ev)`` is an instant the kernel left to Python; ``stop`` is ``True`` on
     Zeno behaviour with ``on_zeno='stop'``, ``"initial"`` when the initial
     instant is left to Python."""
-    kind = KINDS[method]
+    kind = AUTO_KIND if auto is not None and auto.per_mode else KINDS[method]
+    if kind >= KINDS["rodas-jit"]:
+        compiled.need_jacobians(jacobian_function)  # the implicit method's J, derived and compiled per mode
     steps = 0
     while True:
         if steps >= steps_left:
             raise step_limit(o, t, t_end, mode, x, steps)
         start = (t, x, mode)  # (a flow that cannot start there is named with its rates, below)
         dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
+        if kind == AUTO_KIND:
+            auto.classify(compiled, x, t)
         result = compiled.run(kind, mode, x, t, t_end, **o.stepping.integrator_options(), samples=o.samples,
                               save=o.save, resolve_first=initial, t_eval=dense,
                               max_steps=min(steps_left - steps, _KERNEL_MAX_STEPS))
@@ -79,6 +89,11 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         if status == "collapsed":
             raise FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
                                f"step size collapsed (stiff here? {stiff_advice(method)})", t, x, steps, mode)
+        if status == "stiff" and kind == AUTO_KIND:
+            h_lambda, h = result.info[:2]
+            auto.switch(compiled, mode, f"RK45's stiffness test fired at t = {t:.6g} s: |h·λ| = {h_lambda:.3g} at "
+                        f"h = {h:.3g} s")
+            continue
         if status == "stiff":
             h_lambda, h, _, limit, component = result.info[:5]
             cm = model.compiled_mode(mode)

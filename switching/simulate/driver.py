@@ -43,7 +43,8 @@ import numpy as np
 from bondgraph.errors import HybridBondGraphError
 from codegen.jit import available as _jit_available
 
-from ..errors import NonFiniteStateError, SimulationError, SimulationInterrupted, UnknownOptionError, ZenoError
+from ..errors import (NonFiniteStateError, SimulationError, SimulationInterrupted, StiffnessError, UnknownOptionError,
+                      ZenoError)
 from ..library.jit_model import choose_method as _choose_method
 from ..library.jit_model import input_problem as _input_problem
 from ..library.jit_model import remember_modes as _remember_modes
@@ -169,16 +170,17 @@ class HybridRun:
         start, stepping, events = options.start, options.stepping, options.events
         method, t_end, t0 = options.method, options.t_end, start.t0
         self.auto = None
-        if METHOD_CLASSES[method].chooses:  # auto: RK45 compiled or not (switching.library.jit_model.choose_method)
-            self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt)  # the stats say which and why
-            method = self.auto.method
-        self.method = method
-        self.method_class = METHOD_CLASSES[method]
         self.output = options.output.recorded
         self.started = _time.perf_counter()
         self.x = model.initial_state() if start.x0 is None else start.x0
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
+        if METHOD_CLASSES[method].chooses:  # auto: compiled or not, explicit or implicit (stats: which and why;
+            # switching.library.jit_model.choose_method)
+            self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt, self.x, self.mode)
+            method = self.auto.method
+        self.method = method
+        self.method_class = METHOD_CLASSES[method]
         self.recorder = Recorder(model, self.output, options.output.t_eval, options.output.keep_instants,
                                  None if projected is None else (float(t0), *projected),
                                  with_instants=options.output.samples is not None)
@@ -189,6 +191,7 @@ class HybridRun:
         self.t = float(t0)
         self.n_steps = 0
         self.python_instants = 0
+        self.implicit_python: set = set()  # auto: modes whose Python flow proved stiff (they flow with Radau)
         self.accumulation = None
         self.compiled, self.flow_method = self._compiled_path()
 
@@ -313,7 +316,7 @@ class HybridRun:
                 if compiled is not None and compiled.covers(self.mode) and not tie:
                     event, self.t, self.x, self.mode, steps, stop = run_kernel(
                         model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
-                        self.recorder, self.after_event, initial_in_kernel)
+                        self.recorder, self.after_event, initial_in_kernel, auto=self.auto)
                     if stop == "initial":  # the kernel leaves this initial instant to Python
                         initial_in_kernel = False
                         self.initial_instant()
@@ -326,13 +329,16 @@ class HybridRun:
                     problem = nonfinite_at_start(model, cm, self.x, self.t)
                     if problem:
                         raise self.fail(NonFiniteStateError, problem)
-                    event, self.t, self.x, steps = flow_python(model, cm, self.mode, self.flow_method, self.x,
-                                                               self.t, self.t_end, settings, steps_left,
-                                                               self.recorder, _LIST_STATES, tie)
+                    method = METHOD_CLASSES["Radau"] if self.mode in self.implicit_python else self.flow_method
+                    event, self.t, self.x, steps = flow_python(model, cm, self.mode, method, self.x, self.t,
+                                                               self.t_end, settings, steps_left, self.recorder,
+                                                               _LIST_STATES, tie)
             except FlowFailure as failure:
                 self.t, self.x = failure.t, failure.x
                 self.mode = failure.mode or self.mode
                 self.n_steps += failure.steps
+                if self._implicit_from_here(failure):
+                    continue
                 raise self.fail(failure.cls, failure.message) from None
             self.n_steps += steps
             if event is None:
@@ -340,6 +346,18 @@ class HybridRun:
             if self.instant_at(event):
                 return Status.ZENO
         return Status.FINISHED
+
+    def _implicit_from_here(self, failure) -> bool:
+        """``auto``: a flow in Python whose explicit method proved stiff (its stiffness test fired) goes on from
+        its last step with Radau, in this mode from now on (the stats say so); other failures stop the run."""
+        cls = getattr(failure.cls, "func", failure.cls)
+        if self.auto is None or not (isinstance(cls, type) and issubclass(cls, StiffnessError)) \
+                or self.mode in self.implicit_python:
+            return False
+        self.implicit_python.add(self.mode)
+        self.auto.note(self.mode, f"Radau in Python from t = {self.t:.6g} s, where {self.flow_method.name}'s "
+                                  "stiffness test fired")
+        return True
 
     def execute(self, all_rows: bool = False) -> Trajectory:
         """Run to ``t_end``; the trajectory, or an error carrying it (Ctrl-C:

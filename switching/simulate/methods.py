@@ -229,6 +229,14 @@ class RK45JitMethod(CompiledMethod):
 
 
 @register
+class RodasJitMethod(CompiledMethod):
+    """RODAS4P, a Rosenbrock method of order 4(3), implicit, in the compiled kernel, with each mode's Jacobian
+    derived symbolically (:mod:`switching.kernel.implicit`); a flow left to Python steps with ``Radau``."""
+
+    name, python = "rodas-jit", RadauMethod
+
+
+@register
 class AutoMethod(Method):
     """``RK45`` compiled or not, chosen per run
     (:func:`switching.library.jit_model.choose_method`; the statistics say which and why)."""

@@ -17,7 +17,10 @@ from switching.simulate.methods import (ADAPTIVE, COMPILED, FIXED_STEP, METHOD_C
 
 pytestmark = pytest.mark.timeout(60)
 
-SHIPPED = ("euler", "rk4", "RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "euler-jit", "rk4-jit", "RK45-jit")
+SHIPPED = ("euler", "rk4", "RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA", "euler-jit", "rk4-jit", "RK45-jit",
+           "rodas-jit")
+#: a compiled method's Python twin, the method its flows left to Python step with
+TWIN = {"rodas-jit": "Radau"}
 
 
 def test_every_name_of_methods_has_a_class_in_the_table_and_auto_comes_last():
@@ -26,7 +29,7 @@ def test_every_name_of_methods_has_a_class_in_the_table_and_auto_comes_last():
         cls = METHOD_CLASSES[name]
         assert issubclass(cls, Method) and cls.name == name and not cls.chooses
     assert method_names() == SHIPPED + ("auto",) and METHOD_CLASSES["auto"].chooses
-    assert FIXED_STEP == ("euler", "rk4") and COMPILED == ("euler-jit", "rk4-jit", "RK45-jit")
+    assert FIXED_STEP == ("euler", "rk4") and COMPILED == ("euler-jit", "rk4-jit", "RK45-jit", "rodas-jit")
     assert ADAPTIVE == ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 
 
@@ -37,26 +40,27 @@ def test_the_classes_say_fixed_or_adaptive_compiled_or_python_and_their_step_opt
         assert cls.fixed_step is fixed
         assert cls.compiled is name.endswith("-jit")
         assert cls.step_options() == (("dt",) if fixed else ("rtol", "atol", "max_step", "first_step"))
-        assert cls.python is METHOD_CLASSES[name.removesuffix("-jit")]  # a compiled one flows as its Python twin
-    assert [n for n in METHODS if METHOD_CLASSES[n].stiff] == ["Radau", "BDF", "LSODA"]
+        # a compiled one flows as its Python twin
+        assert cls.python is METHOD_CLASSES[TWIN.get(name, name.removesuffix("-jit"))]
+    assert [n for n in METHODS if METHOD_CLASSES[n].stiff] == ["Radau", "BDF", "LSODA", "rodas-jit"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_each_class_makes_the_integrator_of_its_method(name):
     cls = METHOD_CLASSES[name]
     stepper = cls.stepper(lambda t, y: -y, 0.0, np.array([1.0]), 1.0, dt=0.1, rtol=1e-6, atol=1e-9)
-    expected = {"euler": integrators.Euler, "rk4": integrators.RK4}.get(name.removesuffix("-jit"),
-                                                                        integrators.Adaptive)
+    twin = TWIN.get(name, name.removesuffix("-jit"))
+    expected = {"euler": integrators.Euler, "rk4": integrators.RK4}.get(twin, integrators.Adaptive)
     assert type(stepper) is expected
     if expected is integrators.Adaptive:
-        assert type(stepper.solver).__name__ == name.removesuffix("-jit")
+        assert type(stepper.solver).__name__ == twin
     t, y = stepper.step()
     assert 0 < t <= 1.0 and y[0] < 1.0
 
 
 def test_an_unknown_method_lists_the_names_of_the_table():
     with pytest.raises(OptionValueError, match="unknown method 'RK99'; choose one of: euler, rk4, RK45, .*"
-                                               "RK45-jit, auto$"):
+                                               "RK45-jit, rodas-jit, auto$"):
         method_class("RK99")
     with pytest.raises(OptionTypeError, match="unknown method 45"):
         method_class(45)
