@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+from .errors import UnprintableExpressionError
+
 __all__ = ["WrightOmega", "omega_form"]
 
 
@@ -118,7 +120,6 @@ def _rewrite(expr, memo: dict):
 
 def _principal_argument(w, memo: dict):
     """The argument of ``W₀`` in ``w`` (rewritten), or the error for another branch."""
-    from .source import UnprintableExpressionError
 
     if len(w.args) > 1 and w.args[1] != 0:
         raise UnprintableExpressionError(
@@ -133,7 +134,6 @@ def _log_parts(x):
     each positive factor its own base, one product of the factors of
     unknown sign (nothing multiplied out: ``x`` itself may be beyond the
     floating-point range)."""
-    from .source import UnprintableExpressionError
 
     exponents, powers, unknown, negative = [], [], [], False
     for factor in sp.Mul.make_args(x):

@@ -27,14 +27,12 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from bondgraph.errors import HybridBondGraphError
+from .errors import UnprintableExpressionError
 
 __all__ = ["Argument", "FunctionSpec", "UnprintableExpressionError", "PrintMemo", "common_subexpressions",
            "composed_source", "docstring", "escaped", "function_source", "sanitize", "module_namespace"]
 
 
-class UnprintableExpressionError(HybridBondGraphError, ValueError):
-    """An expression that numerical code cannot compute (``sp.Function('foo')(x)``, a matrix...)."""
 
 
 @dataclass(frozen=True)
