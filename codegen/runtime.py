@@ -156,6 +156,21 @@ class H:
     min = staticmethod(min)
 
     @staticmethod
+    def elementwise(fn, *args):
+        """``fn`` (a function of floats: a numeric inverse, :mod:`codegen.inverse`)
+        at ``args``: on floats a float; on arrays (anything with a non-zero
+        ``ndim``) an array, element by element over their broadcast; on
+        :class:`Hyper` values a finite :class:`Hyper` (a pulse raises
+        :class:`PulseError`: a law's inverse of a pulse has no meaning)."""
+        if any(isinstance(a, Hyper) for a in args):
+            return _smooth(fn)(*args)
+        if any(getattr(a, "ndim", 0) for a in args):
+            import numpy as np
+
+            return np.vectorize(fn, otypes=[float])(*args)
+        return fn(*[float(a) for a in args])
+
+    @staticmethod
     def copysign(magnitude, x):
         h = hyper(x)
         key = h.impulse or h.finite

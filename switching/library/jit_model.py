@@ -74,7 +74,9 @@ from codegen.cache import fingerprint
 from codegen.jit import guard_cache, tree_expression
 from codegen.machine import is_compiled, machine_function
 from codegen.safety import Dialect
-from codegen.source import Argument, FunctionSpec, docstring, escaped, function_source
+from codegen.inverse import HELPER_PREFIX, inverse_laws
+from codegen.source import (Argument, FunctionSpec, common_subexpressions, docstring, escaped, function_source,
+                            inverse_helpers)
 
 from ..model.automaton import A_POSTERIORI
 from ..model.expression_input import ExpressionInput
@@ -294,7 +296,7 @@ def choose_method(model, t0, t_end, rtol, dt=None) -> AutoChoice:
                       f"{what} (≈ {cost:g} s)", rtol)
 
 
-def _mode_functions(model, me, i: int) -> tuple[dict, int]:
+def _mode_functions(model, me, i: int) -> tuple[dict, int, list]:
     """The statements of each operation of mode ``i``'s function (source
     lines, by the names ``_fy``, ``_phi``, ``_holds``, ``_jump``, ``_fire``,
     ``_gparts``), and its number of comparison sides.  Inputs (expressions of ``t``) are substituted."""
@@ -334,11 +336,18 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     def flow_form(expr):
         return sp.sympify(expr).xreplace(phi) if phi else expr
 
+    laws: dict = {}  # the numeric inverses the statements call (codegen.inverse), by helper name
+
     def body(name, arguments, outputs, out="out"):
         """The statements of a generated function (no def, docstring or return), writing ``out``."""
         if inputs:
             outputs = [sp.sympify(o).xreplace(inputs) for o in outputs]
-        lines = function_source(FunctionSpec(name, arguments, tuple(outputs))).splitlines()
+        text = function_source(FunctionSpec(name, arguments, tuple(outputs), helpers=False))
+        if HELPER_PREFIX in text:
+            kinds: set = set()
+            common_subexpressions([sp.sympify(o) for o in outputs], None, kinds)
+            laws.update((law.helper, law) for law in inverse_laws(kinds))
+        lines = text.splitlines()
         end = next(k for k in range(1, len(lines)) if lines[k].rstrip().endswith('"""') and
                    (k > 1 or lines[k].count('"""') == 2))
         statements = [line[4:] for line in lines[end + 1:] if line.strip() != "return out"]
@@ -404,7 +413,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     for g, expression in enumerate(expressions):
         gparts += [f"if g == {g}:", f"    return {expression}"]
     branches["_gparts"] = gparts + ["return False"]
-    return branches, n_sides
+    return branches, n_sides, [laws[name] for name in sorted(laws)]
 
 
 # each operation of the per-mode function (switching.kernel.loop.OPS): its arrays (name, C pointer, length)
@@ -436,11 +445,13 @@ def _returning_int(line: str) -> str:
 
 
 #: what a mode function's module holds besides arithmetic (and all :mod:`codegen.safety` lets it hold):
-#: its imports (the Wright omega function when its expressions call it) and ``for k in range(...)`` loops
+#: its imports (the Wright omega function when its expressions call it, numba's ``njit`` for the numeric inverses
+#: of laws it defines: codegen.inverse) and ``for k in range(...)`` loops
 MODE_DIALECT = Dialect(imports=(("math", None, None), ("math", "*", None), ("numpy", None, "np"),
                                 ("numba", "carray", None), ("switching.kernel.loop", "decide", "_dec"),
                                 ("switching.kernel.loop", "larger", "_larger"),
-                                ("codegen.compiled_omega", "wrightomega", None)), loops=True)
+                                ("codegen.compiled_omega", "wrightomega", None), ("numba", "njit", None)),
+                       loops=True)
 
 
 def mode_function_source(model, mode) -> str:
@@ -452,7 +463,7 @@ def mode_function_source(model, mode) -> str:
     symbolic f, g, h and guards (common subexpressions eliminated; inputs,
     expressions of ``t``, substituted)."""
     me = model.mode_equations(mode)
-    branches, n_sides = _mode_functions(model, me, 0)
+    branches, n_sides, laws = _mode_functions(model, me, 0)
     cm = model.compiled_mode(mode)
     parts = guard_parts([g["tree"] for g in cm.guards])[0]
     sizes = {"N": len(model.states), "K": max(len(cm.independent), 1), "ND": max(len(cm.dependent), 1),
@@ -473,8 +484,10 @@ def mode_function_source(model, mode) -> str:
         "",
         "from switching.kernel.loop import decide as _dec, larger as _larger",
         *(["from codegen.compiled_omega import wrightomega"] if omega else []),
+        *(["from numba import njit"] if laws else []),
         "",
         "",
+        *[helper + "\n\n" for helper in inverse_helpers(laws, compiled=True)],
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
         f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
         docstring([f'Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',

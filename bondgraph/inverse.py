@@ -1,0 +1,260 @@
+"""Inverses of nonlinear element laws: the real branch, or a numeric inverse.
+
+An element whose law is given in one causality (an R's ``f = ψ(e)``, a C's
+``e = Φ(q)``) and used in the other needs ``v = ψ⁻¹(y)``.  Three outcomes,
+in this order:
+
+1. **a closed form** from ``sympy.solve`` (in the budget of
+   :mod:`bondgraph.budget`): of the solutions it returns (a cubic has three,
+   ``sinh`` two), the one that is *the* inverse on the law's real domain is
+   kept — free of ``I``, and ``s(ψ(v)) = v`` at the sample points
+   :data:`SAMPLES` where ``ψ(v)`` is real (to ``10⁻⁶·(1 + |v|)``, evaluated
+   with 30 digits and the law's numbers as exact decimals, so that
+   cancellations such as ``10¹²·(10⁻¹²·e^{−80} − 10⁻¹²) + 1`` come out
+   right).  It is the branch continuous through the operating point ``v = 0``;
+   a branch that covers only part of the line (``∛y`` as sympy writes it is
+   complex for ``y < 0``) is not kept;
+2. **a numeric inverse** when sympy finds no such branch, none at all, or
+   none in its budget, and the law is *monotonic*: its slope ``ψ′`` has one
+   sign at the sample points :data:`SLOPE_SAMPLES` (``±10⁻³ … ±10³``, the
+   law's other symbols at fixed random values in ``[1/2, 2]``).  The inverse
+   is :func:`numeric_inverse`'s function ``inverse_law_<element>(y, a…)``
+   (``a…`` the law's other symbols), whose derivative sympy takes from the
+   implicit function theorem (Jacobians, sensitivities, state-space
+   matrices keep working) and which the code generator computes with a
+   bracketed Newton iteration (:mod:`codegen.inverse`);
+3. otherwise a :class:`~bondgraph.errors.DerivationError` naming the element
+   and the law and saying what to do: give the law in the other causality.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+import random
+import re
+
+import sympy as sp
+
+from . import budget
+
+__all__ = ["InverseLaw", "SAMPLES", "SLOPE_SAMPLES", "branch_on_the_line", "monotonic_sense", "numeric_inverse"]
+
+#: where a branch of a closed-form inverse must give back the law's argument (the operating point 0 among them)
+SAMPLES = (0, -sp.Rational(1, 1000), sp.Rational(1, 1000), -sp.Rational(1, 10), sp.Rational(1, 10),
+           -sp.Rational(1, 2), sp.Rational(1, 2), -1, 1, -2, 2, -5, 5)
+#: where the slope of a law must keep one sign for a numeric inverse: 0 and ±10^(k/4), k = −12 … 12
+SLOPE_SAMPLES = (0.0,) + tuple(s * 10 ** (k / 4) for k in range(-12, 13) for s in (-1.0, 1.0))
+
+
+class InverseLaw(sp.Function):
+    """``v = ψ⁻¹(y; a…)``: the solution ``v`` of ``ψ(v; a…) = y`` for a
+    monotonic law ``ψ`` (one subclass per law, made by :func:`numeric_inverse`).
+
+    Arguments ``(y, a₁, …, a_k)``: the law's value and its other symbols
+    (parameters, time, states, other bonds' variables) in the order of
+    :attr:`others`.  Derivatives by the implicit function theorem:
+    ``∂v/∂y = 1/ψ′(v)``, ``∂v/∂a_j = −(∂ψ/∂a_j)(v)/ψ′(v)``.  Printed in
+    generated code as a call of :attr:`helper`, the bracketed Newton
+    iteration :mod:`codegen.inverse` writes for the law; ``evalf`` finds the
+    root with mpmath."""
+
+    #: the law ``ψ`` as an expression of :attr:`variable` and :attr:`others`
+    law: sp.Expr = None
+    variable: sp.Symbol = None
+    others: tuple = ()
+    #: the element and the law's role (``"R flow"``, ``"C"``...), for messages
+    element: str = ""
+    what: str = ""
+    #: the name of the generated helper (``_inverse_law_<element>_<digest>``: never a user's name)
+    helper: str = ""
+    #: where the iteration starts (the operating point, 0 unless the law is not finite there)
+    start: float = 0.0
+    #: +1 for an increasing law, −1 for a decreasing one (where its slope vanishes, the iteration goes by it)
+    sense: int = 1
+
+    @classmethod
+    def _at(cls, value, args):
+        """``{v: value, a_j: args[j]}``: the law's symbols at this call's arguments."""
+        return {cls.variable: value, **dict(zip(cls.others, args))}
+
+    def fdiff(self, argindex=1):
+        if not 1 <= argindex <= len(self.args):
+            raise sp.ArgumentIndexError(self, argindex)
+        at = self._at(self, self.args[1:])
+        slope = sp.diff(self.law, self.variable).xreplace(at)
+        if argindex == 1:
+            return 1 / slope
+        return -sp.diff(self.law, self.others[argindex - 2]).xreplace(at) / slope
+
+    def _eval_evalf(self, prec):
+        import mpmath
+
+        values = [a.evalf(prec) for a in self.args]
+        if not all(v.is_Number for v in values):
+            return None
+        dps = max(15, int(prec * math.log10(2)) + 5)
+        law = sp.lambdify([self.variable, *self.others], self.law, "mpmath")
+        with mpmath.workdps(dps):
+            y, rest = mpmath.mpf(values[0]), [mpmath.mpf(v) for v in values[1:]]
+
+            def residual(v):
+                return law(v, *rest) - y
+
+            low = high = mpmath.mpf(self.start)
+            if residual(low) == 0:
+                return sp.Float(self.start, precision=prec)
+            width = mpmath.mpf(1)
+            for _ in range(2200):  # a bracket grown geometrically about the start (on both sides)
+                low, high = low - width, high + width
+                if residual(low) * residual(high) <= 0:
+                    break
+                width *= 2
+            else:
+                return None
+            for _ in range(4 * prec + 200):  # bisection to the working precision, then Newton's polish
+                middle = (low + high) / 2
+                if middle in (low, high):
+                    break
+                if residual(low) * residual(middle) <= 0:
+                    high = middle
+                else:
+                    low = middle
+            root = (low + high) / 2
+        return sp.Float(root, precision=prec)
+
+    def _pythoncode(self, printer):
+        return f"{self.helper}({', '.join(printer._print(a) for a in self.args)})"
+
+    _lambdacode = _numpycode = _pythoncode
+
+
+def _identifier(name: str) -> str:
+    return re.sub(r"[^0-9A-Za-z_]", "_", name)
+
+
+@functools.lru_cache(maxsize=1024)
+def numeric_inverse(law: sp.Expr, variable: sp.Symbol, element: str, what: str, sense: int, start: float) -> type:
+    """The :class:`InverseLaw` subclass ``inverse_law_<element>`` of ``law``
+    (an expression of ``variable``), one per law (cached: the same class for
+    every mode that needs it).  Its helper's name carries a digest of the law,
+    so two laws of elements of the same name never share one."""
+    others = tuple(sorted(law.free_symbols - {variable}, key=lambda s: (s.name, sp.srepr(s))))
+    digest = hashlib.blake2b(sp.srepr((law, variable)).encode(), digest_size=4).hexdigest()
+    # real (d|v|/dv = sign(v), not a derivative of re and im); "_v" is never a user's name
+    real = sp.Symbol("_v", real=True)
+    return type(f"inverse_law_{_identifier(element)}", (InverseLaw,),
+                {"law": law.xreplace({variable: real}), "variable": real, "others": others, "element": element,
+                 "what": what,
+                 "helper": f"_inverse_law_{_identifier(element)}_{digest}", "start": float(start), "sense": sense,
+                 "__module__": __name__})
+
+
+def _exact(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with every float replaced by the exact decimal it prints as."""
+    floats = expr.atoms(sp.Float)
+    return expr.xreplace({c: sp.Rational(repr(float(c))) for c in floats}) if floats else expr
+
+
+def _sample_values(symbols) -> dict:
+    """Fixed random values in ``[1/2, 2]`` (exact rationals) for the law's other symbols."""
+    rng = random.Random(28)
+    return {s: sp.Rational(rng.randint(500, 2000), 1000) for s in sorted(symbols, key=str)}
+
+
+def _real(value) -> float | None:
+    """``value`` (a sympy or mpmath number) as a float when it is real and
+    finite, else ``None``."""
+    try:
+        number = complex(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    if not (math.isfinite(number.real) and math.isfinite(number.imag)):
+        return None
+    return number.real if abs(number.imag) <= 1e-12 * (1 + abs(number.real)) else None
+
+
+def _sign(value) -> int | None:
+    """The sign (−1, 0, 1) of a real mpmath number, however large; ``None``
+    for a NaN or a value with an imaginary part."""
+    import mpmath
+
+    if isinstance(value, mpmath.mpc):
+        if value.imag != 0 and abs(value.imag) > 1e-12 * (1 + abs(value.real)):
+            return None
+        value = value.real
+    try:
+        value = mpmath.mpf(value)
+    except (TypeError, ValueError):
+        return None
+    if mpmath.isnan(value):
+        return None
+    return (value > 0) - (value < 0)
+
+
+def _gives_back(law, variable, y, branch, values) -> bool:
+    """Does ``branch(law(v)) = v`` hold at every sample point where ``law(v)`` is real (and at one at least)?"""
+    if branch.has(sp.I):
+        return False
+    law, branch = _exact(law).xreplace(values), _exact(branch).xreplace(values)
+    checked = 0
+    for v in SAMPLES:
+        value = law.xreplace({variable: v})
+        if _real(value.evalf(30)) is None:
+            continue  # outside the law's real domain
+        back = _real(branch.xreplace({y: value}).evalf(30))
+        if back is None or abs(back - float(v)) > 1e-6 * (1 + abs(float(v))):
+            return False
+        checked += 1
+    return checked > 0
+
+
+def branch_on_the_line(law: sp.Expr, variable: sp.Symbol, y: sp.Symbol, solutions) -> sp.Expr | None:
+    """The solution (of ``solutions``, expressions of ``y``) that inverts
+    ``law`` at every sample point of its real domain (see the module
+    docstring), or ``None``; the check runs in the budget (``None`` when it
+    runs out)."""
+    values = _sample_values(law.free_symbols - {variable})
+
+    def first():
+        return next((s for s in solutions if _gives_back(law, variable, y, s, values)), None)
+
+    try:
+        return budget.run(f"checking the branches of the inverse of {law}", first)
+    except budget.OverBudget:
+        return None
+
+
+def monotonic_sense(law: sp.Expr, variable: sp.Symbol) -> tuple[int, float] | None:
+    """``(sense, start)`` when ``law`` is monotonic at the sample points
+    :data:`SLOPE_SAMPLES` (``sense`` +1 increasing, −1 decreasing; ``start``
+    the first of 0, 1, −1 where the law is finite), else ``None``."""
+    values = {s: float(v) for s, v in _sample_values(law.free_symbols - {variable}).items()}
+    real = sp.Dummy(variable.name, real=True)
+    law = law.xreplace({variable: real, **values})
+    variable = real
+    try:
+        slope = sp.lambdify([variable], sp.diff(law, variable), "mpmath")
+        value = sp.lambdify([variable], law, "mpmath")
+    except Exception:  # noqa: BLE001 - a law lambdify cannot print: not checkable, so not monotonic
+        return None
+    signs = set()
+    for v in SLOPE_SAMPLES:
+        try:
+            s = _sign(slope(v))
+        except (TypeError, ValueError, ArithmeticError):
+            s = None
+        if s is None:
+            return None  # not defined on the whole line: no numeric inverse (its bracket would leave the domain)
+        if s != 0:
+            signs.add(1 if s > 0 else -1)
+    if len(signs) != 1:
+        return None
+    for start in (0.0, 1.0, -1.0):
+        try:
+            if _real(value(start)) is not None:
+                return signs.pop(), start
+        except (TypeError, ValueError, ArithmeticError):
+            continue
+    return None
