@@ -73,6 +73,8 @@ class InverseLaw(sp.Function):
     start: float = 0.0
     #: +1 for an increasing law, −1 for a decreasing one (where its slope vanishes, the iteration goes by it)
     sense: int = 1
+    #: the arguments of :func:`numeric_inverse` that made the class (to make it again when unpickled)
+    _made_from: tuple = ()
 
     @classmethod
     def _at(cls, value, args):
@@ -124,10 +126,14 @@ class InverseLaw(sp.Function):
             root = (low + high) / 2
         return sp.Float(root, precision=prec)
 
-    def _pythoncode(self, printer):
-        return f"{self.helper}({', '.join(printer._print(a) for a in self.args)})"
+    def __reduce_ex__(self, protocol):
+        """Pickled as the law it inverts and its arguments: the class, made per law, is made again."""
+        return _rebuilt, (self._made_from, self.args)
 
-    _lambdacode = _numpycode = _pythoncode
+    def _pythoncode(self, printer):
+        """The call of the generated helper (the code generator's printer); ``sympy.lambdify`` prints
+        the function by its name and calls :func:`_imp_`."""
+        return f"{self.helper}({', '.join(printer._print(a) for a in self.args)})"
 
 
 def _identifier(name: str) -> str:
@@ -144,11 +150,32 @@ def numeric_inverse(law: sp.Expr, variable: sp.Symbol, element: str, what: str, 
     digest = hashlib.blake2b(sp.srepr((law, variable)).encode(), digest_size=4).hexdigest()
     # real (d|v|/dv = sign(v), not a derivative of re and im); "_v" is never a user's name
     real = sp.Symbol("_v", real=True)
-    return type(f"inverse_law_{_identifier(element)}", (InverseLaw,),
+    made = type(f"inverse_law_{_identifier(element)}", (InverseLaw,),
                 {"law": law.xreplace({variable: real}), "variable": real, "others": others, "element": element,
                  "what": what,
                  "helper": f"_inverse_law_{_identifier(element)}_{digest}", "start": float(start), "sense": sense,
+                 "_made_from": (law, variable, element, what, sense, start),
                  "__module__": __name__})
+    made._imp_ = _evaluator(made)
+    return made
+
+
+def _evaluator(law_class) -> staticmethod:
+    """The function ``sympy.lambdify`` calls for ``law_class`` (its ``_imp_``): the root at double
+    precision by :meth:`InverseLaw._eval_evalf`, element by element over arrays (a jump map of
+    nonlinear storage, ``bondgraph.jump``, evaluates it a few times per jump)."""
+    import numpy as np
+
+    def one(*values):
+        value = law_class(*[sp.Float(float(v)) for v in values]).evalf(17)
+        return float(value) if value.is_Number else math.nan
+
+    return staticmethod(np.vectorize(one, otypes=[float]))
+
+
+def _rebuilt(made_from: tuple, args: tuple) -> InverseLaw:
+    """An unpickled :class:`InverseLaw`: its class from :func:`numeric_inverse`, applied to ``args``."""
+    return numeric_inverse(*made_from)(*args)
 
 
 def _exact(expr: sp.Expr) -> sp.Expr:

@@ -547,7 +547,7 @@ def _parameter_names(branches: dict) -> dict:
     return names
 
 
-MODE_FUNCTION_VERSION = "7"  # part of the cache key of the per-mode functions: change it when they change
+MODE_FUNCTION_VERSION = "8"  # part of the cache key of the per-mode functions: change it when they change
 
 
 def _mode_key(model, mode) -> str:

@@ -142,6 +142,10 @@ def test_the_function_differentiates_by_the_implicit_function_theorem_and_evalua
     g.connect(j, R("R", flow_law=lambda e: k * e + sp.sin(e) / 2))
     effort = g.equations().effort("R")
     assert isinstance(effort, InverseLaw)
+    import pickle
+
+    again = pickle.loads(pickle.dumps(effort))  # (a sweep's worker receives it so)
+    assert again == effort and type(again) is type(effort)
     derivative = sp.diff(effort, k).xreplace({sp.Symbol("I0"): 2, k: sp.Rational(3, 2)}).evalf(30)
     h = sp.Rational(1, 10**12)
     ahead, behind = (effort.xreplace({sp.Symbol("I0"): 2, k: sp.Rational(3, 2) + s}).evalf(40) for s in (h, -h))
@@ -280,6 +284,40 @@ def test_the_jacobian_is_the_implicit_derivative_and_matches_finite_differences(
         h = 1e-6 * max(1.0, abs(q))
         central = (cm.rates(np.array([q + h]), 0.0)[0] - cm.rates(np.array([q - h]), 0.0)[0]) / (2 * h)
         assert dense == pytest.approx(central, rel=1e-7)
+
+
+def test_the_sensitivity_to_the_initial_charge_goes_through_the_inverse():
+    """``dq/dt = −ψ⁻¹(q/C)`` is autonomous: a shift of its start is a shift along itself, so
+    ``∂q(t)/∂q(0) = q̇(t)/q̇(0) = i(q(t))/i(q₀)``."""
+    model = HybridModel(discharge(), [], {"Cap": CAP}, initial_state={"q_C": Q0}, signals={"i_R": "f_R"})
+    times = np.linspace(0.5, 4.0, 8)
+    run = model.simulate(4.0, "RK45", rtol=1e-11, atol=1e-14, t_eval=times, sensitivities=["x0:q_C"])
+    np.testing.assert_allclose(run.sensitivity("q_C", "x0:q_C"), run.signal("i_R") / exact_inverse(Q0 / CAP),
+                               rtol=1e-6)
+
+
+def test_a_capacitor_forced_into_derivative_causality_keeps_its_law_and_the_charge():
+    """A current ``I0`` into two capacitors in parallel, ``C1`` linear and ``C2`` with ``e = ψ(q)``:
+    ``C2`` is dependent, ``q₂ = ψ⁻¹(q₁/C1)`` (the numeric inverse), and the total charge grows as
+    ``q₁ + q₂ = Q + I0·t``.  The initial state (``q₁ = 1``, ``q₂ = 0``) is projected keeping ``Q = 1``:
+    ``q₁ + ψ⁻¹(q₁/C1) = 1``, the conservation of state (DESIGN §5) solved numerically."""
+    g = BondGraph("two")
+    j = g.add(Zero("j"))
+    g.connect(Sf("I", "I0"), j)
+    g.connect(j, C("C1", "C1"))
+    g.connect(j, C("C2", effort_law=psi))
+    constraint = g.equations().constraints[sp.Symbol("q_C2")]
+    assert isinstance(constraint, InverseLaw) and type(constraint).__name__ == "inverse_law_C2"
+    model = HybridModel(g, [], {"C1": 2.0, "I0": 1.5}, initial_state={"q_C1": 1.0})
+    times = np.linspace(0.0, 2.0, 9)
+    with pytest.warns(UserWarning, match="projected"):
+        run = model.simulate(2.0, "RK45", rtol=1e-12, atol=1e-14, t_eval=times)
+    q1, q2 = run.state("q_C1"), run.state("q_C2")
+    np.testing.assert_allclose(q1 + q2, 1.0 + 1.5 * run.t, rtol=1e-10)
+    np.testing.assert_allclose(q2, [exact_inverse(v / 2.0) for v in q1], rtol=1e-13, atol=1e-300)
+    with mpmath.workdps(30):  # q₁ = 2ψ(q₂) and q₁ + q₂ = 1: 2ψ(q₂) + q₂ = 1
+        v = mpmath.findroot(lambda v: 2 * psi(v) + v - 1, 0.25)
+        assert q1[0] == pytest.approx(float(2 * psi(v)), rel=1e-12) and q2[0] == pytest.approx(float(v), rel=1e-12)
 
 
 def test_the_mode_function_is_the_same_compiled_by_numba_and_translated_natively():
