@@ -37,7 +37,7 @@ import sympy as sp
 
 from . import budget
 from .errors import DerivationError, InvalidGraphError
-from .inverse import branch_on_the_line, monotonic_sense, numeric_inverse
+from .inverse import branch_on_the_line, computes_accurately, monotonic_sense, numeric_inverse
 from .solving import SolveFailure, solve
 from .symbols import as_expr, check_name
 
@@ -166,7 +166,8 @@ INVERSE_SECONDS = 2.0
 def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
     """``(y, inverse, failure)``: ``var`` as an expression of ``y`` (a dummy)
     with ``expr(var) = y`` — sympy's closed form when it has a real branch
-    on the whole line, else the numeric inverse of a monotonic law
+    on the whole line that keeps its digits in floating point, else the
+    numeric inverse of a monotonic law
     (:mod:`bondgraph.inverse`) — or ``(y, None, reason)``.  Cached, failures
     too: each mode with the element in that causality asks again."""
     y = sp.Dummy("y")
@@ -180,9 +181,11 @@ def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
     except SolveFailure as exc:
         solutions, failure = [], exc
     branch = branch_on_the_line(expr, var, y, solutions) if solutions else None
-    if branch is not None:
+    if branch is not None and computes_accurately(expr, var, y, branch):
         return y, branch, None
     monotonic = monotonic_sense(expr, var)
+    if branch is not None and monotonic is None:  # (inaccurate in places, but the only inverse there is)
+        return y, branch, None
     if monotonic is not None:
         return y, numeric_inverse(expr, var, element, what, *monotonic)(y, *_others(expr, var)), None
     if len(solutions) == 1:  # sympy's one solution, unchecked on part of the line: as before

@@ -13,7 +13,9 @@ in this order:
    cancellations such as ``10¹²·(10⁻¹²·e^{−80} − 10⁻¹²) + 1`` come out
    right).  It is the branch continuous through the operating point ``v = 0``;
    a branch that covers only part of the line (``∛y`` as sympy writes it is
-   complex for ``y < 0``) is not kept;
+   complex for ``y < 0``) is not kept, nor, for a monotonic law, one that
+   loses its digits in floating point (:func:`computes_accurately`: Cardano's
+   formula for ``v + v³``);
 2. **a numeric inverse** when sympy finds no such branch, none at all, or
    none in its budget, and the law is *monotonic*: its slope ``ψ′`` has one
    sign at the sample points :data:`SLOPE_SAMPLES` (``±10⁻³ … ±10³``, the
@@ -39,7 +41,8 @@ import sympy as sp
 
 from . import budget
 
-__all__ = ["InverseLaw", "SAMPLES", "SLOPE_SAMPLES", "branch_on_the_line", "monotonic_sense", "numeric_inverse"]
+__all__ = ["ACCURACY_SAMPLES", "InverseLaw", "SAMPLES", "SLOPE_SAMPLES", "branch_on_the_line", "computes_accurately",
+           "monotonic_sense", "numeric_inverse"]
 
 #: where a branch of a closed-form inverse must give back the law's argument (the operating point 0 among them)
 SAMPLES = (0, -sp.Rational(1, 1000), sp.Rational(1, 1000), -sp.Rational(1, 10), sp.Rational(1, 10),
@@ -251,6 +254,64 @@ def branch_on_the_line(law: sp.Expr, variable: sp.Symbol, y: sp.Symbol, solution
         return budget.run(f"checking the branches of the inverse of {law}", first)
     except budget.OverBudget:
         return None
+
+
+#: where a closed-form inverse is evaluated in floating point against its exact value: y = ψ(±10^(k/2)), k = −6 … 6
+#: (from 10⁻³ on: closer to the operating point, ``log(1 + x)`` of a diode's inverse loses digits as ``x → 0``,
+#: as any closed form with the identity's first term subtracted out does; what is refused is a closed form
+#: that loses them where the law does not flatten, Cardano's cancellation at large y)
+ACCURACY_SAMPLES = tuple(s * sp.Integer(10) ** sp.Rational(k, 2) for k in range(-6, 7) for s in (-1, 1))
+_EPS = 2.0**-52
+
+
+def computes_accurately(law: sp.Expr, variable: sp.Symbol, y: sp.Symbol, branch: sp.Expr) -> bool:
+    """Does ``branch`` (an inverse of ``law``, an expression of ``y``), evaluated
+    in floating point, keep its digits?  At ``y = ψ(v)`` rounded to a double
+    for ``v`` in :data:`ACCURACY_SAMPLES` (the law's other symbols at the values
+    of :func:`branch_on_the_line`), its value in doubles must be within
+    ``10⁻¹⁰`` relative of its exact value at that very double, or within
+    ``64·ε·|y·s′(y)|`` — what the rounding of ``y`` alone moves it by, the
+    inverse's own conditioning.  Cardano's formula for ``v + v³`` fails this
+    (``−27y/2 + √(729y² + 108)/2`` cancels for large ``y``); ``VT·log(1 +
+    y/Is)`` of a diode passes (where it cancels, its conditioning is as bad).
+    Runs in the budget (``True``: the closed form kept, when it runs out).
+    A branch with Lambert's W is kept: the code generator computes it through
+    the Wright omega function, which never overflows (:mod:`codegen.lambert`),
+    unlike ``W`` of an exponential here."""
+    if branch.has(sp.LambertW):
+        return True
+    values = _sample_values(law.free_symbols - {variable})
+    exact_law, exact_branch = _exact(law).xreplace(values), _exact(branch).xreplace(values)
+    slope = sp.diff(exact_branch, y)
+    try:
+        in_doubles = sp.lambdify([y], branch.xreplace({s: float(v) for s, v in values.items()}), "math")
+    except Exception:  # noqa: BLE001 - not printable for floats: nothing to compare
+        return True
+
+    def check():
+        for v in ACCURACY_SAMPLES:
+            value = _real(exact_law.xreplace({variable: v}).evalf(30))
+            if value is None:
+                continue
+            at = {y: sp.Rational(value)}
+            exact = _real(exact_branch.xreplace(at).evalf(30))
+            if exact is None:
+                continue
+            scale = 64 * _EPS * abs(value) * abs(_real(slope.xreplace(at).evalf(30)) or 0.0)
+            if scale >= abs(exact):
+                continue  # the rounding of y alone leaves no digit of v here
+            try:
+                computed = float(in_doubles(value))
+            except (ValueError, ArithmeticError, TypeError):
+                computed = math.nan
+            if not abs(computed - exact) <= 1e-10 * abs(exact) + scale:
+                return False
+        return True
+
+    try:
+        return budget.run(f"checking the digits of the inverse {branch}", check)
+    except budget.OverBudget:
+        return True
 
 
 def monotonic_sense(law: sp.Expr, variable: sp.Symbol) -> tuple[int, float] | None:

@@ -17,7 +17,10 @@ Python dialect allows, and only in functions of that prefix
   ``<helper>_at`` and the helper as ``H.elementwise(<helper>_at, y, a…)``
   (:func:`codegen.runtime.H.elementwise`): the same function on floats, on
   numpy arrays of samples (element by element) and on the impulse-aware
-  values of raw code (a pulse inside a law's inverse has no meaning);
+  values of raw code (a pulse inside a law's inverse has no meaning).
+  Where Python's :mod:`math` raises (a law past the floating-point range,
+  ``sinh(1000)``, which machine code computes as ``inf`` and goes on with),
+  the Python helper gives NaN;
 * machine-code modules (:func:`compiled_source`) define the helper itself,
   compiled by numba (``@njit``) or translated with the function that calls it.
 """
@@ -66,7 +69,8 @@ def scalar_source(law_class, name: str, printed, docstring, decorator: str = "")
         f"{', '.join(map(str, law_class.others)) or 'none'}).",
         "",
         f"Bracket: from a = {start}, g(v) = law(v) - y, the root lies above a when g(a) and the slope have opposite",
-        "signs; b = a ± w with w = 2|g(a)/g'(a)| (1 if that is not a positive number), doubling, the bracket's",
+        "signs; b = a ± w with w = min(2|g(a)/g'(a)|, 1) (1 if that is not a positive number: no far first try",
+        "where an exponential law overflows), doubling, the bracket's",
         f"near end moved to b while g keeps its sign (at most {BRACKET_STEPS} times: NaN if g never changes sign or",
         "is not finite). Then Newton's step v - g(v)/g'(v), replaced by the midpoint of the bracket when it is not",
         "strictly inside it, each iterate replacing the end of its residual's sign; converged when the step is at",
@@ -88,7 +92,7 @@ def scalar_source(law_class, name: str, printed, docstring, decorator: str = "")
              "    width = 1.0",
              "    if da != 0.0:",
              "        width = 2.0 * abs(ga / da)",
-             "    if not isfinite(width) or width == 0.0:",
+             "    if not isfinite(width) or width == 0.0 or width > 1.0:",
              "        width = 1.0",
              "    b = a",
              "    gb = ga",

@@ -21,8 +21,10 @@ generated code computes by a bracketed Newton iteration
 * a law that is not monotonic is a :class:`~bondgraph.errors.DerivationError`
   naming the element and the law and saying what to do;
 * of several closed-form branches the real one on the whole line is kept
-  (``asinh`` of sympy's two logs), and a branch real only on part of it
-  (sympy's ``∛y``) gives way to the numeric inverse.
+  (``atanh`` of sympy's two logs), a branch real only on part of it
+  (sympy's ``∛y``) or one that loses its digits in floating point
+  (Cardano's for ``v + v³``, sympy's ``asinh``) gives way to the numeric
+  inverse.
 """
 
 from __future__ import annotations
@@ -58,18 +60,23 @@ def psi(v):
     return v + math.sin(v) / 2
 
 
-def exact_inverse(y: float) -> float:
-    """The root of ``ψ(v) = y`` by Newton's iteration at 50 digits (mpmath) from ``v = y``, within
-    1/2 of it (``|ψ(v) − v| ≤ 1/2``), rounded once to a double."""
+def newton(f, df, y, start):
+    """The root of ``f(v) = y`` by Newton's iteration at 50 digits (mpmath) from ``start`` (near it)."""
     with mpmath.workdps(50):
         y = mpmath.mpf(y)
-        v = y
-        for _ in range(100):
-            step = (psi(v) - y) / (1 + mpmath.cos(v) / 2)
+        v = mpmath.mpf(start)
+        for _ in range(200):
+            step = (f(v) - y) / df(v)
             v -= step
             if abs(step) <= mpmath.mpf(10) ** -45 * abs(v):
                 return float(v)
     raise AssertionError(f"no convergence for y = {y}")
+
+
+def exact_inverse(y: float) -> float:
+    """The root of ``ψ(v) = y`` at 50 digits, from ``v = y`` (within 1/2 of it: ``|ψ(v) − v| ≤ 1/2``),
+    rounded once to a double."""
+    return newton(psi, lambda v: 1 + mpmath.cos(v) / 2, y, y)
 
 
 def driven_resistor() -> BondGraph:
@@ -396,13 +403,41 @@ def test_a_capacitor_law_that_is_not_monotonic_is_refused_in_derivative_causalit
 
 
 def test_of_several_branches_the_real_one_on_the_whole_line_is_kept():
+    """``tanh``: sympy gives ``log((−y − 1)/(y − 1))/2`` and ``log(−√(…))`` (complex); ``2e + eᵉ``:
+    two Lambert W branches, of which ``y/2 − W₀(e^{y/2}/2)`` is real (computed through ω)."""
     y = sp.Symbol("I0")
-    effort = _forced(sp.sinh).equations().effort("D")
+    effort = _forced(sp.tanh).equations().effort("D")
     assert not effort.has(InverseLaw) and not effort.has(sp.I)
     fn = inverse_function(effort, y)
-    # (sympy's form log(y + √(y² + 1)) cancels for y ≪ 0: 10⁻¹¹ at y = −10³, its own rounding)
-    for value in (-1e3, -2.0, 0.0, 0.5, 40.0, 1e6):
-        assert fn(value) == pytest.approx(math.asinh(value), rel=1e-10, abs=1e-300)
+    for value in (-0.999999, -0.5, -1e-3, 0.0, 1e-3, 0.25, 0.9):
+        assert fn(value) == pytest.approx(math.atanh(value), rel=1e-12, abs=1e-300)
+    effort = _forced(lambda e: 2 * e + sp.exp(e)).equations().effort("D")
+    assert effort.has(sp.LambertW) and not effort.has(InverseLaw)
+    fn = inverse_function(effort, y)
+    for value in (-50.0, -1.0, 1.0, 3.0, 100.0, 1e4):
+        v = fn(value)
+        with mpmath.workdps(30):
+            exact = mpmath.findroot(lambda e: 2 * e + mpmath.exp(e) - value, v)
+        assert v == pytest.approx(float(exact), rel=1e-12)
+
+
+@pytest.mark.parametrize("law, exact", [
+    (sp.sinh, lambda y: float(mpmath.asinh(y))),
+    (lambda e: e + e**3,
+     lambda y: newton(lambda v: v + v**3, lambda v: 1 + 3 * v**2, y, mpmath.sign(y) * mpmath.cbrt(abs(y)))),
+])
+def test_a_closed_form_that_loses_its_digits_gives_way_to_the_numeric_inverse(law, exact):
+    """sympy's ``log(y + √(y² + 1))`` for ``sinh`` cancels for ``y ≪ 0`` and Cardano's formula for
+    ``v + v³`` for large ``|y|``: both laws are monotonic, and get the numeric inverse, exact to the last
+    digits over 450 orders of magnitude."""
+    y = sp.Symbol("I0")
+    effort = _forced(law).equations().effort("D")
+    assert isinstance(effort, InverseLaw)
+    fn = inverse_function(effort, y)
+    values = [v for v in grid() if abs(v) < 1e150]  # (sinh: past 10³⁰⁸, Python's math raises, machine code not)
+    with mpmath.workdps(40):
+        expected = [exact(mpmath.mpf(v)) if v else 0.0 for v in values]
+    np.testing.assert_allclose([fn(v) for v in values], expected, rtol=1e-13, atol=0)
 
 
 def test_a_branch_real_on_part_of_the_line_gives_way_to_the_numeric_inverse():
