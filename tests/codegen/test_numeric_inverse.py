@@ -223,6 +223,31 @@ def test_a_value_outside_the_range_of_a_bounded_law_is_nan_and_inside_it_the_exa
     assert fn(1.0) >= 2.0**52
 
 
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit"])
+def test_a_value_no_bracket_reaches_stops_the_run_naming_the_mode_the_time_and_the_element(method):
+    """A capacitor at ``e = 2`` across ``e = i/(1 + |i|)``: no current gives 2, the iteration's NaN
+    is a :class:`~switching.errors.NonFiniteStateError` at t = 0 naming the inverse and the element."""
+    from switching.errors import NonFiniteStateError
+
+    if method.endswith("-jit"):
+        pytest.importorskip("numba")
+    g = BondGraph("bounded")
+    j = g.add(Zero("j"))
+    g.connect(Sf("I", "I0"), j)
+    g.connect(j, C("C", "Cap"))
+    g.connect(j, R("B", effort_law=lambda f: f / (1 + sp.Abs(f))))
+    model = HybridModel(g, [], {"Cap": 1.0, "I0": 5.0}, initial_state={"q_C": 2.0})
+    with pytest.raises(NonFiniteStateError) as info:
+        model.simulate(1.0, method)
+    message = str(info.value)
+    assert "t = 0 s" in message and "'B'" in message and "inverse_law_B(e_B)" in message and "e_B = 2" in message
+    assert "numeric inverse of the R effort law v/(Abs(v) + 1)" in message and "never takes that value" in message
+    # from a charge the law reaches, it settles where the resistor takes the source's current: ψ⁻¹(q) = 5
+    model = HybridModel(g, [], {"Cap": 1.0, "I0": 5.0}, initial_state={"q_C": 0.0})
+    run = model.simulate(20.0, method, rtol=1e-10, atol=1e-12)
+    assert run.state("q_C")[-1] == pytest.approx(5 / 6, rel=1e-8)
+
+
 def test_raw_code_computes_it_on_finite_values_and_refuses_a_pulse():
     inverse = the_inverse()
     y = sp.Symbol("y")
