@@ -348,7 +348,10 @@ class R(OnePort):
     ``effort_law=lambda f: R0*f**3`` prefers resistance causality (flow in,
     effort out); ``flow_law=lambda e: Is*(exp(e/VT) - 1)`` (a diode curve)
     prefers conductance causality.  The other causality inverts the law
-    symbolically, and it is an error if that has no unique solution.
+    (:mod:`bondgraph.inverse`): sympy's closed form when it has one that is
+    real on the whole line and keeps its digits, else the numeric inverse of
+    a monotonic law; a law that is neither is a
+    :class:`~bondgraph.errors.DerivationError` naming the element.
     """
 
     kind: ClassVar[str] = "R"
