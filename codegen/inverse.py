@@ -36,7 +36,8 @@ HELPER_PREFIX = "_inverse_law_"
 
 #: growths of the bracket: width doubling from at least 2⁻¹⁰⁷⁴ reaches the largest double in ~2100
 BRACKET_STEPS = 2100
-#: Newton/bisection iterations after the bracket (bisection alone gains a bit each: 200 reach any double)
+#: Newton/bisection iterations after the bracket (bisection alone gains a bit each: 200 reach any double);
+#: both phases run in one loop of BRACKET_STEPS + NEWTON_STEPS turns, left as soon as the root is found
 NEWTON_STEPS = 200
 
 
@@ -63,16 +64,18 @@ def scalar_source(law_class, name: str, printed, docstring, decorator: str = "")
     arguments = _arguments(law_class)
     (law_a, slope_a), (law_b, _), (law, slope) = (printed(v) for v in ("a", "b", "v"))
     start = repr(float(law_class.start))
-    shown = str(law_class.law.xreplace({law_class.variable: sp.Symbol(law_class.variable.name)}))
+    shown = str(law_class.law.xreplace({law_class.variable: sp.Symbol("v")}))
+    others = ", ".join(f"a{k} = {s}" for k, s in enumerate(law_class.others))
     doc = docstring([
-        f"v with {shown} = y ({law_class.what} law of element {law_class.element!r}; others: "
-        f"{', '.join(map(str, law_class.others)) or 'none'}).",
+        f"v with {shown} = y: the inverse of the {law_class.what} law of element {law_class.element!r}"
+        + (f" ({others})." if others else "."),
         "",
         f"Bracket: from a = {start}, g(v) = law(v) - y, the root lies above a when g(a) and the slope have opposite",
         "signs; b = a ± w with w = min(2|g(a)/g'(a)|, 1) (1 if that is not a positive number: no far first try",
         "where an exponential law overflows), doubling, the bracket's",
         f"near end moved to b while g keeps its sign (at most {BRACKET_STEPS} times: NaN if g never changes sign or",
-        "is not finite). Then Newton's step v - g(v)/g'(v), replaced by the midpoint of the bracket when it is not",
+        "is not finite). Then, from the bracket's midpoint, Newton's step v - g(v)/g'(v), replaced by the midpoint",
+        "of the bracket when it is not",
         "strictly inside it, each iterate replacing the end of its residual's sign; converged when the step is at",
         f"most 2**-51 |v| (full double precision), g(v) = 0, or no double lies between the ends; NaN after "
         f"{NEWTON_STEPS} steps.",
@@ -96,46 +99,53 @@ def scalar_source(law_class, name: str, printed, docstring, decorator: str = "")
              "        width = 1.0",
              "    b = a",
              "    gb = ga",
+             "    lo = a",
+             "    hi = a",
+             "    v = a",
              "    found = 0",
-             f"    for k in range({BRACKET_STEPS}):",
+             "    steps = 0",
+             f"    for k in range({BRACKET_STEPS + NEWTON_STEPS}):",
              "        if found == 0:",
              "            b = a + up * width",
              f"            gb = ({law_b}) - y",
-             "            if gb == 0.0 or (gb < 0.0) != (ga < 0.0):",
+             "            if gb == 0.0:",
+             "                return b",
+             "            if gb != gb:",
+             "                return nan",
+             "            if (gb < 0.0) != (ga < 0.0):",
              "                found = 1",
+             "                lo = a if ga < 0.0 else b",
+             "                hi = b if ga < 0.0 else a",
+             "                v = 0.5 * (a + b)",
              "            else:",
-             "                if not isfinite(gb):",
+             f"                if not isfinite(gb) or k >= {BRACKET_STEPS}:",
              "                    return nan",
              "                a = b",
              "                ga = gb",
              "                width = width * 2.0",
-             "    if found == 0:",
-             "        return nan",
-             "    if gb == 0.0:",
-             "        return b",
-             "    lo = a if ga < 0.0 else b",
-             "    hi = b if ga < 0.0 else a",
-             "    v = 0.5 * (a + b)",
-             f"    for m in range({NEWTON_STEPS}):",
-             f"        gv = ({law}) - y",
-             "        if gv == 0.0:",
-             "            return v",
-             "        if gv != gv:",
-             "            return nan",
-             "        if gv < 0.0:",
-             "            lo = v",
              "        else:",
-             "            hi = v",
-             f"        dv = {slope}",
-             "        step = nan",
-             "        if dv != 0.0:",
-             "            step = gv / dv",
-             "        nv = v - step",
-             "        if not ((nv > lo and nv < hi) or (nv > hi and nv < lo)):",
-             "            nv = 0.5 * (lo + hi)",
-             "        if abs(nv - v) <= 4.440892098500626e-16 * abs(nv):",
-             "            return nv",
-             "        v = nv",
+             "            steps = steps + 1",
+             f"            if steps > {NEWTON_STEPS}:",
+             "                return nan",
+             f"            gv = ({law}) - y",
+             "            if gv == 0.0:",
+             "                return v",
+             "            if gv != gv:",
+             "                return nan",
+             "            if gv < 0.0:",
+             "                lo = v",
+             "            else:",
+             "                hi = v",
+             f"            dv = {slope}",
+             "            step = nan",
+             "            if dv != 0.0:",
+             "                step = gv / dv",
+             "            nv = v - step",
+             "            if not ((nv > lo and nv < hi) or (nv > hi and nv < lo)):",
+             "                nv = 0.5 * (lo + hi)",
+             "            if abs(nv - v) <= 4.440892098500626e-16 * abs(nv):",
+             "                return nv",
+             "            v = nv",
              "    return nan"]
     return "\n".join(lines) + "\n"
 
