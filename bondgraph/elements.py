@@ -197,7 +197,7 @@ def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
     else:
         found = "sympy gives no solution, "
     return y, None, SolveFailure(found + "and the law is not monotonic on the whole line (its slope changes sign "
-                                 "or is not real somewhere), so it has no numeric inverse either",
+                                 "or is not a finite real number somewhere), so it has no numeric inverse either",
                                  failure is not None and failure.over_budget)
 
 

@@ -17,9 +17,11 @@ in this order:
    loses its digits in floating point (:func:`computes_accurately`: Cardano's
    formula for ``v + v³``);
 2. **a numeric inverse** when sympy finds no such branch, none at all, or
-   none in its budget, and the law is *monotonic*: its slope ``ψ′`` has one
-   sign at the sample points :data:`SLOPE_SAMPLES` (``±10⁻³ … ±10³``, the
-   law's other symbols at fixed random values in ``[1/2, 2]``).  The inverse
+   none in its budget, and the law is *monotonic*: its slope ``ψ′`` is a
+   finite real number of one sign (or nought) at the sample points
+   :data:`SLOPE_SAMPLES` (``0, ±10⁻³ … ±10³``, the law's other symbols at
+   fixed random values in ``[1/2, 2]``; an infinite slope, ``sign(v)·√|v|``
+   at 0, is refused: the iteration divides by it).  The inverse
    is :func:`numeric_inverse`'s function ``inverse_law_<element>(y, a…)``
    (``a…`` the law's other symbols), whose derivative sympy takes from the
    implicit function theorem (Jacobians, sensitivities, state-space
@@ -65,6 +67,9 @@ class InverseLaw(sp.Function):
 
     #: the law ``ψ`` as an expression of :attr:`variable` and :attr:`others`
     law: sp.Expr = None
+    #: its slope ``∂ψ/∂v`` (:func:`slope_of`: without the Dirac pulses of ``sign``, nought wherever the
+    #: iteration evaluates it)
+    slope: sp.Expr = None
     variable: sp.Symbol = None
     others: tuple = ()
     #: the element and the law's role (``"R flow"``, ``"C"``...), for messages
@@ -88,7 +93,7 @@ class InverseLaw(sp.Function):
         if not 1 <= argindex <= len(self.args):
             raise sp.ArgumentIndexError(self, argindex)
         at = self._at(self, self.args[1:])
-        slope = sp.diff(self.law, self.variable).xreplace(at)
+        slope = self.slope.xreplace(at)
         if argindex == 1:
             return 1 / slope
         return -sp.diff(self.law, self.others[argindex - 2]).xreplace(at) / slope
@@ -155,12 +160,21 @@ def numeric_inverse(law: sp.Expr, variable: sp.Symbol, element: str, what: str, 
     real = sp.Symbol("_v", real=True)
     made = type(f"inverse_law_{_identifier(element)}", (InverseLaw,),
                 {"law": law.xreplace({variable: real}), "variable": real, "others": others, "element": element,
+                 "slope": slope_of(law.xreplace({variable: real}), real),
                  "what": what,
                  "helper": f"_inverse_law_{_identifier(element)}_{digest}", "start": float(start), "sense": sense,
                  "_made_from": (law, variable, element, what, sense, start),
                  "__module__": __name__})
     made._imp_ = _evaluator(made)
     return made
+
+
+def slope_of(law: sp.Expr, variable: sp.Symbol) -> sp.Expr:
+    """``∂law/∂variable`` without its Dirac pulses: ``sign(v)·v²`` has the slope
+    ``2|v|`` (its ``2v²·δ(v)`` is nought everywhere the slope is evaluated)."""
+    slope = sp.diff(law, variable)
+    return slope.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.S.Zero) \
+        if slope.has(sp.DiracDelta) else slope
 
 
 def _evaluator(law_class) -> staticmethod:
@@ -207,7 +221,7 @@ def _real(value) -> float | None:
 
 def _sign(value) -> int | None:
     """The sign (−1, 0, 1) of a real mpmath number, however large; ``None``
-    for a NaN or a value with an imaginary part."""
+    for an infinity, a NaN or a value with an imaginary part."""
     import mpmath
 
     if isinstance(value, mpmath.mpc):
@@ -218,7 +232,7 @@ def _sign(value) -> int | None:
         value = mpmath.mpf(value)
     except (TypeError, ValueError):
         return None
-    if mpmath.isnan(value):
+    if mpmath.isnan(value) or mpmath.isinf(value):
         return None
     return (value > 0) - (value < 0)
 
@@ -323,7 +337,7 @@ def monotonic_sense(law: sp.Expr, variable: sp.Symbol) -> tuple[int, float] | No
     law = law.xreplace({variable: real, **values})
     variable = real
     try:
-        slope = sp.lambdify([variable], sp.diff(law, variable), "mpmath")
+        slope = sp.lambdify([variable], slope_of(law, variable), "mpmath")
         value = sp.lambdify([variable], law, "mpmath")
     except Exception:  # noqa: BLE001 - a law lambdify cannot print: not checkable, so not monotonic
         return None

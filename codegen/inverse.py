@@ -138,7 +138,7 @@ def scalar_source(law_class, name: str, printed, docstring, decorator: str = "")
              "                hi = v",
              f"            dv = {slope}",
              "            step = nan",
-             "            if dv != 0.0:",
+             "            if dv != 0.0 and isfinite(dv):",
              "                step = gv / dv",
              "            nv = v - step",
              "            if not ((nv > lo and nv < hi) or (nv > hi and nv < lo)):",

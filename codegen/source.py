@@ -439,7 +439,7 @@ def inverse_helpers(laws, compiled: bool = False) -> list:
         def printed(variable, law=law):
             names = {law.variable: variable, **{s: f"a{k}" for k, s in enumerate(law.others)}}
             printer = _Printer(False, names)
-            return printer.doprint(law.law), printer.doprint(sp.diff(law.law, law.variable))
+            return printer.doprint(law.law), printer.doprint(law.slope)
 
         make = inverse.compiled_source if compiled else inverse.python_source
         texts.append(make(law, printed, docstring))

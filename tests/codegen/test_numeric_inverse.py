@@ -134,6 +134,27 @@ def test_the_law_derives_in_seconds_as_a_function_with_its_law():
     assert sp.simplify(type(effort).law - psi(v)) == 0 and type(effort).helper.startswith("_inverse_law_R_")
 
 
+@pytest.mark.timeout(60)
+def test_a_law_sympy_searches_for_long_is_given_up_after_two_seconds_for_the_numeric_inverse():
+    """``e/3 + exp(40 e)/10¹²`` (exact rationals): sympy's Lambert solver runs for hours; the search
+    for a closed-form inverse stops after 2 s (whatever the derivation budget above that)."""
+    from bondgraph import budget
+    from bondgraph.elements import INVERSE_SECONDS
+
+    assert INVERSE_SECONDS == 2.0
+    saved = budget.SECONDS
+    budget.SECONDS = 30.0
+    try:
+        start = time.perf_counter()
+        law = lambda e: e / 3 + sp.Rational(1, 10**12) * (sp.exp(40 * e) - 1)  # noqa: E731
+        effort = _forced(law, "D_slow").equations().effort("D_slow")  # (a name of its own: inverses are cached)
+        seconds = time.perf_counter() - start
+    finally:
+        budget.SECONDS = saved
+    assert isinstance(effort, InverseLaw)
+    assert 2.0 <= seconds < 6.0, seconds
+
+
 def test_the_function_differentiates_by_the_implicit_function_theorem_and_evaluates():
     y, k = sp.symbols("y k")
     inverse = the_inverse().func(y)
@@ -411,6 +432,34 @@ def test_a_law_that_is_not_monotonic_is_refused_by_name_with_what_to_do(law, sho
     message = str(info.value)
     assert info.value.elements == ("diode/D1",) and "'diode/D1'" in message and shown in message
     assert "not monotonic" in message and "effort_law=" in message
+
+
+@pytest.mark.parametrize("law", [lambda f: sp.sign(f) * f**2, lambda f: f * sp.Abs(f)],
+                         ids=["sign(f)*f**2", "f*Abs(f)"])
+def test_a_quadratic_orifice_drains_a_tank_on_the_exact_square_root_law(law):
+    """A tank (C = 1) draining through an orifice ``Δp = f·|f|`` (sympy does not solve ``Abs`` or
+    ``sign``; the slope's Dirac pulse at 0 is left out): ``dq/dt = −√q``, ``q(t) = (√q₀ − t/2)²``."""
+    g = BondGraph("tank")
+    j = g.add(Zero("j"))
+    g.connect(j, C("C", "Cap"))
+    g.connect(j, R("orifice", effort_law=law))
+    model = HybridModel(g, [], {"Cap": 1.0}, initial_state={"q_C": 4.0})
+    assert model.mode_equations(model.initial_mode).equations.rates[sp.Symbol("q_C")].has(InverseLaw)
+    times = np.linspace(0.0, 3.0, 7)
+    run = model.simulate(3.0, "Radau", rtol=1e-11, atol=1e-13, t_eval=times)
+    np.testing.assert_allclose(run.state("q_C"), (2.0 - times / 2) ** 2, rtol=1e-8)
+
+
+def test_a_law_with_an_infinite_slope_is_refused_naming_what_to_give_instead():
+    """``sign(f)·√|f|`` is increasing, but its slope is infinite at 0, where Newton's step would stall."""
+    g = BondGraph("root")
+    j = g.add(Zero("j"))
+    g.connect(j, C("C", "Cap"))
+    g.connect(j, R("Rs", effort_law=lambda f: sp.sign(f) * sp.sqrt(sp.Abs(f))))
+    with pytest.raises(DerivationError) as info:
+        g.equations()
+    message = str(info.value)
+    assert "'Rs'" in message and "not a finite real number somewhere" in message and "flow_law=" in message
 
 
 def test_a_capacitor_law_that_is_not_monotonic_is_refused_in_derivative_causality():
