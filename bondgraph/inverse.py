@@ -331,32 +331,43 @@ def computes_accurately(law: sp.Expr, variable: sp.Symbol, y: sp.Symbol, branch:
 def monotonic_sense(law: sp.Expr, variable: sp.Symbol) -> tuple[int, float] | None:
     """``(sense, start)`` when ``law`` is monotonic at the sample points
     :data:`SLOPE_SAMPLES` (``sense`` +1 increasing, −1 decreasing; ``start``
-    the first of 0, 1, −1 where the law is finite), else ``None``."""
+    the first of 0, 1, −1 where the law and its slope are finite), else
+    ``None`` (also when the check runs past the budget: mpmath's numbers
+    have no range, and ``exp(exp(exp(v)))`` at ``v = 1000`` has no end)."""
     values = {s: float(v) for s, v in _sample_values(law.free_symbols - {variable}).items()}
     real = sp.Dummy(variable.name, real=True)
     law = law.xreplace({variable: real, **values})
-    variable = real
     try:
-        slope = sp.lambdify([variable], slope_of(law, variable), "mpmath")
-        value = sp.lambdify([variable], law, "mpmath")
+        slope = sp.lambdify([real], slope_of(law, real), "mpmath")
+        value = sp.lambdify([real], law, "mpmath")
     except Exception:  # noqa: BLE001 - a law lambdify cannot print: not checkable, so not monotonic
         return None
+    try:
+        return budget.run(f"checking that {law} is monotonic", _sense_and_start, slope, value)
+    except budget.OverBudget:
+        return None
+
+
+def _at_sample(function, v):
+    """``function(v)`` (an mpmath number), ``None`` where it is not defined."""
+    try:
+        return function(v)
+    except (TypeError, ValueError, ArithmeticError):
+        return None
+
+
+def _sense_and_start(slope, value) -> tuple[int, float] | None:
+    """:func:`monotonic_sense` for the law ``value`` and its ``slope`` (functions of an mpmath number)."""
     signs = set()
     for v in SLOPE_SAMPLES:
-        try:
-            s = _sign(slope(v))
-        except (TypeError, ValueError, ArithmeticError):
-            s = None
+        s = _sign(_at_sample(slope, v))
         if s is None:
             return None  # not defined on the whole line: no numeric inverse (its bracket would leave the domain)
         if s != 0:
-            signs.add(1 if s > 0 else -1)
+            signs.add(s)
     if len(signs) != 1:
         return None
     for start in (0.0, 1.0, -1.0):
-        try:
-            if _real(value(start)) is not None:
-                return signs.pop(), start
-        except (TypeError, ValueError, ArithmeticError):
-            continue
+        if _real(_at_sample(value, start)) is not None and _sign(_at_sample(slope, start)) is not None:
+            return signs.pop(), start
     return None
