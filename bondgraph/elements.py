@@ -183,7 +183,10 @@ def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
     branch = branch_on_the_line(expr, var, y, solutions) if solutions else None
     if branch is not None and computes_accurately(expr, var, y, branch):
         return y, branch, None
-    monotonic = monotonic_sense(expr, var)
+    try:
+        monotonic, unchecked = monotonic_sense(expr, var), False
+    except budget.OverBudget:
+        monotonic, unchecked = None, True
     if branch is not None and monotonic is None:  # (inaccurate in places, but the only inverse there is)
         return y, branch, None
     if monotonic is not None:
@@ -196,9 +199,11 @@ def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
         found = f"sympy gives {len(solutions)} solutions, none of them the inverse on the whole line, "
     else:
         found = "sympy gives no solution, "
-    return y, None, SolveFailure(found + "and the law is not monotonic on the whole line (its slope changes sign "
-                                 "or is not a finite real number somewhere), so it has no numeric inverse either",
-                                 failure is not None and failure.over_budget)
+    why = ("its monotonicity could not be checked within the budget (its slope far from 0 is beyond reach), so it "
+           "gets no numeric inverse either" if unchecked else
+           "the law is not monotonic on the whole line (its slope changes sign or is not a finite real number "
+           "somewhere), so it has no numeric inverse either")
+    return y, None, SolveFailure(found + "and " + why, (failure is not None and failure.over_budget) or unchecked)
 
 
 def _others(expr: sp.Expr, var: sp.Symbol) -> tuple:

@@ -462,6 +462,26 @@ def test_a_law_with_an_infinite_slope_is_refused_naming_what_to_give_instead():
     assert "'Rs'" in message and "not a finite real number somewhere" in message and "flow_law=" in message
 
 
+@pytest.mark.timeout(60)
+def test_a_law_whose_monotonicity_cannot_be_checked_in_the_budget_is_refused_saying_so():
+    """``e + exp(exp(exp(e)))``: its slope at ``e = 1000`` has no end in mpmath's unbounded numbers."""
+    from bondgraph import budget
+
+    saved = budget.SECONDS
+    budget.SECONDS = 1.0
+    try:
+        start = time.perf_counter()
+        with pytest.raises(DerivationError) as info:
+            _forced(lambda e: e + sp.exp(sp.exp(sp.exp(e))), "tower").equations()
+        seconds = time.perf_counter() - start
+    finally:
+        budget.SECONDS = saved
+    assert seconds < 10
+    message = str(info.value)
+    assert "'tower'" in message and "monotonicity could not be checked within the budget" in message
+    assert budget.ENVIRONMENT_VARIABLE in message and "effort_law=" in message
+
+
 def test_a_capacitor_law_that_is_not_monotonic_is_refused_in_derivative_causality():
     """A flow source into a capacitor through a 0-junction with a second capacitor: one of them
     is forced into derivative causality, which needs ``q = Φ⁻¹(e)``."""
