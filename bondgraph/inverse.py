@@ -63,7 +63,8 @@ class InverseLaw(sp.Function):
     ``∂v/∂y = 1/ψ′(v)``, ``∂v/∂a_j = −(∂ψ/∂a_j)(v)/ψ′(v)``.  Printed in
     generated code as a call of :attr:`helper`, the bracketed Newton
     iteration :mod:`codegen.inverse` writes for the law; ``evalf`` finds the
-    root with mpmath."""
+    root with mpmath (a bracket grown about :attr:`start`, then bisection to
+    the working precision)."""
 
     #: the law ``ψ`` as an expression of :attr:`variable` and :attr:`others`
     law: sp.Expr = None
@@ -123,7 +124,7 @@ class InverseLaw(sp.Function):
                 width *= 2
             else:
                 return None
-            for _ in range(4 * prec + 200):  # bisection to the working precision, then Newton's polish
+            for _ in range(4 * prec + 200):  # bisection until no number of the working precision lies between
                 middle = (low + high) / 2
                 if middle in (low, high):
                     break

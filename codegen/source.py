@@ -419,13 +419,13 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
             if k not in copied:
                 lines.append(f"    out[{k}] = {text(expr)}")
         lines.append("    return out")
-    text = "\n".join(lines) + "\n"
+    source = "\n".join(lines) + "\n"
     if spec.helpers:
         from .inverse import inverse_laws
 
         for helper in inverse_helpers(inverse_laws(kinds)):
-            text += "\n\n" + helper
-    return text
+            source += "\n\n" + helper
+    return source
 
 
 def inverse_helpers(laws, compiled: bool = False) -> list:
