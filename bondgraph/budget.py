@@ -50,7 +50,7 @@ from collections.abc import Callable
 
 from .errors import DerivationError
 
-__all__ = ["DEFAULT_SECONDS", "ENVIRONMENT_VARIABLE", "SECONDS", "OverBudget", "budget_seconds", "run"]
+__all__ = ["DEFAULT_SECONDS", "ENVIRONMENT_VARIABLE", "SECONDS", "OverBudget", "budget_seconds", "run", "run_within"]
 
 #: the budget of one symbolic step when neither :data:`SECONDS` nor the environment sets it
 DEFAULT_SECONDS = 5.0
@@ -109,7 +109,16 @@ def budget_seconds() -> float | None:
 def run(step: str, function: Callable, *args, **kwargs):
     """``function(*args, **kwargs)`` stopped after the budget: raises
     :class:`OverBudget` (naming ``step``) if it has not returned by then."""
+    return run_within(budget_seconds(), step, function, *args, **kwargs)
+
+
+def run_within(limit: float | None, step: str, function: Callable, *args, **kwargs):
+    """:func:`run` with the budget at most ``limit`` seconds (``None``: the
+    budget as set): a step with a cheaper fallback (a numeric inverse)
+    need not wait for the whole budget."""
     seconds = budget_seconds()
+    if limit is not None and seconds is not None:
+        seconds = min(seconds, limit)
     if seconds is None:
         return function(*args, **kwargs)
     token = object()

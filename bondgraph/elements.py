@@ -37,6 +37,7 @@ import sympy as sp
 
 from . import budget
 from .errors import DerivationError, InvalidGraphError
+from .inverse import branch_on_the_line, computes_accurately, monotonic_sense, numeric_inverse
 from .solving import SolveFailure, solve
 from .symbols import as_expr, check_name
 
@@ -156,44 +157,80 @@ def _law_from(law, placeholder: sp.Symbol, what: str) -> sp.Expr:
     return as_expr(law, what)
 
 
+#: the budget of sympy's search for a closed-form inverse of a law (at most the budget as set): past it, a
+#: monotonic law gets its numeric inverse
+INVERSE_SECONDS = 2.0
+
+
 @functools.lru_cache(maxsize=4096)
-def _inverse(expr: sp.Expr, var: sp.Symbol) -> tuple:
-    """``(y, solutions, failure)``: every ``var`` with ``expr(var) = y`` (``y``
-    a dummy), or ``failure`` (a :class:`~bondgraph.solving.SolveFailure`)
-    when sympy cannot find them within the budget.  Cached, failures too:
-    each mode with the element in derivative causality asks again."""
+def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
+    """``(y, inverse, failure)``: ``var`` as an expression of ``y`` (a dummy)
+    with ``expr(var) = y`` — sympy's closed form when it has a real branch
+    on the whole line that keeps its digits in floating point, else the
+    numeric inverse of a monotonic law
+    (:mod:`bondgraph.inverse`) — or ``(y, None, reason)``.  Cached, failures
+    too: each mode with the element in that causality asks again."""
     y = sp.Dummy("y")
     slope = sp.diff(expr, var)
     if slope != 0 and not slope.has(var) and expr.xreplace({var: 0}) == 0:  # linear: no solver needed
-        return y, (y / slope,), None
+        return y, y / slope, None
     try:
-        solutions = solve([expr - y], [var], f"inverting {expr} for {var}")
-    except SolveFailure as failure:
-        return y, (), failure
-    return y, tuple(s[var] for s in solutions if var in s), None
+        step = f"inverting {expr} for {var}"
+        solutions = [s[var] for s in solve([expr - y], [var], step, INVERSE_SECONDS) if var in s]
+        failure = None
+    except SolveFailure as exc:
+        solutions, failure = [], exc
+    branch = branch_on_the_line(expr, var, y, solutions) if solutions else None
+    if branch is not None and computes_accurately(expr, var, y, branch):
+        return y, branch, None
+    try:
+        monotonic, unchecked = monotonic_sense(expr, var), False
+    except budget.OverBudget:
+        monotonic, unchecked = None, True
+    if branch is not None and monotonic is None:  # (inaccurate in places, but the only inverse there is)
+        return y, branch, None
+    if monotonic is not None:
+        return y, numeric_inverse(expr, var, element, what, *monotonic)(y, *_others(expr, var)), None
+    if len(solutions) == 1:  # sympy's one solution, unchecked on part of the line: as before
+        return y, solutions[0], None
+    if failure is not None:
+        found = failure.reason + ", "
+    elif solutions:
+        found = f"sympy gives {len(solutions)} solutions, none of them the inverse on the whole line, "
+    else:
+        found = "sympy gives no solution, "
+    why = ("its monotonicity could not be checked within the budget (its slope far from 0 is beyond reach), so it "
+           "gets no numeric inverse either" if unchecked else
+           "the law is not monotonic on the whole line (its slope changes sign or is not a finite real number "
+           "somewhere), so it has no numeric inverse either")
+    return y, None, SolveFailure(found + "and " + why, (failure is not None and failure.over_budget) or unchecked)
+
+
+def _others(expr: sp.Expr, var: sp.Symbol) -> tuple:
+    """The other symbols of a law, in the order of :attr:`bondgraph.inverse.InverseLaw.others`."""
+    return tuple(sorted(expr.free_symbols - {var}, key=lambda s: (s.name, sp.srepr(s))))
 
 
 def _invert(expr: sp.Expr, var: sp.Symbol, value: sp.Expr, element: str, what: str) -> sp.Expr:
-    """Solve ``expr(var) = value`` for ``var``; it must have one solution,
-    found within the budget of :mod:`bondgraph.budget`."""
-    y, solutions, failure = _inverse(expr, var)
-    if failure is not None or len(solutions) != 1:
+    """Solve ``expr(var) = value`` for ``var`` (see :func:`_inverse`), within
+    the budget of :mod:`bondgraph.budget`."""
+    y, inverse, failure = _inverse(expr, var, element, what)
+    if inverse is None:
         shown = expr.xreplace({var: sp.Symbol(var.name)})
-        found = failure.reason if failure is not None else f"it has {len(solutions)} solutions, not one"
         other = {"R flow": "effort_law=", "R effort": "flow_law="}.get(what)
         advice = (f"Give the law in the causality the graph needs ({other}...), " if other
                   else "Give the law in the other causality, ")
-        if failure is not None and failure.over_budget:
+        if failure.over_budget:
             advice += ("give its numbers as parameters (symbols, with their values among the model's "
                        "parameters: sympy inverts those far faster), or raise the budget "
                        f"({budget.ENVIRONMENT_VARIABLE}); ")
         raise DerivationError(
-            f"cannot invert the {what} law of {element!r} ({shown} = y) for {var.name}: {found}. "
+            f"cannot invert the {what} law of {element!r} ({shown} = y) for {var.name}: {failure.reason}. "
             f"The graph forces the other causality on {element!r}. {advice}"
             "or change the graph so the element keeps its preferred causality.",
             [element],
         )
-    return solutions[0].xreplace({y: value})
+    return inverse.xreplace({y: value})
 
 
 @dataclass(frozen=True)
@@ -316,7 +353,10 @@ class R(OnePort):
     ``effort_law=lambda f: R0*f**3`` prefers resistance causality (flow in,
     effort out); ``flow_law=lambda e: Is*(exp(e/VT) - 1)`` (a diode curve)
     prefers conductance causality.  The other causality inverts the law
-    symbolically, and it is an error if that has no unique solution.
+    (:mod:`bondgraph.inverse`): sympy's closed form when it has one that is
+    real on the whole line and keeps its digits, else the numeric inverse of
+    a monotonic law; a law that is neither is a
+    :class:`~bondgraph.errors.DerivationError` naming the element.
     """
 
     kind: ClassVar[str] = "R"

@@ -43,14 +43,15 @@ def _floats_as_symbols(expressions) -> tuple[list, dict]:
     return [expr.xreplace(forward) for expr in expressions], back
 
 
-def solve(equations, unknowns, step: str) -> list[dict]:
+def solve(equations, unknowns, step: str, seconds: float | None = None) -> list[dict]:
     """Every solution of ``equations = 0`` for ``unknowns`` (``sympy.solve``
     with ``dict=True``), found with the numbers replaced by symbols (see the
-    module docstring), each step in the budget.  Raises :class:`SolveFailure`."""
+    module docstring), each step in the budget (at most ``seconds`` when
+    given).  Raises :class:`SolveFailure`."""
     equations = [sp.sympify(e) for e in equations]
     symbolic, back = _floats_as_symbols(equations)
     try:
-        solutions = budget.run(step, sp.solve, symbolic, list(unknowns), dict=True)
+        solutions = budget.run_within(seconds, step, sp.solve, symbolic, list(unknowns), dict=True)
     except budget.OverBudget as exc:
         raise SolveFailure(f"sympy found no solution within the budget of {exc.seconds:g} s", True) from None
     except Exception as exc:  # NotImplementedError and sympy's own errors: no closed form

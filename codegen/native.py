@@ -21,7 +21,10 @@ The translated language is the subset of Python the generator writes:
   ``float``, the functions of :mod:`math` and ``np.isfinite``, and calls of
   the functions the caller names (``calls`` of :func:`compile_function`, e.g. a
   comparison its kernel also compiles), written in this subset and translated
-  too, with the functions they call in the same top-level packages;
+  too, with the functions they call in the same top-level packages, and of
+  the source's own other top-level functions (a law's numeric inverse,
+  :mod:`codegen.inverse`; their decorators are numba's business, not
+  translated);
   module-level numbers are constants.
 
 The meaning is numba's for the same source (``error_model="numpy"``, no
@@ -161,6 +164,10 @@ class _Translator:
         self.module = ir.Module(name=module_name)
         self.f64, self.i64, self.i1, self.i8 = ir.DoubleType(), ir.IntType(64), ir.IntType(1), ir.IntType(8)
         self.helpers: dict = {}  # (python function, argument kinds) → (llvm function, result kind)
+        #: the source's other top-level functions (a numeric inverse's iteration, codegen.inverse), by name,
+        #: translated from their trees when the entry calls them; ``namespace``: the source's globals
+        self.local: dict = {}
+        self.namespace: dict = {}
 
     # ------------------------------------------------------------------ kinds of values (under fn.variables)
     def llvm_type(self, kind):
@@ -191,6 +198,8 @@ class _Translator:
             raise Untranslatable(f"call of {target.value.id}.{target.attr} ({_where(node)})")
         if not isinstance(target, ast.Name):
             raise Untranslatable(f"call of a computed function ({_where(node)})")
+        if target.id in self.local and fn.globals is self.namespace:
+            return ("helper", ("local", target.id))
         value = self.resolve(fn, target.id, node)
         if value is abs or value is max or value is min or value is float:
             return ("builtin", value.__name__)
@@ -406,21 +415,26 @@ class _Translator:
 
     # ------------------------------------------------------------------ functions
     def helper(self, python, kinds: tuple, node):
-        """The LLVM function of toolkit function ``python`` for argument kinds ``kinds`` (translated once)."""
+        """The LLVM function of toolkit function ``python`` (or of a function
+        ``("local", name)`` the source defines itself) for argument kinds
+        ``kinds`` (translated once)."""
         key = (python, kinds)
         if key in self.helpers:
             if self.helpers[key] is None:
-                raise Untranslatable(f"recursive call of {python.__name__!r} ({_where(node)})")
+                raise Untranslatable(f"recursive call of {_called(python)!r} ({_where(node)})")
             return self.helpers[key]
-        tree = _function_tree(python)
+        if isinstance(python, tuple):  # a function of the source: its tree, the source's globals
+            tree, namespace, module = self.local[python[1]], self.namespace, "source"
+        else:
+            tree, namespace, module = _function_tree(python), python.__globals__, python.__module__
         names = [a.arg for a in tree.args.args]
         if len(names) != len(kinds) or tree.args.vararg or tree.args.kwarg or tree.args.defaults:
-            raise Untranslatable(f"call of {python.__name__!r} with {len(kinds)} arguments ({_where(node)})")
+            raise Untranslatable(f"call of {_called(python)!r} with {len(kinds)} arguments ({_where(node)})")
         self.helpers[key] = None
-        fn = _Function(tree, python.__globals__, dict(zip(names, kinds)))
+        fn = _Function(tree, namespace, dict(zip(names, kinds)))
         self.infer(fn)
         ir = self.ir
-        name = f"hbg.{python.__module__}.{python.__name__}." + "".join(kinds)
+        name = f"hbg.{module}.{tree.name}." + "".join(kinds)
         function = ir.Function(self.module, ir.FunctionType(self.llvm_type(fn.result),
                                                              [self.llvm_type(k) for k in kinds]), name=name)
         function.linkage = "internal"
@@ -871,6 +885,11 @@ class _Body:
         return b.call(function, arguments), kind
 
 
+def _called(python) -> str:
+    """The name of a callee of :meth:`_Translator.helper` (a function, or ``("local", name)``)."""
+    return python[1] if isinstance(python, tuple) else python.__name__
+
+
 def _function_tree(python) -> ast.FunctionDef:
     try:
         source = textwrap.dedent(inspect.getsource(python))
@@ -923,6 +942,8 @@ def compile_function(source: str, entry: str, signature: list, result: str, name
         imports = ast.Module([n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))], [])
         exec(compile(imports, "<imports of a generated module>", "exec"), namespace)  # the source's own imports
     translator = _Translator(name, calls)
+    translator.local = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name != entry}
+    translator.namespace = namespace
     translator.entry(definitions[0], namespace, signature, result, name)
     with numba_internals.compiler_lock():
         library = numba_internals.compile_library(name, translator.module)  # (its object code can be kept)

@@ -145,6 +145,14 @@ def _smooth(fn):
     return apply
 
 
+def _nan_where_math_raises(fn, args):
+    """``fn(*args)``, NaN where :mod:`math` raises (overflow, a domain error, a division by zero)."""
+    try:
+        return fn(*args)
+    except (OverflowError, ValueError, ZeroDivisionError):
+        return math.nan
+
+
 class H:
     """Function namespace used by generated *raw* (impulse-aware) code."""
 
@@ -154,6 +162,24 @@ class H:
     abs = staticmethod(lambda x: abs(hyper(x)))
     max = staticmethod(max)
     min = staticmethod(min)
+
+    @staticmethod
+    def elementwise(fn, *args):
+        """``fn`` (a function of floats: a numeric inverse, :mod:`codegen.inverse`)
+        at ``args``: on floats a float; on arrays (anything with a non-zero
+        ``ndim``) an array, element by element over their broadcast; on
+        :class:`Hyper` values a finite :class:`Hyper` (a pulse raises
+        :class:`PulseError`: a law's inverse of a pulse has no meaning).
+        Where :mod:`math` raises inside ``fn`` (a value past the floating-point
+        range: ``exp(1000)``, where machine code goes on with ``inf``) the
+        value is NaN."""
+        if any(isinstance(a, Hyper) for a in args):
+            return _smooth(lambda *v: _nan_where_math_raises(fn, v))(*args)
+        if any(getattr(a, "ndim", 0) for a in args):
+            import numpy as np
+
+            return np.vectorize(lambda *v: _nan_where_math_raises(fn, v), otypes=[float])(*args)
+        return _nan_where_math_raises(fn, [float(a) for a in args])
 
     @staticmethod
     def copysign(magnitude, x):

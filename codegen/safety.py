@@ -22,7 +22,8 @@ module runs:
 * no operation the generator never writes: imports inside a function,
   classes, ``with``, ``del``, ``global`` stores, attribute stores,
   ``yield``/``await``, and (except in the compiled dialect's
-  ``for k in range(...)``) no loop.
+  ``for k in range(...)`` and in the iteration of a numeric inverse, a
+  function named ``_inverse_law_…``: :mod:`codegen.inverse`) no loop.
 
 The check reads the compiled code's own tables (names, opcodes): it costs a
 small fraction of the compilation, whatever the size of the module (a
@@ -148,9 +149,19 @@ def check_code(code: types.CodeType, where: str = "<generated>", dialect: Dialec
         found = operations & (_NEVER | (frozenset() if module_level and dialect.imports else _IMPORTS))
         if found:
             raise _refuse(where, current, "the operation(s) " + ", ".join(sorted(dis.opname[op] for op in found)))
-        if not dialect.loops and operations & _LOOPS:
+        if not dialect.loops and operations & _LOOPS and (module_level or not _may_loop(current)):
             raise _refuse(where, current, "a loop")
         stack.extend((c, False) for c in current.co_consts if isinstance(c, types.CodeType))
+
+
+def _may_loop(code: types.CodeType) -> bool:
+    """Is ``code`` the iteration of a numeric inverse (:mod:`codegen.inverse`), the one
+    generated function with loops in a dialect without them?  Its name starts with
+    :data:`codegen.inverse.HELPER_PREFIX`, which no sanitized user name does; its names are
+    checked as any other's."""
+    from .inverse import HELPER_PREFIX
+
+    return code.co_name.startswith(HELPER_PREFIX)
 
 
 #: digests of the (source, dialect) pairs that passed, so that a source is compiled for the check once per process

@@ -14,6 +14,8 @@ Lambert's W (the inverse of an exponential law in a loop) is printed
 through the Wright omega function: :func:`codegen.lambert.omega_form`
 rewrites it before printing, and generated code calls ``wrightomega``
 (:func:`codegen.omega.wrightomega`, in every namespace and dialect).
+The numeric inverse of a law sympy cannot invert is a call of a helper that
+the function's source defines after it (:mod:`codegen.inverse`).
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ from sympy.printing.pycode import PythonCodePrinter
 from .errors import UnprintableExpressionError
 
 __all__ = ["Argument", "FunctionSpec", "UnprintableExpressionError", "PrintMemo", "common_subexpressions",
-           "composed_source", "docstring", "escaped", "function_source", "sanitize", "module_namespace"]
+           "composed_source", "docstring", "escaped", "function_source", "inverse_helpers", "sanitize",
+           "module_namespace"]
 
 
 
@@ -58,6 +61,9 @@ class FunctionSpec:
     #: an array argument whose entries most outputs equal (a jump leaves most states as they are):
     #: from COPY_MIN such outputs on, one slice copy ``out[:] = <it>`` writes them all
     copy_of: str = ""
+    #: the numeric inverses the outputs call (:mod:`codegen.inverse`) defined after the function (Python
+    #: modules); ``False`` for a caller that defines them itself (machine-code modules)
+    helpers: bool = True
 
 
 #: outputs equal to their entry of :attr:`FunctionSpec.copy_of` written by one slice copy from this many on
@@ -370,7 +376,7 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
         copied = _copied_outputs(spec, outputs)
         needed = set()
         shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
-                                       needed)
+                                       needed, kinds)
     if memo is None:
         temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
     else:
@@ -411,7 +417,31 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
             if k not in copied:
                 lines.append(f"    out[{k}] = {text(expr)}")
         lines.append("    return out")
-    return "\n".join(lines) + "\n"
+    source = "\n".join(lines) + "\n"
+    if spec.helpers:
+        from .inverse import inverse_laws
+
+        for helper in inverse_helpers(inverse_laws(kinds)):
+            source += "\n\n" + helper
+    return source
+
+
+def inverse_helpers(laws, compiled: bool = False) -> list:
+    """The definitions of the numeric inverses of ``laws`` (classes of
+    :class:`bondgraph.inverse.InverseLaw`, :mod:`codegen.inverse`) for a
+    Python module, or (``compiled``) for a machine-code module."""
+    from . import inverse
+
+    texts = []
+    for law in laws:
+        def printed(variable, law=law):
+            names = {law.variable: variable, **{s: f"a{k}" for k, s in enumerate(law.others)}}
+            printer = _Printer(False, names)
+            return printer.doprint(law.law), printer.doprint(law.slope)
+
+        make = inverse.compiled_source if compiled else inverse.python_source
+        texts.append(make(law, printed, docstring))
+    return texts
 
 
 def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:

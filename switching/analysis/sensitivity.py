@@ -68,7 +68,7 @@ __all__ = ["Sensitivities", "INITIAL_PREFIX", "SENSITIVITY_SOURCE_VERSION", "der
 #: prefix of an initial state's name in ``sensitivities=`` (``"x0:y"``)
 INITIAL_PREFIX = "x0:"
 #: part of the disk-cache key of the generated derivative functions
-SENSITIVITY_SOURCE_VERSION = "2"
+SENSITIVITY_SOURCE_VERSION = "3"
 #: tolerances of the augmented integration, unless told (``sensitivity_rtol=``, ``sensitivity_atol=``)
 DEFAULT_RTOL, DEFAULT_ATOL = 1e-10, 1e-12
 _NUMERIC_ERRORS = (ArithmeticError, ValueError)

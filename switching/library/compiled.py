@@ -53,7 +53,7 @@ __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "conditi
            "decide_tree", "guard_parts", "holds_strictly", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "11"
+MODE_SOURCE_VERSION = "12"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 

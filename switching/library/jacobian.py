@@ -33,7 +33,7 @@ __all__ = ["FlowJacobian", "JACOBIAN_SOURCE_VERSION", "SPARSE_FROM", "flow_jacob
            "real_gradient"]
 
 #: part of the cache key of a generated Jacobian: raise it when the generated text changes
-JACOBIAN_SOURCE_VERSION = "1"
+JACOBIAN_SOURCE_VERSION = "2"
 #: a Jacobian of at least this many states, at most a quarter of its entries nonzero, is handed to
 #: Radau and BDF as a sparse matrix
 SPARSE_FROM = 40

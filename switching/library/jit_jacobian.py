@@ -34,7 +34,7 @@ import sympy as sp
 from bondgraph import budget
 from codegen.cache import fingerprint
 from codegen.machine import machine_function
-from codegen.source import Argument, docstring
+from codegen.source import Argument, docstring, inverse_helpers
 
 from .jacobian import flow_rate, jacobian_entries
 from .jit_model import (GENERATOR_VERSION, MODE_DIALECT, generated_statements, input_substitution, inputs_key,
@@ -42,7 +42,7 @@ from .jit_model import (GENERATOR_VERSION, MODE_DIALECT, generated_statements, i
 
 __all__ = ["JACOBIAN_FUNCTION_VERSION", "OP_JAC", "jacobian_function", "jacobian_function_source"]
 
-JACOBIAN_FUNCTION_VERSION = "3"  # part of the cache key: change it when the generated functions change
+JACOBIAN_FUNCTION_VERSION = "4"  # part of the cache key: change it when the generated functions change
 OP_JAC = 6  # switching.kernel.calls.OPS["jac"]
 
 
@@ -79,7 +79,8 @@ def jacobian_function_source(model, mode) -> str | None:
                 place.append(k * k + i)
                 entries = [*entries, derivative]
         size = k * k + k
-    statements = generated_statements(inputs, "jac", arguments, entries) if entries else []
+    laws: dict = {}  # the numeric inverses the entries call (codegen.inverse), defined in the module
+    statements = generated_statements(inputs, "jac", arguments, entries, laws=laws) if entries else []
     statements = [re.sub(r"\bout\[(\d+)\]", lambda found: f"out[{place[int(found.group(1))]}]", line)
                   for line in statements]
     P = parameter_names({"jac": statements + ["for k in range(1):"]})
@@ -95,8 +96,10 @@ def jacobian_function_source(model, mode) -> str | None:
         "import numpy as np",
         "from numba import carray",
         *(["from codegen.compiled_omega import wrightomega"] if omega else []),  # (Lambert's W, where called)
+        *(["from numba import njit"] if laws else []),
         "",
         "",
+        *[helper + "\n\n" for helper in inverse_helpers([laws[name] for name in sorted(laws)], compiled=True)],
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
         f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
         docstring([f"Mode {label}: ``{P['op_']}`` {OP_JAC}: the flow's Jacobian ∂(dy/dt)/∂y at the independent "

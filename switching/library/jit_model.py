@@ -74,7 +74,9 @@ from codegen.cache import fingerprint
 from codegen.jit import guard_cache, tree_expression
 from codegen.machine import is_compiled, machine_function
 from codegen.safety import Dialect
-from codegen.source import Argument, FunctionSpec, docstring, escaped, function_source
+from codegen.inverse import HELPER_PREFIX, inverse_laws
+from codegen.source import (Argument, FunctionSpec, common_subexpressions, docstring, escaped, function_source,
+                            inverse_helpers)
 
 from ..model.automaton import A_POSTERIORI
 from ..model.expression_input import ExpressionInput
@@ -357,20 +359,29 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
                        f"(≈ {cost:g} s)")
 
 
-def generated_statements(inputs: dict, name: str, arguments, outputs, out: str = "out") -> list:
+def generated_statements(inputs: dict, name: str, arguments, outputs, out: str = "out",
+                         laws: dict | None = None) -> list:
     """The statements of a generated function (no def, docstring or return) computing ``outputs`` of
     ``arguments`` into ``out[0], out[1], …``, the inputs (``inputs``: symbol → expression of ``t``,
-    :func:`input_substitution`) substituted."""
+    :func:`input_substitution`) substituted.  The numeric inverses they call (:mod:`codegen.inverse`) are
+    added to ``laws`` (helper name → law), whose definitions the module must hold."""
     if inputs:
         outputs = [sp.sympify(o).xreplace(inputs) for o in outputs]
-    lines = function_source(FunctionSpec(name, arguments, tuple(outputs))).splitlines()
+    text = function_source(FunctionSpec(name, arguments, tuple(outputs), helpers=False))
+    if HELPER_PREFIX in text:
+        if laws is None:
+            raise ValueError(f"{name}: the statements call numeric inverses; pass laws={{}} to collect them")
+        kinds: set = set()
+        common_subexpressions([sp.sympify(o) for o in outputs], None, kinds)
+        laws.update((law.helper, law) for law in inverse_laws(kinds))
+    lines = text.splitlines()
     end = next(k for k in range(1, len(lines)) if lines[k].rstrip().endswith('"""') and
                (k > 1 or lines[k].count('"""') == 2))
     statements = [line[4:] for line in lines[end + 1:] if line.strip() != "return out"]
     return [re.sub(r"\bout\[", f"{out}[", line) for line in statements]
 
 
-def _mode_functions(model, me, i: int) -> tuple[dict, int]:
+def _mode_functions(model, me, i: int) -> tuple[dict, int, list]:
     """The statements of each operation of mode ``i``'s function (source
     lines, by the names ``_fy``, ``_phi``, ``_holds``, ``_jump``, ``_fire``,
     ``_gparts``), and its number of comparison sides.  Inputs (expressions of ``t``) are substituted."""
@@ -410,8 +421,10 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     def flow_form(expr):
         return sp.sympify(expr).xreplace(phi) if phi else expr
 
+    laws: dict = {}  # the numeric inverses the statements call (codegen.inverse), by helper name
+
     def body(name, arguments, outputs, out="out"):
-        return generated_statements(inputs, name, arguments, outputs, out)
+        return generated_statements(inputs, name, arguments, outputs, out, laws)
 
     y_args = (Argument("y", tuple(independent)),) + base[1:]
     xp_args = (Argument("xp", tuple(states)),) + base[1:] + (Argument("d", pulses),)
@@ -473,7 +486,7 @@ def _mode_functions(model, me, i: int) -> tuple[dict, int]:
     for g, expression in enumerate(expressions):
         gparts += [f"if g == {g}:", f"    return {expression}"]
     branches["_gparts"] = gparts + ["return False"]
-    return branches, n_sides
+    return branches, n_sides, [laws[name] for name in sorted(laws)]
 
 
 # each operation of the per-mode function (switching.kernel.loop.OPS): its arrays (name, C pointer, length)
@@ -505,11 +518,13 @@ def _returning_int(line: str) -> str:
 
 
 #: what a mode function's module holds besides arithmetic (and all :mod:`codegen.safety` lets it hold):
-#: its imports (the Wright omega function when its expressions call it) and ``for k in range(...)`` loops
+#: its imports (the Wright omega function when its expressions call it, numba's ``njit`` for the numeric inverses
+#: of laws it defines: codegen.inverse) and ``for k in range(...)`` loops
 MODE_DIALECT = Dialect(imports=(("math", None, None), ("math", "*", None), ("numpy", None, "np"),
                                 ("numba", "carray", None), ("switching.kernel.loop", "decide", "_dec"),
                                 ("switching.kernel.loop", "larger", "_larger"),
-                                ("codegen.compiled_omega", "wrightomega", None)), loops=True)
+                                ("codegen.compiled_omega", "wrightomega", None), ("numba", "njit", None)),
+                       loops=True)
 
 
 def mode_function_source(model, mode) -> str:
@@ -521,7 +536,7 @@ def mode_function_source(model, mode) -> str:
     symbolic f, g, h and guards (common subexpressions eliminated; inputs,
     expressions of ``t``, substituted)."""
     me = model.mode_equations(mode)
-    branches, n_sides = _mode_functions(model, me, 0)
+    branches, n_sides, laws = _mode_functions(model, me, 0)
     cm = model.compiled_mode(mode)
     parts = guard_parts([g["tree"] for g in cm.guards])[0]
     sizes = {"N": len(model.states), "K": max(len(cm.independent), 1), "ND": max(len(cm.dependent), 1),
@@ -542,8 +557,10 @@ def mode_function_source(model, mode) -> str:
         "",
         "from switching.kernel.loop import decide as _dec, larger as _larger",
         *(["from codegen.compiled_omega import wrightomega"] if omega else []),
+        *(["from numba import njit"] if laws else []),
         "",
         "",
+        *[helper + "\n\n" for helper in inverse_helpers(laws, compiled=True)],
         f"def mode({P['op_']}, {P['which_']}, t, rtol, atol, {P['x_']}, {P['xp_']}, {P['p_']}, {P['u_']}, "
         f"{P['d_']}, {P['s_']}, {P['post_']}, {P['target_']}, {P['q_']}, {P['out_']}):",
         docstring([f'Mode {label}: ``{P["op_"]}`` 0 dy/dt of the independent states, 1 the dependent states, 2 does a',
@@ -603,7 +620,7 @@ def parameter_names(branches: dict) -> dict:
     return names
 
 
-MODE_FUNCTION_VERSION = "7"  # part of the cache key of the per-mode functions: change it when they change
+MODE_FUNCTION_VERSION = "8"  # part of the cache key of the per-mode functions: change it when they change
 
 
 def _mode_key(model, mode) -> str:

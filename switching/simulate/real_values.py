@@ -112,10 +112,26 @@ def complex_law_message(model, mode, x, t: float) -> str | None:
         shown = "no real value (outside its domain)" if output is None else f"{output.real:.6g}{output.imag:+.6g}j"
         read = ", ".join(f"{s.name} = {v:.6g}" for s, v in sorted(reads.items(), key=lambda kv: kv[0].name))
         lines.append(f"  {element!r}: {var} = {expr} gives {shown} for {read}")
+        lines.extend(_inverse_hints(expr))
     lines.append("The toolkit computes with real numbers only: keep the law real over the states the run "
                  "reaches (e.g. sqrt(Abs(q)) or sign(q)*sqrt(Abs(q)) for sqrt(q)), or switch modes before the "
                  "state leaves the law's domain.")
     return "\n".join(lines)
+
+
+def _inverse_hints(expr) -> list:
+    """A line for each numeric inverse of a law in ``expr`` (:mod:`bondgraph.inverse`): the value asked
+    of it is one the law never takes (or its iteration did not converge there)."""
+    from bondgraph.inverse import InverseLaw
+
+    lines = []
+    for call in sorted(sp.sympify(expr).atoms(InverseLaw), key=str):
+        law = call.law.xreplace({call.variable: sp.Symbol(call.variable.name.lstrip("_"))})
+        lines.append(f"    ({call.func.__name__} is the numeric inverse of the {call.what} law {law} of "
+                     f"{call.element!r}: the law never takes that value, or its iteration found no bracket "
+                     "from the operating point; give the law in the causality the graph needs, or keep the run "
+                     "within the law's range)")
+    return lines
 
 
 def complex_failure(model, mode, exc: BaseException) -> dict | None:

@@ -76,13 +76,16 @@ def test_a_loop_sympy_cannot_solve_in_its_budget_is_an_algebraic_loop_error_nami
 
 
 @pytest.mark.timeout(60)
-def test_a_law_sympy_cannot_invert_in_its_budget_is_a_derivation_error_naming_the_element(small_budget):
+def test_a_non_monotonic_law_sympy_cannot_invert_in_its_budget_is_a_derivation_error_naming_the_element(
+        small_budget):
     """A flow source forces the effort out of a law given as ``f = ψ(e)``:
-    ``e/3 + exp(40 e)/10¹²`` needs a Lambert W that sympy searches for hours."""
+    ``e/3 − exp(40 e)/10¹²`` needs a Lambert W that sympy searches for
+    hours, and its slope ``1/3 − 40 e^{40e}/10¹²`` changes sign (at
+    ``e ≈ 0.63``), so it has no numeric inverse either."""
     g = BondGraph("forced")
     j = g.add(One("j"))
     g.connect(Sf("I0", "I0"), j)
-    g.connect(j, R("D", flow_law=lambda e: e / 3 + sp.Rational(1, 10**12) * (sp.exp(40 * e) - 1)))
+    g.connect(j, R("D", flow_law=lambda e: e / 3 - sp.Rational(1, 10**12) * (sp.exp(40 * e) - 1)))
     start = time.perf_counter()
     with pytest.raises(DerivationError) as info:
         g.equations()
@@ -90,6 +93,26 @@ def test_a_law_sympy_cannot_invert_in_its_budget_is_a_derivation_error_naming_th
     message = str(info.value)
     assert info.value.elements == ("D",) and "'D'" in message and "exp(40*e)" in message
     assert "budget" in message and "effort_law=" in message and budget.ENVIRONMENT_VARIABLE in message
+    assert "not monotonic" in message
+
+
+@pytest.mark.timeout(60)
+def test_a_monotonic_law_sympy_cannot_invert_in_its_budget_gets_a_numeric_inverse(small_budget):
+    """``e/3 + exp(40 e)/10¹²`` (increasing): past the budget its inverse is
+    the numeric one, whose value solves the law."""
+    from bondgraph.inverse import InverseLaw
+
+    g = BondGraph("forced")
+    j = g.add(One("j"))
+    g.connect(Sf("I0", "I0"), j)
+    law = lambda e: e / 3 + sp.Rational(1, 10**12) * (sp.exp(40 * e) - 1)  # noqa: E731
+    g.connect(j, R("D", flow_law=law))
+    start = time.perf_counter()
+    effort = g.equations().effort("D")
+    assert time.perf_counter() - start < 20
+    assert isinstance(effort, InverseLaw) and type(effort).__name__ == "inverse_law_D"
+    value = effort.xreplace({sp.Symbol("I0"): sp.Integer(2)}).evalf(30)
+    assert abs(law(value) - 2) < 1e-25
 
 
 def test_an_abs_law_sympy_cannot_invert_is_a_derivation_error_not_a_raw_not_implemented_error():
@@ -97,7 +120,7 @@ def test_an_abs_law_sympy_cannot_invert_is_a_derivation_error_not_a_raw_not_impl
     g = BondGraph("orifice")
     j = g.add(One("j"))
     g.connect(Se("P", "P"), j)
-    g.connect(j, R("orifice", effort_law=lambda f: sp.Symbol("k") * f * sp.Abs(f)))
+    g.connect(j, R("orifice", effort_law=lambda f: sp.Symbol("k") * sp.Abs(f)))  # (even: not monotonic)
     with pytest.raises(DerivationError) as info:
         g.equations()
     message = str(info.value)
