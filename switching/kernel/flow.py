@@ -198,8 +198,8 @@ def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
     """One accepted step of RK45 from ``(t, y)``, trying ``h_abs`` first (bounded by ``max_step`` and ten
     spacings of floating-point numbers at ``t``), with scipy's error norm and step factors (0.2 to 10, safety
     0.9; no growth right after a rejection): the stages in ``K``, the end in ``y_new``, ``f_new``, the last
-    stage's argument in ``tmp``.  Returns ``(ok, t_new, h, h_abs)``: not ok when the step size collapsed;
-    ``h_abs`` the size to try next."""
+    stage's argument in ``tmp``.  Returns ``(ok, t_new, h, h_abs)``: not ok when the step size collapsed, or
+    (``h_abs`` NaN) when the error is not a number (NaN rates); ``h_abs`` the size to try next."""
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
     ke = y.shape[0]
@@ -245,6 +245,8 @@ def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
             sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
             err[i] = acc * h / sc
         error_norm = _rms(err)
+        if error_norm != error_norm:  # NaN (a rate or a stage not a number): no step size helps; never loop on
+            return False, t, h, np.nan
         if error_norm < 1:
             if error_norm == 0:
                 factor = 10.0

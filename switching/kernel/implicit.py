@@ -330,7 +330,8 @@ def _stages(m, k, t, h, rtol, atol, A, W, L, M):
 def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     """One accepted RODAS4P step from ``(t, y)``, trying ``h_abs`` first (see the module docstring): ``y₁``
     in ``y_new`` with its rates ``f_new``, the continuous extension's coefficients in ``Q``.  Returns ``(ok,
-    t_new, h, h_abs)``: not ok when the step size collapsed; ``h_abs`` the size to try next."""
+    t_new, h, h_abs)``: not ok when the step size collapsed, or (``h_abs`` NaN) when the error is not a number;
+    ``h_abs`` the size to try next."""
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
     jbuf, lu, piv, fx, ctl, order = L
@@ -351,6 +352,8 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
         h_abs = abs(h)
         factored = _factor(jbuf, lu, piv, order, int(ctl[2]), ke, 1.0 / (GAMMA * h))
         error = _stages(m, k, t, h, rtol, atol, A, W, L, M) if factored else np.inf
+        if error != error:  # NaN (a rate, the Jacobian or a stage not a number): never loop on
+            return False, t, h, np.nan
         h_next, h_acc, err_acc = rodas_control(error, h_abs, ctl[0], ctl[1], rejected)
         if error <= 1.0:
             ctl[0] = h_acc

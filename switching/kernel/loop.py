@@ -370,12 +370,12 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
             ok, t_new, h, h_abs = rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M)
             if not ok:
                 full(m, y, k, t, E, M)
-                return COLLAPSED, t, steps, pos, n_saved
+                return (NONFINITE if h_abs != h_abs else COLLAPSED), t, steps, pos, n_saved
         else:
             ok, t_new, h, h_abs = adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M)
             if not ok:
                 full(m, y, k, t, E, M)
-                return COLLAPSED, t, steps, pos, n_saved
+                return (NONFINITE if h_abs != h_abs else COLLAPSED), t, steps, pos, n_saved
             stiff_run, calm_run, stiff = hairer(t_end, t_new, h, stiff_run, calm_run, check, A, W, info)
             if stiff:
                 full(m, y, k, t, E, M)

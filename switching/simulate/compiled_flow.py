@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import functools
 
+import numpy as np
+
 from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
 from ..library.jit_jacobian import jacobian_function
 from ..library.jit_model import AUTO_KIND, KINDS
@@ -101,4 +103,11 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
                                     None if METHOD_CLASSES[method].fixed_step else (t_end - t) / h)
             raise FlowFailure(functools.partial(StiffnessError, h=h, h_lambda=h_lambda, limit=limit),
                                stiffness_message(model, cm, mode, exc), t, x, steps, mode)
-        raise FlowFailure(NonFiniteStateError, nonfinite_message(model, mode, t, x), t, x, steps, mode)
+        if np.all(np.isfinite(x)):  # a trial stage left the reals between accepted states
+            message = (f"{method}: the rates became non-finite in a step near t = {t:.12g} s in mode "
+                       f"{mode.describe()} (the last accepted state is finite): a law left its domain between it "
+                       "and the next (sqrt or log of a negative value, a division by zero). The Python methods "
+                       "name the law: run method='RK45' or 'Radau' to see which")
+        else:
+            message = nonfinite_message(model, mode, t, x)
+        raise FlowFailure(NonFiniteStateError, message, t, x, steps, mode)

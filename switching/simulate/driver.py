@@ -381,7 +381,8 @@ class HybridRun:
             raise
         except Exception as exc:  # an input function, a callback, a library: still nothing computed is lost
             complex_value = complex_failure(self.model, self.mode, exc)  # a law that left the reals: name it
-            if complex_value is not None:
+            if complex_value is not None:  # the run ends where the law failed (the error's t and x)
+                self.t, self.x = complex_value.pop("t"), np.asarray(complex_value["x"], dtype=float)
                 raise self.fail(ComplexValueError, complex_value.pop("message"), **complex_value) from exc
             raise self.fail(SimulationError,
                             f"the run failed at t = {self.t:.12g} s in mode {self.mode.describe()} with "

@@ -137,7 +137,7 @@ def _inverse_hints(expr) -> list:
 def complex_failure(model, mode, exc: BaseException) -> dict | None:
     """For an error raised by a mode function during a run in ``mode``: the
     arguments of a :class:`ComplexValueError` (``message``, ``elements``,
-    ``x``) when a law left the reals at the state it failed at, else ``None``."""
+    ``x``) and the time ``t`` [s] when a law left the reals at the state it failed at, else ``None``."""
     if not is_complex_failure(exc):
         return None
     point = failure_point(exc)
@@ -151,4 +151,4 @@ def complex_failure(model, mode, exc: BaseException) -> dict | None:
         return None
     if message is None:
         return None
-    return {"message": message, "elements": sorted({f[0] for f in found}), "x": x}
+    return {"message": message, "elements": sorted({f[0] for f in found}), "x": x, "t": float(t)}

@@ -544,3 +544,24 @@ def test_a_branch_real_on_part_of_the_line_gives_way_to_the_numeric_inverse():
     for value in (-1e30, -8.0, -1e-12, 0.0, 1e-12, 27.0, 1e300):
         assert fn(value) == pytest.approx(float(mpmath.cbrt(abs(value))) * math.copysign(1.0, value), rel=1e-15,
                                           abs=1e-300)
+
+
+def test_the_compiled_implicit_method_differentiates_through_a_numeric_inverse():
+    """rodas-jit's compiled Jacobian calls the numeric inverse too (its derivative by the implicit
+    function theorem): a capacitor discharging through e = f + sin(f)/2 ends where Radau does."""
+    import sympy as sp
+
+    from bondgraph import C as Capacitor
+    from bondgraph import BondGraph as Graph
+    from bondgraph import One as Loop
+    from bondgraph import R as Resistor
+    from switching import HybridModel as Model
+
+    g = Graph("inverse_jacobian")
+    loop = g.add(Loop("loop"))
+    g.connect(loop, Capacitor("C", 1.0))
+    g.connect(loop, Resistor("R", effort_law=lambda f: f + sp.sin(f) / 2))
+    model = Model(g, [], {}, initial_state={"q_C": 1.0})
+    radau = model.simulate(2.0, "Radau", rtol=1e-10, atol=1e-12)
+    rodas = model.simulate(2.0, "rodas-jit", rtol=1e-10, atol=1e-12)
+    assert rodas.x[-1][0] == pytest.approx(radau.x[-1][0], rel=1e-8)

@@ -15,6 +15,7 @@ import warnings
 
 import numpy as np
 import pytest
+import sympy as sp
 
 from bondgraph.errors import (
     HybridBondGraphError,
@@ -25,7 +26,8 @@ from bondgraph.errors import (
 )
 from models import boost_converter, bouncing_ball, diode_circuit
 from switching import Automaton, HybridModel, simulate_many
-from switching.errors import NonFiniteStateError, SimulationError, SimulationInterrupted, UnknownOptionError
+from switching.errors import (ComplexValueError, NonFiniteStateError, SimulationError, SimulationInterrupted,
+                              UnknownOptionError)
 
 from switching_models import rc_relay, relay_graph
 
@@ -144,6 +146,30 @@ def test_a_zero_storage_parameter_is_named_at_once_by_the_compiled_methods(metho
     message = str(info.value)
     assert message.startswith("non-finite values where a flow starts, at t = 0 s") and "L = 0" in message
     assert info.value.t == 0.0 and info.value.trajectory.t[-1] == 0.0
+
+
+@pytest.mark.parametrize("method", ["RK45-jit", "rodas-jit", "rk4-jit"])
+def test_rates_that_leave_the_reals_mid_run_stop_a_compiled_run_at_once(method):
+    """A capacitor e = sqrt(q) drained by a current source through a resistor: q reaches 0 at
+    t* = 2 − 2 ln 2 (dq/dt = −1 − sqrt(q), from q = 1), and a step past it meets sqrt of a negative
+    charge.  The compiled methods stop there with NonFiniteStateError (their step control never
+    loops on a NaN error), and the Python methods name the law (ComplexValueError)."""
+    from bondgraph import C, R, BondGraph, Sf
+    from bondgraph import Zero as Node
+
+    g = BondGraph("drain")
+    j = g.add(Node("j"))
+    g.connect(Sf("I", -1.0), j)
+    g.connect(j, C("C", effort_law=lambda q: sp.sqrt(q)))
+    g.connect(j, R("R", 1.0))
+    model = HybridModel(g, [], {}, initial_state={"q_C": 1.0})
+    with pytest.raises(NonFiniteStateError) as info:
+        model.simulate(3.0, method, **({"dt": 1e-3} if method == "rk4-jit" else {}))
+    t_star = 2 - 2 * math.log(2)
+    assert abs(info.value.t - t_star) < 0.01 and "left its domain" in str(info.value)
+    with pytest.raises(ComplexValueError) as info:
+        model.simulate(3.0, "RK45")
+    assert abs(info.value.t - t_star) < 0.01
 
 
 def test_a_guard_that_is_not_finite_at_the_start_is_named():
