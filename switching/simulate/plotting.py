@@ -221,7 +221,8 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
         axes[0].add_artist(axes[0].get_legend())
     axes[0].legend(handles=handles, fontsize=7, loc="best")
     name = trajectory.model.name if trajectory.model is not None else getattr(trajectory, "model_name", "run")
-    axes[0].set_title(title or f"{name}: {len(trajectory.events)} instants")
+    count = len(trajectory.events)
+    axes[0].set_title(title or f"{name}: {count} instant{'' if count == 1 else 's'}")
     fig.tight_layout()
     return fig
 

@@ -412,7 +412,7 @@ class Trajectory:
             return f"trajectory of {self.model_name!r}: no samples"
         lines = [
             f"trajectory of {self.model_name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
-            f"{len(self.t)} samples, {self.instant_count} instants"
+            f"{len(self.t)} samples, {self.instant_count} instant{'' if self.instant_count == 1 else 's'}"
             + ("" if self.instants_kept else " (not kept: keep_instants=False)")
             + (f", stopped early ({self.stopped})" if self.stopped else "")
         ]
