@@ -179,3 +179,28 @@ def phase(A, b, tau):
     Z[:n, :n], Z[:n, n] = A, b
     E = expm(Z * tau)
     return E[:n, :n], E[:n, n]
+
+
+def exported_rates(model, directory, name: str, charges) -> list:
+    """The rates of ``model``'s one derived mode at each of ``charges`` (a one-state model), computed
+    by its exported module (``model.export_module``) in a new Python process where sympy, numpy and
+    scipy cannot be imported: the module must need only ``math``."""
+    import subprocess
+    import sys
+    import textwrap
+
+    (label,) = model.export_module(directory / f"{name}.py")
+    check = textwrap.dedent(
+        f"""
+        import sys
+        sys.modules["sympy"] = sys.modules["numpy"] = sys.modules["scipy"] = None  # none of them importable
+        sys.path.insert(0, sys.argv[1])
+        import {name} as m
+        out = [0.0]
+        for q in {tuple(charges)!r}:
+            m.MODES[{label!r}]["rates"]([q], 0.0, m.PARAMETER_VALUES, [], out)
+            print(repr(out[0]))
+        """)
+    done = subprocess.run([sys.executable, "-c", check, str(directory)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    return [float(v) for v in done.stdout.split()]

@@ -30,9 +30,6 @@ generated code computes by a bracketed Newton iteration
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
-import textwrap
 import time
 
 import mpmath
@@ -388,26 +385,15 @@ def test_the_mode_function_is_the_same_compiled_by_numba_and_translated_natively
 
 
 def test_an_exported_module_carries_the_iteration_and_needs_only_math(tmp_path):
+    from switching_models import exported_rates
+
     model = HybridModel(discharge(), [], {"Cap": CAP}, initial_state={"q_C": Q0})
     model.compiled_mode(model.initial_mode)
-    (label,) = model.export_module(tmp_path / "discharge_modes.py")
-    check = textwrap.dedent(
-        f"""
-        import sys
-        sys.modules["sympy"] = sys.modules["numpy"] = sys.modules["scipy"] = None  # none of them importable
-        sys.path.insert(0, sys.argv[1])
-        import discharge_modes as m
-        out = [0.0]
-        for q in (-5.0, 0.0, 3.0, 1e6):
-            m.MODES[{label!r}]["rates"]([q], 0.0, m.PARAMETER_VALUES, [], out)
-            print(repr(out[0]))
-        """)
-    done = subprocess.run([sys.executable, "-c", check, str(tmp_path)], capture_output=True, text=True, timeout=60)
-    assert done.returncode == 0, done.stderr
-    exported = [float(v) for v in done.stdout.split()]
+    charges = (-5.0, 0.0, 3.0, 1e6)
+    exported = exported_rates(model, tmp_path, "discharge_modes", charges)
     rates = model.compiled_mode(model.initial_mode).rates
-    assert exported == [rates(np.array([q]), 0.0)[0] for q in (-5.0, 0.0, 3.0, 1e6)]
-    np.testing.assert_allclose(exported, [-exact_inverse(q / CAP) for q in (-5.0, 0.0, 3.0, 1e6)], rtol=1e-13)
+    assert exported == [rates(np.array([q]), 0.0)[0] for q in charges]
+    np.testing.assert_allclose(exported, [-exact_inverse(q / CAP) for q in charges], rtol=1e-13)
 
 
 # ------------------------------------------------------------------ branches and refusals
