@@ -53,6 +53,7 @@ at 1e-8 … 2e-8 of t_end (4e-11 s) from rtol 1e-8 on, where Radau reaches 2e-11
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import subprocess
@@ -66,9 +67,10 @@ import numpy as np
 from models import ball_chain
 from models.circuits import PWM, Circuit
 from switching.errors import SimulationError
-from switching.simulate import python_flow
+from switching.simulate import compiled_flow, python_flow
 
-METHODS = ("Radau", "Radau (FD)", "BDF", "BDF (FD)", "LSODA", "LSODA (FD)", "RK45", "rodas-jit", "auto")
+METHODS = ("Radau", "Radau (FD)", "BDF", "BDF (FD)", "LSODA", "LSODA (FD)", "RK45", "rodas-jit", "rodas-jit (FD)",
+           "auto")
 COMPILED = ("rodas-jit", "auto")  # cold: a new process with empty caches
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -128,24 +130,35 @@ def _instants(trajectory, reference) -> str:
 
 
 def _run(model, method, t_end, rtol, atol=1e-10):
+    """``(seconds, trajectory)`` of one run; ``"… (FD)"``: without the symbolic Jacobian (the Python methods
+    difference ``f`` as scipy does; ``rodas-jit`` differences it in the kernel, each step: give it a model
+    whose compiled modes have not been given their Jacobians yet)."""
     name, finite_differences = method.replace(" (FD)", ""), method.endswith("(FD)")
-    derived = python_flow.flow_jacobian
+    derived, compiled = python_flow.flow_jacobian, compiled_flow.jacobian_function
     if finite_differences:
         python_flow.flow_jacobian = lambda *arguments: None
+        compiled_flow.jacobian_function = lambda model, mode: None
     try:
         start = time.perf_counter()
         trajectory = model.simulate(t_end, name, rtol=rtol, atol=atol, output="events")
         return time.perf_counter() - start, trajectory
     finally:
-        python_flow.flow_jacobian = derived
+        python_flow.flow_jacobian, compiled_flow.jacobian_function = derived, compiled
 
 
-def _table(label, model, build, columns, t_end, rtol, atol, repeats) -> None:
-    """One scene's rows: every method, cold and warm, against Radau's final ``columns`` and instants."""
+def _table(label, builder, build, columns, t_end, rtol, atol, repeats) -> None:
+    """One scene's rows: every method, cold and warm, against Radau's final ``columns`` and instants
+    (``builder()`` makes the scene; ``build`` is its text for the cold process)."""
     reference = None
+    model = builder()
     for method in METHODS:
+        if method == "rodas-jit (FD)":
+            model = builder()  # (compiled modes without Jacobians)
         try:
-            if method in COMPILED:
+            if method == "rodas-jit (FD)":
+                cold = math.nan  # (the cold process runs rodas-jit as users do, with the Jacobians)
+                _run(model, method, t_end, rtol, atol)
+            elif method in COMPILED:
                 cold = _cold(method, build, t_end, rtol, atol)
                 _run(model, method, t_end, rtol, atol)  # (this process's first run: compiles or loads)
             else:
@@ -153,12 +166,13 @@ def _table(label, model, build, columns, t_end, rtol, atol, repeats) -> None:
             warm, trajectory = min((_run(model, method, t_end, rtol, atol) for _ in range(repeats)),
                                    key=lambda run: run[0])
         except SimulationError as error:
-            print(f"{label:>6} {method:<12} stopped: {type(error).__name__}")
+            print(f"{label:>6} {method:<14} stopped: {type(error).__name__}")
             continue
         reference = trajectory if reference is None else reference
         final = trajectory.x[-1][columns]
         scale = np.maximum(np.abs(reference.x[-1][columns]), atol)
-        print(f"{label:>6} {method:<12} {cold:>9.3f} {warm:>9.4f} {trajectory.stats['steps']:>7} "
+        cold_cell = f"{cold:>9.3f}" if cold == cold else f"{'-':>9}"
+        print(f"{label:>6} {method:<14} {cold_cell} {warm:>9.4f} {trajectory.stats['steps']:>7} "
               f"{len(trajectory.events):>8} {np.max(np.abs(final - reference.x[-1][columns]) / scale):>12.1e} "
               f"{_instants(trajectory, reference):>10}")
 
@@ -214,18 +228,18 @@ def main() -> None:
         if args.boost:
             work_precision("boost converter with snubber", boost_with_snubber(), 2e-3, 1e-12, rtols, args.repeats)
         return
-    print(f"{'scene':>6} {'method':<12} {'cold [s]':>9} {'warm [s]':>9} {'steps':>7} {'instants':>8} "
+    print(f"{'scene':>6} {'method':<14} {'cold [s]':>9} {'warm [s]':>9} {'steps':>7} {'instants':>8} "
           f"{'Δx/x vs Radau':>12} {'Δt_ev/t_ev':>10}")
     for n in args.N:
         b = 2 * args.zeta * math.sqrt(args.k / 2)
         model = chain(n, args.k, b)
         momenta = [model.state_index[s] for s in model.states if s.name in {f"p{i}" for i in range(1, n + 1)}]
-        _table(f"N={n}", model, f"stiff.chain({n}, {args.k!r}, {b!r})", momenta, args.t_end, args.rtol, 1e-10,
-               args.repeats)
+        _table(f"N={n}", functools.partial(chain, n, args.k, b), f"stiff.chain({n}, {args.k!r}, {b!r})", momenta,
+               args.t_end, args.rtol, 1e-10, args.repeats)
     if args.boost:
-        model = boost_with_snubber()
-        _table("boost", model, "stiff.boost_with_snubber()", list(range(len(model.states))), 2e-3, args.rtol,
-               1e-12, args.repeats)
+        states = list(range(len(boost_with_snubber().states)))
+        _table("boost", boost_with_snubber, "stiff.boost_with_snubber()", states, 2e-3, args.rtol, 1e-12,
+               args.repeats)
 
 
 if __name__ == "__main__":

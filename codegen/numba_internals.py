@@ -21,9 +21,10 @@ from __future__ import annotations
 import functools
 import importlib.util
 import os
+import pickle
 
-__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "compile_library", "compiler_lock",
-           "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported",
+__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "cached_signatures",
+           "compile_library", "compiler_lock", "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported",
            "serialize_library"]
 
 #: the numba releases (major, minor) whose internals this module was written and tested for
@@ -176,6 +177,17 @@ def cache_files(cache) -> list:
 def cache_directory(cache) -> str:
     """The directory of numba's disk cache ``cache`` (for messages)."""
     return getattr(cache, "_cache_path", None) or "numba's cache"
+
+
+def cached_signatures(dispatcher) -> list:
+    """The signatures (tuples of numba types) of ``dispatcher``'s machine
+    code in numba's disk cache index; empty when there is none or it
+    cannot be read."""
+    cache = getattr(dispatcher, "_cache", None)
+    try:
+        return [key[0] for key in cache._cache_file._load_index()]
+    except (AttributeError, TypeError, ValueError, OSError, EOFError, pickle.UnpicklingError):
+        return []  # (an unreadable index, another numba version: nothing known to be cached)
 
 
 def cache_index_exists(dispatcher) -> bool:

@@ -414,14 +414,15 @@ def _auto_choice(model, t_end, options) -> str:
 
 def _compile_notice(method: str) -> None:
     """One line on stderr before a compiled method's first run on this
-    installation, which compiles the kernel first (about half a minute, once)."""
+    installation, which compiles the kernel first (about 20 s, once per family:
+    the explicit methods, and rodas-jit)."""
     from switching.simulate.methods import METHOD_CLASSES
 
     if method not in METHOD_CLASSES or not METHOD_CLASSES[method].compiled:
         return
     from switching.library.jit_model import KERNEL_COMPILE_SECONDS, kernel_compiled
 
-    if not kernel_compiled():
+    if not kernel_compiled(implicit=method == "rodas-jit"):
         print(f"hbg: compiling the simulation kernel for this installation (once, about {KERNEL_COMPILE_SECONDS:.0f} s)",
               file=sys.stderr, flush=True)
 

@@ -3,12 +3,24 @@ kernel's options, and the stamp of their disk cache.
 
 A call between compiled functions costs ~20-80 ns (reference counting of its
 array arguments, status checks; the model record alone is ~150 machine
-words), more than the arithmetic of a small mode: small helpers are inlined
-(:data:`inline`); the larger ones, and those calling a mode's function, run
+words), more than the arithmetic of a small mode: small helpers taking arrays
+and called at every step are inlined (:data:`inline`); the larger ones, those
+called once per event or instant, and those calling a mode's function, run
 without reference counting (:data:`dispatch`: their arrays are borrowed from
 ``run``'s workspaces).  (Inlined into ``run``, which counts references, a
 function unpacking the model record costs an increment and a decrement of
 every array it takes from it, at every call: 2–3× slower than calling it.)
+The rules taking only numbers are plain functions (:data:`jit`): no
+reference to count, and LLVM inlines them where it pays.
+
+numba's inlining (``inline="always"``) copies a function's IR into each
+caller before typing it: it is what makes the kernel's one-time compilation
+long, so it is kept to the step's hot path.  Measured (a new process, empty
+caches, the falling rod's first ``RK45-jit`` run): every helper inlined
+37 s; the numeric rules plain calls, the rules on arrays and the guard
+scan's rarely reached phases dispatched, ``run`` specialised without the
+implicit method (:func:`.implicit.implicit_workspaces`) 17–18 s, with the
+same per-call time (``python benchmarks/compiled_speed.py``).
 """
 
 from __future__ import annotations
@@ -35,26 +47,26 @@ dispatch = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=
 
 # the rules (switching.rules, codegen.decision), compiled as they are, once each (a rule's numba cache is kept
 # beside its own file, one index per function: one compilation of each keeps it to one set of options)
-maximize_begin = inline(maximize.maximize_begin)
-maximize_next = inline(maximize.maximize_next)
-halve = inline(bracket.halve)
-parabola_peak = inline(bracket.parabola_peak)
-peak_in_reach = inline(bracket.peak_in_reach)
-worth_refining = inline(bracket.worth_refining)
-euler_step = inline(steppers.euler_step)
-rk4_combine = inline(steppers.rk4_combine)
-hermite_cubic = inline(steppers.hermite_cubic)
-jump_pulse = inline(jumps.jump_pulse)
-fixed_stiffness = inline(stiffness.fixed_stiffness)
-rodas_dense = inline(rosenbrock.rodas_dense)
-rodas_control = inline(rosenbrock.rodas_control)
-instant_begin = inline(instants.instant_begin)
-instant_next = inline(instants.instant_next)
-decides_as_in_flow = inline(instants.decides_as_in_flow)
-band = inline(decision.band)
-pulse_decides = inline(decision.pulse_decides)
-pulse_holds = inline(decision.pulse_holds)
-finite_holds = inline(decision.finite_holds)
+maximize_begin = jit(maximize.maximize_begin)
+maximize_next = jit(maximize.maximize_next)
+halve = jit(bracket.halve)
+parabola_peak = jit(bracket.parabola_peak)
+peak_in_reach = jit(bracket.peak_in_reach)
+worth_refining = jit(bracket.worth_refining)
+euler_step = jit(steppers.euler_step)
+rk4_combine = jit(steppers.rk4_combine)
+hermite_cubic = jit(steppers.hermite_cubic)
+jump_pulse = dispatch(jumps.jump_pulse)
+fixed_stiffness = jit(stiffness.fixed_stiffness)
+rodas_dense = jit(rosenbrock.rodas_dense)
+rodas_control = jit(rosenbrock.rodas_control)
+instant_begin = dispatch(instants.instant_begin)
+instant_next = dispatch(instants.instant_next)
+decides_as_in_flow = jit(instants.decides_as_in_flow)
+band = jit(decision.band)
+pulse_decides = jit(decision.pulse_decides)
+pulse_holds = jit(decision.pulse_holds)
+finite_holds = jit(decision.finite_holds)
 
 
 def _digest():

@@ -196,7 +196,7 @@ def _by_time(order, total, ptau):
         order[jj] = slot
 
 
-@inline
+@dispatch
 def _extrema(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, PT, SC, cnt, nxt, last):
     """GuardScan.extrema: for each comparison part whose margin comes within reach of its threshold, each
     maximum of the margin between the points (the previous step's point before its end included when
@@ -249,7 +249,7 @@ def _extrema(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, PT, SC, cnt, nxt,
     return total, nxt
 
 
-@inline
+@dispatch
 def _first_bracket(kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC, total):
     """GuardScan.first_hold: between the first two consecutive points where a guard starts to hold — at the
     later point, or inside, found from parts changing truth (:func:`pieces`) — the bracket ``(lo, hi)`` of the

@@ -47,6 +47,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from ..rules.rosenbrock import A as RA
 from ..rules.rosenbrock import C as RC
@@ -56,9 +58,26 @@ from ..rules.rosenbrock import GAMMA_C as RG
 from .calls import fun, jac
 from .compiler import dispatch, inline, rodas_control, stamp_with_rules
 
-__all__ = ["jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
+__all__ = ["implicit_workspaces", "jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
 
 _SQRT_EPS = math.sqrt(np.finfo(np.float64).eps)
+
+
+def implicit_workspaces(L, implicit):
+    """The implicit method's records ``L`` in a run that may take implicit
+    steps (``implicit`` is ``True``), else ``None`` (``implicit`` is
+    ``None``): chosen by the argument's type when the kernel is compiled, so
+    an explicit specialisation of the run has ``L`` typed ``None`` and
+    compiles without :func:`rosenbrock_step` (its branches on ``L is None``
+    are pruned)."""
+    return L if implicit is not None else None
+
+
+@overload(implicit_workspaces, jit_options={"cache": True})
+def _implicit_workspaces(L, implicit):
+    if isinstance(implicit, types.NoneType):
+        return lambda L, implicit: None
+    return lambda L, implicit: L
 
 
 @inline

@@ -65,7 +65,7 @@ from .flow import RK_C as RK_C
 from .flow import RK_E as RK_E
 from .flow import RK_P as RK_P
 from .flow import adaptive_step, dense_coefficients, fixed_step, hairer, initial_step, interp
-from .implicit import rosenbrock_step
+from .implicit import implicit_workspaces, rosenbrock_step
 from .instants import resolve
 
 __all__ = ["COLLAPSED", "DONE", "FULL", "MODE_SIGNATURE", "Model", "NONFINITE", "OPS", "RESOLVE", "RK_A", "RK_B",
@@ -217,7 +217,7 @@ def _record(ev_f, ev_i, j, t, m_before, m_after, at, xb, xa):
 
 
 @entry
-def run(M, ints, floats, x0, te, out, work):
+def run(M, ints, floats, x0, te, out, work, implicit):
     """A hybrid run of the model ``M`` (:class:`Model`) from ``(t0, mode, x0)`` until ``t_end`` (see the module
     docstring).  Returns ``(status, n_saved, n_events, t, mode, steps, n_te)``.
 
@@ -234,7 +234,10 @@ def run(M, ints, floats, x0, te, out, work):
           mode after, samples saved before it; stiffness |h·λ| and h, 1 if the first event is the initial
           instant, stiffness limit, dominant component of y, then the state where the call stopped;
     work = (wf, wi, wb): float, integer and boolean workspaces of at least workspace_sizes(M, n, samples,
-          max_instant)."""
+          max_instant);
+    implicit: ``None`` for the explicit kinds (0, 1, 2), ``True`` for kinds 3 and 4.  With ``None`` the
+          implicit method is not compiled into this specialisation of ``run`` (numba prunes the branches on
+          ``is None``): a first explicit run compiles ~5 s less."""
     kind, mode, samples, max_instant, save, max_steps, resolve_first = (ints[0], ints[1], ints[2], ints[3], ints[4],
                                                                          ints[5], ints[6])
     stiffness_check = ints[7] != 0
@@ -252,14 +255,16 @@ def run(M, ints, floats, x0, te, out, work):
     for i in range(5):
         info[i] = 0.0
     X, B, PT, SC, R, L = _carve(x0, M, samples, max_instant, work)
+    Li = implicit_workspaces(L, implicit)
     template, z, x_out, xa = X
     dbuf, ybuf, fbuf, tmpbuf, ynbuf, fnbuf, errbuf, Kbuf, Qbuf, s = B
     m = mode
     t = t0
-    n_saved = 0
-    n_ev = 0
-    steps = 0
-    pos = 0
+    # (int64 from the start: a literal 0 would have flow_in_mode compiled twice, for Literal[int](0) and int64)
+    n_saved = np.int64(0)
+    n_ev = np.int64(0)
+    steps = np.int64(0)
+    pos = np.int64(0)
     if resolve_first != 0:  # the initial instant: the initial mode may be mythical, or a pinnacle
         m_new, passes = resolve(m, x0, t, M, tol_g, max_instant, R)
         if m_new < 0:
@@ -280,7 +285,7 @@ def run(M, ints, floats, x0, te, out, work):
         W = (tmpbuf[:ke], errbuf[:ke], Kbuf)  # an interpolated or stage y, the error estimate, the stages
         E = (template, z, dbuf, s, W[0])
         code, t, steps, pos, n_saved = flow_in_mode(m, t, steps, pos, n_saved, F, setting, stiffness_check, te, out,
-                                                    x_out, A, E, W, L, M, PT, SC)
+                                                    x_out, A, E, W, Li, M, PT, SC)
         if code != _EVENT:
             return _stop(info, z, code, n_saved, n_ev, t, m, steps, pos)
         # an event at t with a priori state x_out: resolve it here if no symbolic work is needed
@@ -348,9 +353,10 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
     template, z, dbuf, s, tmp = E
     out_t, out_x, out_m, info = out[0], out[1], out[2], out[5]
     k = M.lengths[0][m]
-    L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet; its Jacobian's buffer and order not made
-    L[4][1] = 0.0
-    L[4][3] = 0.0
+    if L is not None:  # (L is None: an explicit run, compiled without the implicit method)
+        L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet; its Jacobian's buffer and order not made
+        L[4][1] = 0.0
+        L[4][3] = 0.0
     ke = y.shape[0]
     h_abs, pos, n_saved = _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC)
     stiff_run = 0
@@ -367,6 +373,9 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
                 full(m, y, k, t, E, M)
                 return STIFF, t, steps, pos, n_saved
         elif kind == 3:
+            if L is None:  # (never: the implicit kinds are run with their workspaces)
+                full(m, y, k, t, E, M)
+                return COLLAPSED, t, steps, pos, n_saved
             ok, t_new, h, h_abs = rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M)
             if not ok:
                 full(m, y, k, t, E, M)

@@ -194,7 +194,7 @@ def forget_modes(model) -> None:
     model.cache.write_record(_modes_key(model), [])
 
 
-KERNEL_COMPILE_SECONDS = 30.0  # compiling switching.kernel.loop (once per installation; about)
+KERNEL_COMPILE_SECONDS = 20.0  # compiling switching.kernel.loop (once per installation and family; about)
 MODE_COMPILE_SECONDS = 0.3  # compiling one mode's function (about: codegen.native; numba's front end takes 0.3–3 s)
 #: compiling one mode's function of a large model, per state and per guard transition of the model:
 #: codegen.native compiles about 1.5 generated lines a millisecond, and a mode has about 10 lines per state or
@@ -274,13 +274,18 @@ def _speed_key(model) -> str:
     return fingerprint(model.fingerprint, "python speed", "RK45")
 
 
-def kernel_compiled() -> bool:
+def kernel_compiled(implicit: bool = False) -> bool:
     """Is :func:`switching.kernel.loop.run` compiled in this process, or its
-    machine code in numba's disk cache (its index file)?"""
-    from codegen.numba_internals import cache_index_exists
+    machine code in numba's disk cache, in the specialisation the explicit
+    methods run (``implicit=False``), or the one for ``rodas-jit`` and
+    ``auto``'s implicit modes (``implicit=True``)?"""
+    from numba.core import types
+
+    from codegen.numba_internals import cached_signatures
 
     run = kernel().run
-    return bool(run.signatures) or cache_index_exists(run)
+    return any(isinstance(signature[-1], types.NoneType) != implicit
+               for signature in [*run.signatures, *cached_signatures(run)])
 
 
 def mode_compiled(model, mode) -> bool:
@@ -332,7 +337,7 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     if problem:
         return interpreted("inputs that compiled code cannot call: " + problem)
     modes = {model.initial_mode, *model.visited_modes, *remembered_modes(model)}
-    ready = kernel_compiled()
+    ready = kernel_compiled(implicit=initial.stiff)
     missing = sum(not mode_compiled(model, m) for m in modes)
     if ready and not missing:
         return compiled(f"the kernel and the functions of its {len(modes)} mode(s) are compiled (cached)")
@@ -882,7 +887,8 @@ class CompiledModel:
         floats = np.array([t, t_end, dt or 0.0, rtol, atol, max_step, first_step or 0.0, tol.rtol, tol.atol,
                            tol.jump_rtol, tol.jump_atol], dtype=float)
         status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
-            record, ints, floats, np.array(x, dtype=float), te, buffers, work)
+            record, ints, floats, np.array(x, dtype=float), te, buffers, work,
+            True if kind >= KINDS["rodas-jit"] else None)
         if status == 7:
             raise RuntimeError(f"compiled model {self.model.name!r}: the kernel's workspace is too small (a bug)")
         return KernelResult(self, status, t_stop, m_stop, steps, n_saved, n_ev, buffers, n_dense)
@@ -896,23 +902,28 @@ def _kernel_array(values) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
-_RUN_ENTRY: list = []  # the kernel's compiled run, called without numba's type dispatch (see _call_run)
+_RUN_ENTRY: dict = {}  # the kernel's compiled runs (explicit, implicit), called without numba's type dispatch
 
 
 def _call_run(*arguments):
     """``switching.kernel.loop.run(*arguments)``.  The arguments always have the
     same numba types (C-contiguous float64/int64 arrays of fixed dimensions,
-    in the same records), so after the first call, which numba dispatches
-    (compiling or loading the kernel), the compiled entry point is called
-    directly: ~1.5 µs less per call, which is most of the kernel's fixed cost
-    on short runs."""
-    if _RUN_ENTRY:
-        return _RUN_ENTRY[0](*arguments)
+    in the same records) but the last (``None`` for an explicit run, ``True``
+    for an implicit one: two specialisations), so after the first call of
+    each, which numba dispatches (compiling or loading the kernel), its
+    compiled entry point is called directly: ~1.5 µs less per call, which is
+    most of the kernel's fixed cost on short runs."""
+    implicit = arguments[-1] is not None
+    entry = _RUN_ENTRY.get(implicit)
+    if entry is not None:
+        return entry(*arguments)
+    from numba.core import types
+
     run = kernel().run
     result = run(*arguments)
-    if len(run.overloads) == 1:
-        (compiled,) = run.overloads.values()
-        _RUN_ENTRY.append(compiled.entry_point)
+    for signature, compiled in run.overloads.items():
+        if isinstance(signature[-1], types.NoneType) != implicit:
+            _RUN_ENTRY[implicit] = compiled.entry_point
     return result
 
 

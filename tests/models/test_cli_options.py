@@ -135,7 +135,7 @@ def test_a_notice_says_the_kernel_is_compiled_once(capsys, monkeypatch, cached):
     half a minute: one line says so first (and nothing when it is cached)."""
     from switching.library import jit_model
 
-    monkeypatch.setattr(jit_model, "kernel_compiled", lambda: cached)
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda implicit=False: cached)
     status, _, err = hbg(capsys, "run", "bouncing-ball", "--method", "RK45-jit", "--t-end", 0.5)
     assert status == 0
     assert ("compiling the simulation kernel for this installation (once, about" in err) is not cached

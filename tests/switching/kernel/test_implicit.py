@@ -256,7 +256,7 @@ def test_auto_in_python_continues_a_flow_that_proves_stiff_with_radau(monkeypatc
     from switching.library import jit_model, spectrum
 
     monkeypatch.setattr(spectrum, "STIFF_SPAN", 1e300)
-    monkeypatch.setattr(jit_model, "kernel_compiled", lambda: False)
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda implicit=False: False)
     auto = prothero_robinson(1e5).simulate(T_END, "auto", rtol=1e-8, atol=1e-11, output="events")
     assert auto.stats["method"] == "RK45" and auto.stopped is None
     assert "(Radau in the modes its flows proved stiff)" in auto.stats["method chosen by auto"]

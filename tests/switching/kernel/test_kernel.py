@@ -82,11 +82,14 @@ model = bouncing_ball.build()
 model.simulate(2.0, "RK45")
 run = model.simulate(2.0, "RK45-jit")
 k = kernel()
-print(json.dumps({"cache": k.run._cache._cache_path, "t": list(run.t), "compiled": len(k.run.stats.cache_misses)}))
+from switching.kernel import implicit
+explicit = [str(signature[-1]) for signature in k.run.overloads]
+print(json.dumps({"cache": k.run._cache._cache_path, "t": list(run.t), "compiled": len(k.run.stats.cache_misses),
+                  "last_arguments": explicit, "implicit_loaded": len(implicit.rosenbrock_step.signatures)}))
 """
 
 
-@pytest.mark.slow  # compiles the kernel's run again (~20–30 s)
+@pytest.mark.slow  # compiles the kernel's run again (~20 s)
 def test_unreadable_cache_files_of_the_kernel_are_deleted_and_it_is_compiled_again(tmp_path):
     """The kernel's numba cache (once per installation) cannot fail a run:
     an index of garbage is deleted with a CacheWarning, ``run`` compiled
@@ -121,6 +124,9 @@ def test_unreadable_cache_files_of_the_kernel_are_deleted_and_it_is_compiled_aga
         index.write_bytes(os.urandom(300))
     first, warned = process()
     assert first["cache"] == str(private) and first["compiled"] == 1
+    # an explicit run compiles run's explicit specialisation alone: the implicit method is not typed into it (its
+    # step's dispatcher would load its cache file, copied above, if it were)
+    assert first["last_arguments"] == ["none"] and first["implicit_loaded"] == 0
     assert "CacheWarning" in warned and "could not be read" in warned
     second, quiet = process()
     assert second["compiled"] == 0 and "CacheWarning" not in quiet

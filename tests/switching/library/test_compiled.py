@@ -472,7 +472,9 @@ def test_kernel_calls_keep_one_signature_and_reused_workspaces_change_nothing(ba
                   x0=[2, 1])
     ball.simulate(1.5, "rk4-jit", dt=np.float64(0.01), x0=[-1.0, 0.5])
     again = ball.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")
-    assert len(kernel.run.signatures) == 1
+    # one specialisation per family: explicit (its last argument None) and, if another test ran one, implicit
+    last = [str(signature[-1]) for signature in kernel.run.signatures]
+    assert last.count("none") == 1 and len(last) - last.count("none") <= 1
     np.testing.assert_array_equal(again.t, first.t)
     np.testing.assert_array_equal(again.x, first.x)
     assert again.mode_labels == first.mode_labels
@@ -489,9 +491,9 @@ def test_a_workspace_smaller_than_the_kernel_needs_is_refused_before_anything_ru
     ints = np.array([2, 0, 3, ball.max_steps_per_instant, 0, 10**9, 0], dtype=np.int64)
     floats = np.array([0.0, 1.0, 0.0, 1e-6, 1e-9, np.inf, 0.0, tol.rtol, tol.atol, tol.jump_rtol, tol.jump_atol])
     args = (compiled.record, ints, floats, ball.initial_state(), np.zeros(0), buffers)
-    status, n_saved, n_events, t, mode, steps, n_dense = kernel.run(*args, (wf[:-1], wi, wb))
+    status, n_saved, n_events, t, mode, steps, n_dense = kernel.run(*args, (wf[:-1], wi, wb), None)
     assert (status, n_saved, n_events, t, steps, n_dense) == (7, 0, 0, 0.0, 0, 0)
-    status, *_ = kernel.run(*args, (wf, wi, wb))
+    status, *_ = kernel.run(*args, (wf, wi, wb), None)
     assert status == 0
 
 
@@ -525,7 +527,7 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
 
     model = bouncing_ball.build()
     model.cache = SourceCache(tmp_path)
-    monkeypatch.setattr(jm, "kernel_compiled", lambda: False)  # as on a new installation
+    monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: False)  # as on a new installation
     monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
     run = model.simulate(0.5, "auto")
     assert run.stats["method"] == "RK45"
@@ -542,7 +544,7 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
     assert long.method == "RK45-jit" and f"≈ {2 * cost:.3g} s, more than compiling" in long.reason
     tighter = jm.choose_method(model, 0.0, 0.5 * cost / 0.1, 1e-6 / 2**10)  # 4× the steps (steps ∝ rtol^(-1/5))
     assert tighter.method == "RK45-jit" and f"≈ {2 * cost:.3g} s" in tighter.reason
-    monkeypatch.setattr(jm, "kernel_compiled", lambda: True)
+    monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: True)
     modes_cost = 2 * jm.MODE_COMPILE_SECONDS
     choice = jm.choose_method(model, 0.0, 0.5 * modes_cost / 0.1, 1e-6)  # half of compiling 2 modes' functions
     assert choice.method == "RK45" and "less than compiling the functions of 2 mode(s)" in choice.reason
@@ -573,7 +575,7 @@ def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, 
     assert jm.mode_compile_seconds(bouncing_ball.build()) == jm.MODE_COMPILE_SECONDS
     model = ball_chain.build(N=60, e=1.0)
     model.cache = SourceCache(tmp_path)
-    monkeypatch.setattr(jm, "kernel_compiled", lambda: True)
+    monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: True)
     monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
     per_mode = jm.mode_compile_seconds(model)
     assert per_mode == pytest.approx(jm.MODE_COMPILE_SECONDS_PER_ITEM * (120 + 2 * 59))
@@ -634,3 +636,22 @@ def test_read_only_arrays_run_compiled_as_writable_ones():
         model.parameter_array.setflags(write=True)
     np.testing.assert_array_equal(again.t, reference.t)
     np.testing.assert_array_equal(again.x, reference.x)
+
+
+def test_the_kernel_is_known_compiled_per_family_from_numba_s_disk_index(ball):
+    """``kernel_compiled(implicit=…)`` tells the explicit specialisation of
+    the kernel's run from the implicit one by the type of run's last
+    argument, in this process or in numba's disk index (what ``auto`` and
+    the CLI's notice price)."""
+    from numba.core import types
+
+    from codegen.numba_internals import cached_signatures
+    from switching.library.jit_model import kernel, kernel_compiled
+
+    ball.simulate(0.5, "RK45-jit", rtol=1e-6, output="events")
+    assert kernel_compiled(implicit=False)
+    on_disk = cached_signatures(kernel().run)
+    assert any(isinstance(signature[-1], types.NoneType) for signature in on_disk)
+    ball.simulate(0.5, "rodas-jit", rtol=1e-6, output="events")
+    assert kernel_compiled(implicit=True)
+    assert any(not isinstance(signature[-1], types.NoneType) for signature in cached_signatures(kernel().run))
