@@ -74,9 +74,14 @@ def jacobian_entries(model, mode, independent) -> tuple[list, list, list]:
     the inputs), row by row."""
     me = model.mode_equations(mode)
     states = [model.states[i] for i in independent]
+    memo, variables = model.library.gradient_memo, tuple(states)
     rows, cols, entries = [], [], []
     for i, state in enumerate(states):
-        for j, derivative in enumerate(real_gradient(flow_rate(me, state), states)):
+        rate = flow_rate(me, state)
+        gradient = memo.get((rate, variables))
+        if gradient is None:
+            gradient = memo[rate, variables] = real_gradient(rate, states)
+        for j, derivative in enumerate(gradient):
             if derivative != 0:
                 rows.append(i)
                 cols.append(j)

@@ -141,6 +141,10 @@ class ModeLibrary:
         expression → (free symbols, whether a law switch's Rate occurs) (:meth:`symbols_of`).
     ``jacobians``
         mode → the generated Jacobian of its flow (:func:`switching.library.jacobian.flow_jacobian`).
+    ``gradient_memo``
+        (a rate's expression, the independent states) → its gradient
+        (:func:`switching.library.jacobian.jacobian_entries`): the modes of a
+        scene share most rates (a ball's, where only a far contact switched).
     """
 
     def __init__(self, model, cache=None):
@@ -160,6 +164,7 @@ class ModeLibrary:
         self.side_block_functions: dict = {}
         self.symbols_memo: dict = {}
         self.jacobians: dict = {}
+        self.gradient_memo: dict = {}
         self._fingerprint = None
 
     @property

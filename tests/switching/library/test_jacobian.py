@@ -96,3 +96,27 @@ def test_an_explicit_method_derives_no_jacobian(monkeypatch):
     model = _chain()
     monkeypatch.setattr(python_flow, "flow_jacobian", lambda *a: pytest.fail("derived for RK45"))
     model.simulate(0.2, "RK45", output="events")
+
+
+def test_modes_that_share_a_rate_differentiate_it_once(monkeypatch):
+    """The Jacobians of two modes of a four-ball chain that differ in the
+    last contact only: the first two balls' rates are the same expressions,
+    differentiated once for both (the model's gradient memo), and each
+    mode's Jacobian is still its own (against a fresh model's)."""
+    from switching.library import jacobian
+
+    calls = []
+    differentiate = jacobian.real_gradient
+    monkeypatch.setattr(jacobian, "real_gradient", lambda e, v: calls.append(e) or differentiate(e, v))
+    model = _chain(N=4)
+    free, touching = (Mode(("touch", "touch", last), ("contact1", "contact2", "contact3"))
+                      for last in ("free", "touch"))
+    k = len(model.compiled_mode(free).independent)
+    jacobian.jacobian_entries(model, free, tuple(model.compiled_mode(free).independent))
+    first = len(calls)
+    shared = jacobian.jacobian_entries(model, touching, tuple(model.compiled_mode(touching).independent))
+    assert first == k and 0 < len(calls) - first < k
+    fresh = _chain(N=4)
+    alone = jacobian.jacobian_entries(fresh, touching, tuple(fresh.compiled_mode(touching).independent))
+    assert shared[:2] == alone[:2]
+    assert all(sp.simplify(a - b) == 0 for a, b in zip(shared[2], alone[2]))
