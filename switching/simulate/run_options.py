@@ -72,7 +72,7 @@ from ..errors import OptionTypeError, OptionValueError, WorkLimitError
 from .methods import COMPILED, METHODS, method_class
 from .option_groups import RunOptions
 
-__all__ = ["checked_options", "check_run", "check_work", "check_output_size", "check_samples",
+__all__ = ["OPTION_CHECKS", "checked_options", "check_each", "check_run", "check_work", "check_output_size", "check_samples",
            "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
@@ -188,37 +188,43 @@ def check_method(method, dt) -> None:
                                "and rk4)", "dt", dt)
 
 
-def check_steps(o: dict) -> None:
-    """The step and tolerance options alone: ``dt``, ``rtol``, ``atol``, ``max_step``, ``first_step``."""
-    if o["dt"] is not None:
-        positive_finite("dt", o["dt"], "seconds")
-    positive_finite("rtol", o["rtol"])
-    positive_finite("atol", o["atol"], "the states' units")
-    positive("max_step", o["max_step"], "seconds")
-    if o["first_step"] is not None:
-        positive_finite("first_step", o["first_step"], "seconds")
-
-
-def check_events(o: dict) -> None:
-    """The options about instants: ``event_samples``, ``max_events``, the Zeno watch's."""
-    whole("event_samples", o["event_samples"], 0, MAX_EVENT_SAMPLES, "guard samples per step")
-    whole("max_events", o["max_events"], 1, unit="instants")
-    whole("max_steps", o["max_steps"], 1, unit="steps")
-    whole("zeno_window", o["zeno_window"], 2, MAX_ZENO_WINDOW, "gap ratios")
-    if o["zeno_min_gap"] is not None:
-        not_negative("zeno_min_gap", o["zeno_min_gap"], "seconds")
-    choice("on_zeno", o["on_zeno"], ("raise", "stop"))
-
-
-def check_output(o: dict) -> None:
-    """The options about what is kept and told: ``output``, ``keep_instants``, ``progress``, ``stiffness_check``."""
-    choice("output", o["output"], ("steps", "events"), " (give t_eval=… for chosen times)")
-    flag("keep_instants", o["keep_instants"])
-    flag("stiffness_check", o["stiffness_check"])
-    progress = o["progress"]
+def _check_progress(progress) -> None:
     if progress is not True and progress is not None and not callable(progress):  # True: switching.simulate.progress
         raise OptionTypeError("progress must be None, True (a progress bar on stderr) or a function of the time "
                               f"[s] (called as progress(t)), got {_show(progress)}", "progress", progress)
+
+
+#: each option checked alone: the step and tolerance options, those about instants (the Zeno watch's among
+#: them), those about what is kept and told (units: times in seconds, atol in the states' units)
+OPTION_CHECKS = (
+    ("dt", lambda v: v is None or positive_finite("dt", v, "seconds")),
+    ("rtol", lambda v: positive_finite("rtol", v)),
+    ("atol", lambda v: positive_finite("atol", v, "the states' units")),
+    ("max_step", lambda v: positive("max_step", v, "seconds")),
+    ("first_step", lambda v: v is None or positive_finite("first_step", v, "seconds")),
+    ("event_samples", lambda v: whole("event_samples", v, 0, MAX_EVENT_SAMPLES, "guard samples per step")),
+    ("max_events", lambda v: whole("max_events", v, 1, unit="instants")),
+    ("max_steps", lambda v: whole("max_steps", v, 1, unit="steps")),
+    ("zeno_window", lambda v: whole("zeno_window", v, 2, MAX_ZENO_WINDOW, "gap ratios")),
+    ("zeno_min_gap", lambda v: v is None or not_negative("zeno_min_gap", v, "seconds")),
+    ("on_zeno", lambda v: choice("on_zeno", v, ("raise", "stop"))),
+    ("output", lambda v: choice("output", v, ("steps", "events"), " (give t_eval=… for chosen times)")),
+    ("keep_instants", lambda v: flag("keep_instants", v)),
+    ("stiffness_check", lambda v: flag("stiffness_check", v)),
+    ("progress", _check_progress),
+)
+
+
+def check_each(o: dict, defaults: dict | None = None) -> None:
+    """Each option of :data:`OPTION_CHECKS` alone.  An option whose value
+    *is* its default in ``defaults`` (``simulate``'s own object, not an equal
+    one) is known to pass and not checked again: a run that changes two
+    options checks two."""
+    unset = _check_progress  # (a value no option has)
+    for name, check in OPTION_CHECKS:
+        value = o[name]
+        if defaults is None or value is not defaults.get(name, unset):
+            check(value)
 
 
 def check_ends(t0, t_end) -> None:
@@ -373,18 +379,16 @@ def check_sensitivity_options(sensitivities, rtol, atol) -> None:
 # ------------------------------------------------------------------ the whole run
 
 
-def check_run(model, t_end, method, options: dict):
+def check_run(model, t_end, method, options: dict, defaults: dict | None = None):
     """Every check of a run of ``model`` up to ``t_end`` [s] with ``method``
     and the keyword ``options`` of ``simulate``, every one (their defaults:
-    :func:`switching.simulate.driver.option_defaults`), before anything
-    runs; returns ``(t_eval, x0)``: the sample times sorted (with
+    :func:`switching.simulate.driver.option_defaults`; ``defaults``: see
+    :func:`check_each`), before anything runs; returns ``(t_eval, x0)``: the sample times sorted (with
     ``samples=N``: ``linspace(t0, t_end, N)``) and the initial state as an
     array (``None`` when not given)."""
     o = options
     check_ends(o["t0"], t_end)
-    check_steps(o)
-    check_events(o)
-    check_output(o)
+    check_each(o, defaults)
     check_method(method, o["dt"])
     t0, t_end = float(o["t0"]), float(t_end)
     t_eval = o["t_eval"]
@@ -401,11 +405,11 @@ def check_run(model, t_end, method, options: dict):
     return t_eval, x0
 
 
-def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
+def checked_options(model, t_end, method, keywords: dict, defaults: dict | None = None) -> RunOptions:
     """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
     grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
     keywords of ``simulate`` (all of them, ``mode`` included) once
     :func:`check_run` has checked them: ``t_eval`` sorted and ``x0`` as an
     array, every other value as given."""
-    t_eval, x0 = check_run(model, t_end, method, keywords)
+    t_eval, x0 = check_run(model, t_end, method, keywords, defaults)
     return RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
