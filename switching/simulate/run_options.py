@@ -405,11 +405,48 @@ def check_run(model, t_end, method, options: dict, defaults: dict | None = None)
     return t_eval, x0
 
 
+#: options checked lately (see checked_options): their key → their RunOptions
+_CHECKED: dict = {}
+_CHECKED_KEPT = 64
+
+
+def _checked_key(t_end, method, keywords: dict):
+    """The key of options that no model's size enters (no ``x0``, ``t_eval``
+    or ``samples``) and whose values are all hashable: the names, the values
+    and their types (``1`` and ``1.0``, ``True`` and ``1``, a float and
+    numpy's are told apart: the run sees the very values given), else ``None``."""
+    if keywords.get("x0") is not None or keywords.get("t_eval") is not None or keywords.get("samples") is not None:
+        return None
+    values = tuple(keywords.values())
+    key = (method, t_end, type(t_end), tuple(keywords), values, tuple(map(type, values)))
+    try:
+        hash(key)
+    except TypeError:  # (a mode given as a dict, an unhashable callback)
+        return None
+    return key
+
+
 def checked_options(model, t_end, method, keywords: dict, defaults: dict | None = None) -> RunOptions:
     """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
     grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
     keywords of ``simulate`` (all of them, ``mode`` included) once
     :func:`check_run` has checked them: ``t_eval`` sorted and ``x0`` as an
-    array, every other value as given."""
+    array, every other value as given.
+
+    A loop of runs with the same options (a parameter study, a fit) checks
+    them once: options without ``x0``, ``t_eval`` and ``samples`` (which
+    depend on the model's size or are arrays) are kept by their values and
+    types, frozen, and handed to the next run that gives the same (the last
+    64 kept)."""
+    key = _checked_key(t_end, method, keywords)
+    if key is not None:
+        found = _CHECKED.get(key)
+        if found is not None:
+            return found
     t_eval, x0 = check_run(model, t_end, method, keywords, defaults)
-    return RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
+    options = RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
+    if key is not None:
+        if len(_CHECKED) >= _CHECKED_KEPT:
+            _CHECKED.clear()
+        _CHECKED[key] = options
+    return options

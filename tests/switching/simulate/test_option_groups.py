@@ -117,3 +117,31 @@ def test_from_keywords_puts_every_keyword_in_its_own_field():
     assert set(groups) == set(GROUPS)
     for name, value in values.items():
         assert getattr(groups[group_of(name)], name) is value, name
+
+
+def test_options_given_again_are_checked_once_and_told_apart_by_type():
+    """A loop of runs with the same options gets the same frozen groups (checked
+    once); an equal value of another type is another set of options (the run
+    sees the value given, and True is still refused where 1 is taken); options
+    with x0, t_eval or samples are checked each time."""
+    ball = bouncing_ball.build()
+    first = checked_options(ball, 1.0, "RK45", keywords(rtol=1e-4, output="events"))
+    assert checked_options(ball, 1.0, "RK45", keywords(rtol=1e-4, output="events")) is first
+    other = checked_options(ball, 1.0, "RK45", keywords(rtol=np.float64(1e-4), output="events"))
+    assert other is not first and type(other.stepping.rtol) is np.float64 and type(first.stepping.rtol) is float
+    assert checked_options(ball, 1, "RK45", keywords(rtol=1e-4, output="events")) is not first
+    checked_options(ball, 1.0, "RK45", keywords(max_events=1))
+    with pytest.raises(OptionTypeError, match="True and False are not numbers"):
+        checked_options(ball, 1.0, "RK45", keywords(max_events=True))
+    with_start = checked_options(ball, 1.0, "RK45", keywords(x0=[1.0, 0.0]))
+    assert checked_options(ball, 1.0, "RK45", keywords(x0=[1.0, 0.0])) is not with_start
+    with pytest.raises(OptionValueError):
+        checked_options(ball, 1.0, "RK45", keywords(x0=[1.0, 0.0, 3.0]))
+
+
+def test_runs_in_a_loop_with_kept_options_give_the_results_of_fresh_ones():
+    ball = bouncing_ball.build()
+    runs = [ball.simulate(2.0, "RK45", rtol=1e-7, output="events") for _ in range(3)]
+    for run in runs[1:]:
+        np.testing.assert_array_equal(run.t, runs[0].t)
+        np.testing.assert_array_equal(run.x, runs[0].x)
