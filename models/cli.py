@@ -414,7 +414,7 @@ def _auto_choice(model, t_end, options) -> str:
 
 def _compile_notice(method: str) -> None:
     """One line on stderr before a compiled method's first run on this
-    installation, which compiles the kernel first (about 20 s, once per family:
+    installation, which compiles the kernel first (about 16 s, once per family:
     the explicit methods, and rodas-jit)."""
     from switching.simulate.methods import METHOD_CLASSES
 

@@ -15,12 +15,14 @@ reference to count, and LLVM inlines them where it pays.
 
 numba's inlining (``inline="always"``) copies a function's IR into each
 caller before typing it: it is what makes the kernel's one-time compilation
-long, so it is kept to the step's hot path.  Measured (a new process, empty
-caches, the falling rod's first ``RK45-jit`` run): every helper inlined
-37 s; the numeric rules plain calls, the rules on arrays and the guard
-scan's rarely reached phases dispatched, ``run`` specialised without the
-implicit method (:func:`.implicit.implicit_workspaces`) 17–18 s, with the
-same per-call time (``python benchmarks/compiled_speed.py``).
+long, so it is kept to the step's hot path (a helper with several call
+sites, such as the interpolant ``flow.interp``, is dispatched: inlined, it
+was copied into each).  Measured (a new process, empty caches, the falling
+rod's first ``RK45-jit`` run): every helper inlined 37 s; the numeric rules
+plain calls, the rules on arrays, the interpolant and the guard scan's
+rarely reached phases dispatched, ``run`` specialised without the implicit
+method (:func:`.implicit.implicit_workspaces`) 15.7 s, with the same
+per-call time (``python benchmarks/compiled_speed.py``).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .calls import argmax_abs, fun
-from .compiler import (euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, rodas_dense,
+from .compiler import (dispatch, euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, rodas_dense,
                        stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
@@ -74,7 +74,7 @@ def _stiff_verdict(power4, limit, at_once, streak, h, component, info):
 
 
 
-@inline
+@dispatch
 def interp(kind, t_old, h, A, tau, out):
     """The step's interpolant: linear (Euler, kind 0), cubic Hermite (RK4, kind 1), scipy's RK45 dense output
     (kind 2), RODAS4P's continuous extension (kind 3: ``Q[:, 0]``, ``Q[:, 1]`` its coefficients ``q₁``, ``q₂``)."""

@@ -194,7 +194,7 @@ def forget_modes(model) -> None:
     model.cache.write_record(_modes_key(model), [])
 
 
-KERNEL_COMPILE_SECONDS = 20.0  # compiling switching.kernel.loop (once per installation and family; about)
+KERNEL_COMPILE_SECONDS = 16.0  # compiling switching.kernel.loop (once per installation and family; about)
 MODE_COMPILE_SECONDS = 0.3  # compiling one mode's function (about: codegen.native; numba's front end takes 0.3–3 s)
 #: compiling one mode's function of a large model, per state and per guard transition of the model:
 #: codegen.native compiles about 1.5 generated lines a millisecond, and a mode has about 10 lines per state or
