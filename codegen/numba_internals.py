@@ -23,9 +23,9 @@ import importlib.util
 import os
 import pickle
 
-__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cache_index_exists", "cached_signatures",
-           "compile_library", "compiler_lock", "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc", "native_unsupported",
-           "serialize_library"]
+__all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cached_signatures", "compile_library",
+           "compiler_lock", "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc",
+           "native_unsupported", "serialize_library"]
 
 #: the numba releases (major, minor) whose internals this module was written and tested for
 KNOWN_VERSIONS = tuple((0, minor) for minor in range(58, 69))
@@ -188,12 +188,3 @@ def cached_signatures(dispatcher) -> list:
         return [key[0] for key in cache._cache_file._load_index()]
     except (AttributeError, TypeError, ValueError, OSError, EOFError, pickle.UnpicklingError):
         return []  # (an unreadable index, another numba version: nothing known to be cached)
-
-
-def cache_index_exists(dispatcher) -> bool:
-    """Does numba's disk cache hold an index file of ``dispatcher``?"""
-    cache = getattr(dispatcher, "_cache", None)
-    try:
-        return os.path.exists(os.path.join(cache._cache_path, cache._cache_file._index_name))
-    except (AttributeError, TypeError):  # another numba version
-        return False

@@ -72,8 +72,9 @@ from ..errors import OptionTypeError, OptionValueError, WorkLimitError
 from .methods import COMPILED, METHODS, method_class
 from .option_groups import RunOptions
 
-__all__ = ["OPTION_CHECKS", "checked_options", "check_each", "check_run", "check_work", "check_output_size", "check_samples",
-           "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
+__all__ = ["OPTION_CHECKS", "checked_options", "check_each", "check_run", "check_work", "check_output_size",
+           "check_samples", "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS",
+           "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
 DEFAULT_MAX_STEPS = 10_000_000
@@ -215,15 +216,17 @@ OPTION_CHECKS = (
 )
 
 
+_UNSET = object()  # (no option's value)
+
+
 def check_each(o: dict, defaults: dict | None = None) -> None:
     """Each option of :data:`OPTION_CHECKS` alone.  An option whose value
     *is* its default in ``defaults`` (``simulate``'s own object, not an equal
     one) is known to pass and not checked again: a run that changes two
     options checks two."""
-    unset = _check_progress  # (a value no option has)
     for name, check in OPTION_CHECKS:
         value = o[name]
-        if defaults is None or value is not defaults.get(name, unset):
+        if defaults is None or value is not defaults.get(name, _UNSET):
             check(value)
 
 
@@ -383,9 +386,9 @@ def check_run(model, t_end, method, options: dict, defaults: dict | None = None)
     """Every check of a run of ``model`` up to ``t_end`` [s] with ``method``
     and the keyword ``options`` of ``simulate``, every one (their defaults:
     :func:`switching.simulate.driver.option_defaults`; ``defaults``: see
-    :func:`check_each`), before anything runs; returns ``(t_eval, x0)``: the sample times sorted (with
-    ``samples=N``: ``linspace(t0, t_end, N)``) and the initial state as an
-    array (``None`` when not given)."""
+    :func:`check_each`), before anything runs; returns ``(t_eval, x0)``:
+    the sample times sorted (with ``samples=N``: ``linspace(t0, t_end,
+    N)``) and the initial state as an array (``None`` when not given)."""
     o = options
     check_ends(o["t0"], t_end)
     check_each(o, defaults)
