@@ -38,7 +38,7 @@ if {n} > 0:
 else:
     model = falling_rod.build()
     run = dict(falling_rod.RUN)
-    model.simulate(run.pop("t_end"), run.pop("method"), **run)
+    model.simulate(run.pop("t_end"), run.pop("method", "RK45"), **run)
 done = time.perf_counter()
 print(json.dumps({{"import": imported - start, "run": done - imported, "cpu": time.process_time(),
                   "modes": model.derivation_count}}))
