@@ -44,6 +44,9 @@ Example — the RC circuit of :mod:`switching.model.hybrid_model`::
 
 from __future__ import annotations
 
+import contextlib
+import time
+
 import sympy as sp
 
 from codegen.cache import default_cache, fingerprint
@@ -145,6 +148,10 @@ class ModeLibrary:
         (a rate's expression, the independent states) → its gradient
         (:func:`switching.library.jacobian.jacobian_entries`): the modes of a
         scene share most rates (a ball's, where only a far contact switched).
+    ``preparation_seconds``
+        wall seconds spent making modes' equations and functions (derived,
+        generated, or loaded from the disk cache): a run's time less these is
+        its integration's (``auto`` prices a Python run by it).
     """
 
     def __init__(self, model, cache=None):
@@ -165,6 +172,8 @@ class ModeLibrary:
         self.symbols_memo: dict = {}
         self.jacobians: dict = {}
         self.gradient_memo: dict = {}
+        self.preparation_seconds = 0.0
+        self._preparing = False
         self._fingerprint = None
 
     @property
@@ -182,9 +191,24 @@ class ModeLibrary:
         mode = self.model.mode(mode)
         found = self.equations.get(mode)
         if found is None:
-            found = self.equations[mode] = ModeEquations(self.model, mode)
+            with self._preparation():
+                found = self.equations[mode] = ModeEquations(self.model, mode)
             self.derivation_count += 1
         return found
+
+    @contextlib.contextmanager
+    def _preparation(self):
+        """Count the wall time of the block into :attr:`preparation_seconds` (the outermost block only: a
+        mode's functions derive its equations inside theirs)."""
+        if self._preparing:
+            yield
+            return
+        self._preparing, start = True, time.perf_counter()
+        try:
+            yield
+        finally:
+            self._preparing = False
+            self.preparation_seconds += time.perf_counter() - start
 
     @property
     def derived_modes(self) -> tuple:
@@ -231,12 +255,13 @@ class ModeLibrary:
             return known
         mode = self.model.mode(mode)
         if mode not in self.compiled:
-            key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
-            source, meta = self.cache.load(key), None
-            if source is None:
-                source, meta = mode_source_and_meta(self.model, self.mode_equations(mode))
-                self.cache.store(key, source)
-            self.compiled[mode] = CompiledMode(self.model, mode, source, meta)
+            with self._preparation():
+                key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
+                source, meta = self.cache.load(key), None
+                if source is None:
+                    source, meta = mode_source_and_meta(self.model, self.mode_equations(mode))
+                    self.cache.store(key, source)
+                self.compiled[mode] = CompiledMode(self.model, mode, source, meta)
         return self.compiled[mode]
 
     @property
