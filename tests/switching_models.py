@@ -204,3 +204,24 @@ def exported_rates(model, directory, name: str, charges) -> list:
     done = subprocess.run([sys.executable, "-c", check, str(directory)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     return [float(v) for v in done.stdout.split()]
+
+
+def scalar_function_both_ways(source: str, symbol: str) -> tuple:
+    """``f`` of ``source`` (one float argument, a float result, in the modes' dialect) compiled twice: by
+    the native translator (:func:`codegen.native.compile_function`, as ``symbol``) and by numba's own
+    front end; returns the two as ctypes callables ``(native, numba)``, to compare bit for bit."""
+    import ctypes
+
+    from numba import types
+    from numba.core.ccallback import CFunc
+
+    from codegen.native import compile_function
+    from switching.library.jit_model import MODE_DIALECT, mode_calls
+
+    native = compile_function(source, "f", ["f"], "f", symbol, dialect=MODE_DIALECT, calls=mode_calls())
+    namespace: dict = {}
+    exec(compile(source, f"<{symbol} source>", "exec"), namespace)
+    reference = CFunc(namespace["f"], ((types.float64,), types.float64), locals={}, options={"error_model": "numpy"})
+    reference.compile()
+    prototype = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double)
+    return prototype(native.address), prototype(reference.address)

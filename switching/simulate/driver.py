@@ -137,7 +137,7 @@ def simulate(
                     samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
-    options = checked_options(model, t_end, method, keywords, simulate.__kwdefaults__)
+    options = checked_options(model, t_end, method, keywords)
     if progress is not True:
         return HybridRun(model, options).execute()
     bar = ProgressBar(t0, t_end)

@@ -216,18 +216,10 @@ OPTION_CHECKS = (
 )
 
 
-_UNSET = object()  # (no option's value)
-
-
-def check_each(o: dict, defaults: dict | None = None) -> None:
-    """Each option of :data:`OPTION_CHECKS` alone.  An option whose value
-    *is* its default in ``defaults`` (``simulate``'s own object, not an equal
-    one) is known to pass and not checked again: a run that changes two
-    options checks two."""
+def check_each(o: dict) -> None:
+    """Each option of :data:`OPTION_CHECKS` alone."""
     for name, check in OPTION_CHECKS:
-        value = o[name]
-        if defaults is None or value is not defaults.get(name, _UNSET):
-            check(value)
+        check(o[name])
 
 
 def check_ends(t0, t_end) -> None:
@@ -382,16 +374,16 @@ def check_sensitivity_options(sensitivities, rtol, atol) -> None:
 # ------------------------------------------------------------------ the whole run
 
 
-def check_run(model, t_end, method, options: dict, defaults: dict | None = None):
+def check_run(model, t_end, method, options: dict):
     """Every check of a run of ``model`` up to ``t_end`` [s] with ``method``
     and the keyword ``options`` of ``simulate``, every one (their defaults:
-    :func:`switching.simulate.driver.option_defaults`; ``defaults``: see
-    :func:`check_each`), before anything runs; returns ``(t_eval, x0)``:
-    the sample times sorted (with ``samples=N``: ``linspace(t0, t_end,
-    N)``) and the initial state as an array (``None`` when not given)."""
+    :func:`switching.simulate.driver.option_defaults`), before anything
+    runs; returns ``(t_eval, x0)``: the sample times sorted (with
+    ``samples=N``: ``linspace(t0, t_end, N)``) and the initial state as an
+    array (``None`` when not given)."""
     o = options
     check_ends(o["t0"], t_end)
-    check_each(o, defaults)
+    check_each(o)
     check_method(method, o["dt"])
     t0, t_end = float(o["t0"]), float(t_end)
     t_eval = o["t_eval"]
@@ -429,7 +421,7 @@ def _checked_key(t_end, method, keywords: dict):
     return key
 
 
-def checked_options(model, t_end, method, keywords: dict, defaults: dict | None = None) -> RunOptions:
+def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
     """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
     grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
     keywords of ``simulate`` (all of them, ``mode`` included) once
@@ -446,7 +438,7 @@ def checked_options(model, t_end, method, keywords: dict, defaults: dict | None 
         found = _CHECKED.get(key)
         if found is not None:
             return found
-    t_eval, x0 = check_run(model, t_end, method, keywords, defaults)
+    t_eval, x0 = check_run(model, t_end, method, keywords)
     options = RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
     if key is not None:
         if len(_CHECKED) >= _CHECKED_KEPT:

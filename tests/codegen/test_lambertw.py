@@ -84,25 +84,12 @@ def test_omega_solves_its_equation_and_has_its_limits():
 
 def test_omega_compiled_by_numba_and_translated_natively_gives_the_same_bits_as_python():
     pytest.importorskip("numba")
-    import ctypes
-
-    from numba import types
-    from numba.core.ccallback import CFunc
-
-    from codegen.native import compile_function
-    from switching.library.jit_model import MODE_DIALECT, mode_calls
+    from switching_models import scalar_function_both_ways
 
     source = ("import math\nfrom math import *\nimport numpy as np\nfrom numba import carray\n\n"
               "from codegen.compiled_omega import wrightomega\n\n\n"
               "def f(z):\n    return wrightomega(z)\n")
-    native = compile_function(source, "f", ["f"], "f", "hbg_test_lambertw_omega", dialect=MODE_DIALECT,
-                              calls=mode_calls())
-    namespace: dict = {}
-    exec(compile(source, "<omega source>", "exec"), namespace)
-    reference = CFunc(namespace["f"], ((types.float64,), types.float64), locals={}, options={"error_model": "numpy"})
-    reference.compile()
-    prototype = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double)
-    ours, theirs = prototype(native.address), prototype(reference.address)
+    ours, theirs = scalar_function_both_ways(source, "hbg_test_lambertw_omega")
     z = np.concatenate([grid()[::7], [-np.inf, np.inf, 1e300]])
     got = np.array([ours(float(v)) for v in z])
     assert got.tobytes() == np.array([theirs(float(v)) for v in z]).tobytes()

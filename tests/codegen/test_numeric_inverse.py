@@ -195,27 +195,15 @@ def test_the_generated_inverse_is_the_root_to_full_precision_in_python_and_on_ar
 
 def test_the_iteration_compiled_by_numba_and_translated_natively_gives_the_python_bits():
     pytest.importorskip("numba")
-    import ctypes
-
-    from numba import types
-    from numba.core.ccallback import CFunc
-
-    from codegen.native import compile_function
-    from switching.library.jit_model import MODE_DIALECT, mode_calls
+    from switching.library.jit_model import MODE_DIALECT
+    from switching_models import scalar_function_both_ways
 
     law = type(the_inverse())
     (helper,) = inverse_helpers([law], compiled=True)
     source = ("import math\nfrom math import *\nimport numpy as np\nfrom numba import carray\nfrom numba import njit"
               f"\n\n\n{helper}\n\ndef f(y):\n    return {law.helper}(y)\n")
     check_source(source, "<test inverse compiled>", MODE_DIALECT)
-    native = compile_function(source, "f", ["f"], "f", "hbg_test_numeric_inverse", dialect=MODE_DIALECT,
-                              calls=mode_calls())
-    namespace: dict = {}
-    exec(compile(source, "<inverse source>", "exec"), namespace)
-    reference = CFunc(namespace["f"], ((types.float64,), types.float64), locals={}, options={"error_model": "numpy"})
-    reference.compile()
-    prototype = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double)
-    ours, theirs = prototype(native.address), prototype(reference.address)
+    ours, theirs = scalar_function_both_ways(source, "hbg_test_numeric_inverse")
     python = inverse_function(the_inverse().func(sp.Symbol("y")), sp.Symbol("y"))
     values = grid()
     got = np.array([ours(float(v)) for v in values])
