@@ -40,6 +40,7 @@ from .errors import CausalityConflictError as CausalityConflictError
 from .errors import DerivationError as DerivationError
 from .errors import FloatingPartError as FloatingPartError
 from .errors import DuplicateNameError as DuplicateNameError
+from .errors import NameCollisionError as NameCollisionError
 from .errors import HybridBondGraphError as HybridBondGraphError
 from .errors import InvalidGraphError as InvalidGraphError
 from .errors import MissingParameterError as MissingParameterError
@@ -53,6 +54,8 @@ from .energy import energy_function as energy_function
 from .energy import storage_energy as storage_energy
 from .energy import stored_energy as stored_energy
 from .jump import JumpMap as JumpMap
+from .namespace import Namespace as Namespace
+from .namespace import Owner as Owner
 from .jump import JumpMapError as JumpMapError
 from .jump import derive_jump_map as derive_jump_map
 from .state_space import StateSpace as StateSpace

@@ -17,6 +17,7 @@ __all__ = [
     "InvalidGraphError",
     "UnknownNameError",
     "DuplicateNameError",
+    "NameCollisionError",
     "CausalityConflictError",
     "FloatingPartError",
     "AlgebraicLoopError",
@@ -90,6 +91,18 @@ class DuplicateNameError(HybridBondGraphError, ValueError):
     def __init__(self, message: str, name: str = ""):
         super().__init__(message)
         self.name = name
+
+
+class NameCollisionError(DuplicateNameError):
+    """One name would stand for two quantities (:mod:`bondgraph.namespace`):
+    a resistor named ``S1_period`` beside a PWM switch ``S1`` (whose period
+    is the parameter ``S1_period``), a parameter named after a bond's flow
+    ``f_sw``, a component named ``t``.  ``name`` is the name and ``owners``
+    the descriptions of the two quantities; the message says how to rename."""
+
+    def __init__(self, message: str, name: str = "", owners: tuple = ()):
+        super().__init__(message, name)
+        self.owners = tuple(owners)
 
 
 class CausalityConflictError(HybridBondGraphError):

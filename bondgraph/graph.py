@@ -35,6 +35,7 @@ from .errors import (
     UnknownParameterError,
     did_you_mean,
 )
+from .namespace import graph_namespace
 from .symbols import check_name, t
 
 __all__ = ["Bond", "BondGraph", "Instance", "Configuration", "OpenPort"]
@@ -496,22 +497,13 @@ class BondGraph:
         self._check_symbol_names()
 
     def _check_symbol_names(self) -> None:
-        seen: dict[str, str] = {"t": "time"}
-        # an open port's bond variables are also its inputs (see open_view)
-        port_symbols = {s for _, b in self.open_ports.values() for s in (self.bonds[b].effort, self.bonds[b].flow)}
-        groups = [
-            ("state", self.states),
-            ("input", self.inputs.values()),
-            ("bond variable", sorted(self.bond_symbols() - port_symbols, key=lambda s: s.name)),
-            ("parameter", sorted(self.parameters, key=lambda s: s.name)),
-        ]
-        for what, symbols in groups:
-            for s in symbols:
-                if s.name in seen and not (what == "parameter" and seen[s.name] == "parameter"):
-                    raise DuplicateNameError(
-                        f"the name {s.name!r} is used both as {seen[s.name]} and as {what}; rename one", s.name
-                    )
-                seen[s.name] = what
+        self.namespace()
+
+    def namespace(self):
+        """The names this graph owns — ``t``, its states, inputs and bond variables — each with its
+        owner (:func:`bondgraph.namespace.graph_namespace`); two quantities of one name are a
+        :class:`~bondgraph.errors.NameCollisionError`."""
+        return graph_namespace(self)
 
     def two_port_bonds(self, element: str) -> tuple[Bond, Bond]:
         """(bond in, bond out) of a TF/GY."""

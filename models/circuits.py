@@ -113,6 +113,7 @@ from __future__ import annotations
 import difflib
 import itertools
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -122,12 +123,14 @@ from scipy.optimize import brentq
 
 from bondgraph import GY, TF, C, I, One, R, Se, Sf, Zero
 from bondgraph.errors import (DuplicateNameError, FloatingPartError, InvalidGraphError, MissingParameterError,
-                              UnknownNameError)
+                              NameCollisionError, ParameterValueError, UnknownNameError)
+from bondgraph.namespace import Owner
 from bondgraph.floating import floating_part
 from switching import Automaton, HybridModel
 
-from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
-                      parameter_name, source_value, units_by_prefix)
+from ._common import Range
+from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
+                      checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Circuit", "Input", "PWM", "GROUND", "floating_modes", "FLOATING_CHECK_MODES"]
 
@@ -163,6 +166,21 @@ class PWM:
     duty: float | str
     delay: float = 0.0
 
+    def checked(self, owner: str) -> "PWM":
+        """This schedule with its values checked (:func:`~models.netlist.checked_argument`): ``period``
+        a positive number or a parameter name, ``duty`` one in [0, 1] or a parameter name, ``delay`` a
+        finite number; else a :class:`~bondgraph.errors.ParameterValueError` naming ``owner`` and the value."""
+        period = checked_argument(self.period, f"the PWM period of {owner}")
+        duty = checked_argument(self.duty, f"the PWM duty of {owner}")
+        delay = checked_number(self.delay, f"the PWM delay of {owner}")
+        if not isinstance(period, str) and period <= 0:
+            raise ParameterValueError(f"the PWM period of {owner} is {period:g} s: give a positive period",
+                                      "period", period)
+        if not isinstance(duty, str) and not 0.0 <= duty <= 1.0:
+            raise ParameterValueError(f"the PWM duty of {owner} is {duty:g}: give a duty between 0 and 1",
+                                      "duty", duty)
+        return PWM(period, duty, delay)
+
 
 class Circuit(Netlist):
     """A netlist: components between named nodes; ground is node ``"0"``.
@@ -182,17 +200,20 @@ class Circuit(Netlist):
 
     def R(self, name: str, n1, n2, value=None, *, effort_law=None, flow_law=None) -> None:
         """A resistor [Ω] between ``n1`` and ``n2``: ``v = R i`` (or the law given)."""
-        self._add("R", name, (n1, n2), value=value, laws={"effort_law": effort_law, "flow_law": flow_law})
+        self._add("R", name, (n1, n2), value=_passive_value(value, "resistance", name),
+                  laws={"effort_law": effort_law, "flow_law": flow_law})
 
     def C(self, name: str, n1, n2, value=None, *, v0: float = 0.0, effort_law=None) -> None:
         """A capacitor [F] between ``n1`` and ``n2``: ``i = C dv/dt``, ``v = v0`` at t = 0
         (with a law ``v = Φ(q)``, the charge with ``Φ(q) = v0``)."""
-        self._add("C", name, (n1, n2), value=value, laws={"effort_law": effort_law}, initial=float(v0))
+        self._add("C", name, (n1, n2), value=_passive_value(value, "capacitance", name),
+                  laws={"effort_law": effort_law}, initial=checked_number(v0, f"the initial voltage v0 of C {name!r}"))
 
     def L(self, name: str, n1, n2, value=None, *, i0: float = 0.0, flow_law=None) -> None:
         """An inductor [H] between ``n1`` and ``n2``: ``v = L di/dt``, ``i = i0`` at t = 0 (n1 → n2;
         with a law ``i = Φ(p)``, the flux linkage with ``Φ(p) = i0``)."""
-        self._add("L", name, (n1, n2), value=value, laws={"flow_law": flow_law}, initial=float(i0))
+        self._add("L", name, (n1, n2), value=_passive_value(value, "inductance", name),
+                  laws={"flow_law": flow_law}, initial=checked_number(i0, f"the initial current i0 of L {name!r}"))
 
     def V(self, name: str, n_plus, n_minus, value) -> None:
         """A voltage source: ``v(n_plus) − v(n_minus) = value`` [V] (a number,
@@ -209,7 +230,9 @@ class Circuit(Netlist):
         with states ``off`` (no current) and ``on`` (``v = v_f + r_on·i``;
         both 0 when not given); ``on``: its state at t = 0.  Guards: see the
         module documentation."""
-        self._add("D", name, (anode, cathode), r_on=r_on, v_f=v_f, on=bool(on))
+        r_on, v_f = (None if value is None else checked_argument(value, f"the {what} of diode {name!r}")
+                     for value, what in ((r_on, "on-resistance r_on"), (v_f, "forward drop v_f")))
+        self._add("D", name, (anode, cathode), r_on=r_on, v_f=v_f, on=_flag(on, "on", name))
 
     def switch(self, name: str, n1, n2, closed_when, *, open_when: str | None = None,
                closed: bool | None = None) -> None:
@@ -229,6 +252,9 @@ class Circuit(Netlist):
         if open_when is not None and not (isinstance(open_when, str) and isinstance(closed_when, str)):
             raise InvalidGraphError(f"switch {name!r}: open_when must be a condition as text, given with a "
                                     f"closed_when condition (not a PWM), got {open_when!r}", [str(name)])
+        if isinstance(closed_when, PWM):
+            closed_when = closed_when.checked(f"switch {name!r}")
+        closed = None if closed is None else _flag(closed, "closed", name)
         self._add("S", name, (n1, n2), closed_when=closed_when, open_when=open_when, closed=closed)
 
     def transformer(self, name: str, p1, p2, s1, s2, ratio) -> None:
@@ -237,13 +263,15 @@ class Circuit(Netlist):
         ``i_p`` flows into ``p1`` through the primary, ``v_s = v(s1) − v(s2)``
         and ``i_s`` flows out of ``s1`` into the circuit.  Signals
         ``v_<name>_p``, ``i_<name>_p``, ``v_<name>_s``, ``i_<name>_s``."""
-        self._add("T", name, (p1, p2, s1, s2), value=ratio)
+        self._add("T", name, (p1, p2, s1, s2),
+                  value=checked_argument(ratio, f"the turns ratio of transformer {name!r}", ("number", "name", "sympy")))
 
     def gyrator(self, name: str, p1, p2, s1, s2, r) -> None:
         """An ideal gyrator with ratio ``r`` [Ω]: ``v_p = r·i_s`` and
         ``v_s = r·i_p`` (a DC machine's electrical and mechanical ports in an
         electrical analogue), the ports as for :meth:`transformer`."""
-        self._add("G", name, (p1, p2, s1, s2), value=r)
+        self._add("G", name, (p1, p2, s1, s2),
+                  value=checked_argument(r, f"the ratio r of gyrator {name!r}", ("number", "name", "sympy")))
 
     def dc_machine(self, name: str, p1, p2, s1, s2, k) -> None:
         """A DC machine with constant ``k`` [V·s/rad = N·m/A]: a :meth:`gyrator`
@@ -283,8 +311,6 @@ class Circuit(Netlist):
             if laws and not callable(next(iter(laws.values()))):
                 raise InvalidGraphError(f"{kind} {name!r}: give the law as a function of one argument, "
                                         "e.g. lambda v: Is*(exp(v/VT) - 1)", [name])
-            if values.get("value") is None and not laws:
-                values["value"] = name
         if "value" in values and isinstance(values["value"], str) and kind not in ("V", "I"):
             parameter_name(values["value"], f"value of {name!r}")
         self._parts[name] = Part(kind, name, nodes, values)
@@ -476,12 +502,23 @@ class _Builder(NetlistBuilder):
     def source_value(self, part) -> sp.Expr:
         return self.expression_value(part.values["value"], f"source {part.name!r}", part.name)
 
+    def across_and_through(self, part, bond, sign: int, owner: str) -> None:
+        """The signals ``v_<name>`` and ``i_<name>`` of a two-terminal part whose element is on
+        ``bond``: ``v = sign·e``, ``i = sign·f``."""
+        minus = "-" if sign < 0 else ""
+        self.signal(f"v_{part.name}", f"{minus}e_{bond.name}", owner)
+        self.signal(f"i_{part.name}", f"{minus}f_{bond.name}", owner)
+
     # -- graph pieces
 
-    def passive(self, part):
+    def passive(self, part, owner: str | None = None):
         kind, name = part.kind, part.name
+        owner = owner or f"{kind} {name!r}"
         law = part.values.get("law")
-        value = None if law else self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
+        what = {"R": "resistance", "C": "capacitance", "L": "inductance"}[kind]
+        value = None if law else self.number_or_parameter(
+            part.values.get("value"), name, f"{what} of {owner}", rename=f"rename {owner}",
+            allowed=Range(f"the {what} of {owner}", 0.0, low_open=kind != "R"))
 
         def element(sign):
             if law:
@@ -490,9 +527,8 @@ class _Builder(NetlistBuilder):
                 return {"R": R, "C": C, "L": I}[kind](name, **{key: wrapped})
             return {"R": R, "C": C, "L": I}[kind](name, value)
 
-        sign = self.branch(part, element)
-        self.signals[f"v_{name}"] = f"{'-' if sign < 0 else ''}e_{name}"
-        self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
+        sign, bond = self.branch(part, element)
+        self.across_and_through(part, bond, sign, owner)
         if kind in ("C", "L") and part.values.get("initial"):
             storage = self.graph.elements[name]
             self.initial[storage.state.name] = (storage, sign * part.values["initial"])
@@ -501,70 +537,77 @@ class _Builder(NetlistBuilder):
         name, (plus, minus) = part.name, part.nodes
         value = self.source_value(part)
         if plus != GROUND and minus != GROUND:
-            junction = self.graph.add(One(f"branch_{name}"))
-            self.graph.connect(Se(name, value), junction)
+            junction = self.graph.add(One(self.internal(f"branch_{name}")))
+            bond = self.graph.connect(Se(name, value), junction)
             self.note(plus, self.graph.connect(junction, self.node(plus)))
             self.note(minus, self.graph.connect(self.node(minus), junction))
             sign = 1
         elif minus == GROUND:
-            self.note(plus, self.graph.connect(Se(name, value), self.node(plus)))
+            bond = self.graph.connect(Se(name, value), self.node(plus))
+            self.note(plus, bond)
             sign = 1
         else:
-            self.note(minus, self.graph.connect(Se(name, -value), self.node(minus)))
+            bond = self.graph.connect(Se(name, -value), self.node(minus))
+            self.note(minus, bond)
             sign = -1
-        self.signals[f"v_{name}"] = f"{'-' if sign < 0 else ''}e_{name}"
-        self.signals[f"i_{name}"] = f"{'' if sign < 0 else '-'}f_{name}"
+        owner = f"voltage source {name!r}"
+        self.signal(f"v_{name}", f"{'-' if sign < 0 else ''}e_{bond.name}", owner)
+        self.signal(f"i_{name}", f"{'' if sign < 0 else '-'}f_{bond.name}", owner)
 
     def current_source(self, part):
         name, (source, target) = part.name, part.nodes
         value = self.source_value(part)
         if source != GROUND and target != GROUND:
-            junction = self.graph.add(One(f"branch_{name}"))
-            self.graph.connect(Sf(name, value), junction)
+            junction = self.graph.add(One(self.internal(f"branch_{name}")))
+            bond = self.graph.connect(Sf(name, value), junction)
             self.note(target, self.graph.connect(junction, self.node(target)))
             self.note(source, self.graph.connect(self.node(source), junction))
             sign = 1
         elif source == GROUND:
-            self.note(target, self.graph.connect(Sf(name, value), self.node(target)))
+            bond = self.graph.connect(Sf(name, value), self.node(target))
+            self.note(target, bond)
             sign = 1
         else:
-            self.note(source, self.graph.connect(Sf(name, -value), self.node(source)))
+            bond = self.graph.connect(Sf(name, -value), self.node(source))
+            self.note(source, bond)
             sign = -1
-        self.signals[f"i_{name}"] = f"{'-' if sign < 0 else ''}f_{name}"
-        self.later.append((name, part.nodes))
+        self.signal(f"i_{name}", f"{'-' if sign < 0 else ''}f_{bond.name}", f"current source {name!r}")
+        self.later.append((name, part.nodes, f"current source {name!r}"))
 
-    def controlled(self, part, extra=()):
-        """A controlled 1-junction ``name`` between the part's nodes; returns
-        the signal text of its current (first node → second)."""
+    def controlled(self, part, owner: str, extra=()):
+        """A controlled 1-junction ``name`` between the part's nodes; its signal ``i_<name>`` is the
+        current from its first node to its second."""
         name, (a, b) = part.name, part.nodes[:2]
         junction = self.graph.add(One(name, controlled=True))
         current = None
         if a != GROUND:
-            bond = self.graph.connect(self.node(a), junction, name=f"{name}_in")
+            bond = self.graph.connect(self.node(a), junction, name=self.bond_name(f"{name}_in"))
             self.note(a, bond)
             current = f"f_{bond.name}"
         if b != GROUND:
-            bond = self.graph.connect(junction, self.node(b), name=f"{name}_out")
+            bond = self.graph.connect(junction, self.node(b), name=self.bond_name(f"{name}_out"))
             self.note(b, bond)
             current = current or f"f_{bond.name}"
         for element in extra:
             self.graph.connect(junction, element)
         if len(self.graph.bonds_of(name)) < 2:  # an ideal branch to ground: the other side is 0 V
-            self.graph.connect(junction, Se(f"{name}_ground", 0))
-        self.signals[f"i_{name}"] = current
-        self.later.append((name, part.nodes))
+            self.graph.connect(junction, Se(self.internal(f"{name}_ground"), 0))
+        self.signal(f"i_{name}", current, owner)
+        self.later.append((name, part.nodes, owner))
 
     def diode(self, part):
         name = part.name
+        owner = f"diode {name!r}"
         extra, threshold = [], "0"
         if part.values["v_f"] is not None:
-            v_f = self.number_or_parameter(part.values["v_f"], f"{name}_v_f", f"v_f of {name!r}")
-            extra.append(Se(f"{name}_drop", v_f))
+            v_f = self.number_or_parameter(part.values["v_f"], f"{name}_v_f", f"forward drop v_f of {owner}")
+            extra.append(Se(self.internal(f"{name}_drop"), v_f))
             threshold = str(v_f)
         if part.values["r_on"] is not None:
-            r_on = self.number_or_parameter(part.values["r_on"], f"{name}_r_on", f"r_on of {name!r}")
-            extra.append(R(f"{name}_resistance", r_on))
-        self.controlled(part, extra)
+            r_on = self.number_or_parameter(part.values["r_on"], f"{name}_r_on", f"on-resistance r_on of {owner}",
+                                            allowed=Range(f"the on-resistance of {owner}", 0.0))
+            extra.append(R(self.internal(f"{name}_resistance"), r_on))
+        self.controlled(part, owner, extra)
         automaton = Automaton(name, {"off": {name: False}, "on": {name: True}},
                               initial="on" if part.values["on"] else "off")
         automaton.add_transition("off", "on", f"v_{name} > {threshold}", "a posteriori")
@@ -573,21 +616,25 @@ class _Builder(NetlistBuilder):
 
     def switch(self, part):
         name, rule = part.name, part.values["closed_when"]
-        self.controlled(part)
+        owner = f"switch {name!r}"
+        self.controlled(part, owner)
         if isinstance(rule, PWM):
-            period = self.number_or_parameter(rule.period, f"{name}_period", f"period of {name!r}")
-            duty = self.number_or_parameter(rule.duty, f"{name}_duty", f"duty of {name!r}")
+            period = self.number_or_parameter(rule.period, f"{name}_period", f"PWM period of {owner}",
+                                              allowed=Range(f"the PWM period of {owner}", 0.0, low_open=True,
+                                                            required=True))
+            duty = self.number_or_parameter(rule.duty, f"{name}_duty", f"PWM duty of {owner}",
+                                            allowed=Range(f"the PWM duty of {owner}", 0.0, 1.0, required=True))
             delay = float(rule.delay)
             phase = f"t - {delay!r}" if delay else "t"
             carrier = f"acos(cos(2*pi*({phase})/{period} - pi*{duty}))/pi"
-            self.signals[f"carrier_{name}"] = carrier
+            self.signal(f"carrier_{name}", carrier, owner)
             closing, opening = f"carrier_{name} <= {duty}", f"carrier_{name} > {duty}"
             initial = part.values["closed"]
             if initial is None:
                 initial = delay <= 0.0
         else:
-            closing = rule
-            opening = part.values["open_when"] or f"not ({rule})"
+            closing = self.user_text(rule)
+            opening = self.user_text(part.values["open_when"] or f"not ({rule})")
             initial = part.values["closed"]
             if initial is None:
                 initial = holds_at_start(closing, {**self.defaults, **self.given})
@@ -599,45 +646,52 @@ class _Builder(NetlistBuilder):
 
     def two_port(self, part):
         name = part.name
-        modulus = self.number_or_parameter(part.values["value"], name, f"ratio of {name!r}")
+        owner = f"{'transformer' if part.kind == 'T' else 'gyrator'} {name!r}"
+        modulus = self.number_or_parameter(part.values["value"], name, f"ratio of {owner}",
+                                           rename=f"rename {owner}")
         element = (TF if part.kind == "T" else GY)(name, modulus)
         p1, p2, s1, s2 = part.nodes
-        primary = self.graph.add(One(f"{name}_primary"))
-        secondary = self.graph.add(One(f"{name}_secondary"))
+        primary = self.graph.add(One(self.internal(f"{name}_primary")))
+        secondary = self.graph.add(One(self.internal(f"{name}_secondary")))
         if p1 != GROUND:
             self.note(p1, self.graph.connect(self.node(p1), primary))
         if p2 != GROUND:
             self.note(p2, self.graph.connect(primary, self.node(p2)))
-        self.graph.connect(primary, element, name=f"{name}_p")
-        self.graph.connect(element, secondary, name=f"{name}_s")
+        bond_p = self.graph.connect(primary, element, name=self.bond_name(f"{name}_p"))
+        bond_s = self.graph.connect(element, secondary, name=self.bond_name(f"{name}_s"))
         if s1 != GROUND:
             self.note(s1, self.graph.connect(secondary, self.node(s1)))
         if s2 != GROUND:
             self.note(s2, self.graph.connect(self.node(s2), secondary))
-        self.signals[f"v_{name}_p"] = f"e_{name}_p"
-        self.signals[f"i_{name}_p"] = f"f_{name}_p"
-        self.signals[f"v_{name}_s"] = f"e_{name}_s"
-        self.signals[f"i_{name}_s"] = f"f_{name}_s"
+        for side, bond in (("p", bond_p), ("s", bond_s)):
+            self.signal(f"v_{name}_{side}", f"e_{bond.name}", owner)
+            self.signal(f"i_{name}_{side}", f"f_{bond.name}", owner)
 
     def leaks(self):
         """A resistor ``<name>_gmin`` of resistance ``1/gmin`` across every
         ideal diode and switch (:meth:`Circuit.build`'s ``gmin``)."""
         gmin = self.gmin
-        if isinstance(gmin, bool) or not isinstance(gmin, (str, int, float)):
-            raise InvalidGraphError(f"circuit {self.circuit.name!r}: gmin must be a conductance [S] (a positive "
-                                    f"number, e.g. 1e-12) or a parameter name, got {gmin!r}")
+        if isinstance(gmin, bool) or not isinstance(gmin, (str, numbers.Real)):
+            raise ParameterValueError(f"circuit {self.circuit.name!r}: gmin must be a conductance [S] (a positive "
+                                      f"number, e.g. 1e-12) or a parameter name, got {gmin!r}", "gmin", gmin)
         if not isinstance(gmin, str) and not (math.isfinite(gmin) and gmin > 0):
-            raise InvalidGraphError(f"circuit {self.circuit.name!r}: gmin = {gmin!r} is not a positive finite "
-                                    "conductance [S]; give e.g. gmin=1e-12, or leave it out for no leak")
-        conductance = self.number_or_parameter(gmin, "gmin", "gmin")
+            raise ParameterValueError(f"circuit {self.circuit.name!r}: gmin = {gmin!r} is not a positive finite "
+                                      "conductance [S]; give e.g. gmin=1e-12, or leave it out for no leak",
+                                      "gmin", gmin)
+        conductance = self.number_or_parameter(
+            gmin, "gmin", "leak conductance gmin given to build()",
+            rename="give gmin as a parameter name of your own (build(gmin='g_leak'))",
+            allowed=Range("the leak conductance gmin", 0.0, low_open=True, required=True))
         for part in list(self.circuit._parts.values()):
             if part.kind not in ("D", "S"):
                 continue
             leak = f"{part.name}_gmin"
             if leak in self.circuit._parts:
-                raise DuplicateNameError(f"circuit {self.circuit.name!r}: gmin puts a leak named {leak!r} across "
-                                         f"{part.name!r}, and a component has that name; rename it", leak)
-            self.passive(Part("R", leak, part.nodes[:2], {"value": 1 / conductance}))
+                raise NameCollisionError(f"circuit {self.circuit.name!r}: gmin puts a leak named {leak!r} across "
+                                         f"{part.name!r}, and a component has that name; rename it", leak,
+                                         (f"the leak across {part.name!r}", f"component {leak!r}"))
+            self.passive(Part("R", leak, part.nodes[:2], {"value": 1 / conductance}),
+                         owner=f"the leak across {part.name!r}")
 
     # -- the model
 
@@ -649,11 +703,17 @@ class _Builder(NetlistBuilder):
              "T": self.two_port, "G": self.two_port}[part.kind](part)
         if self.gmin is not None:
             self.leaks()
-        node_signals = {f"v_{n}": f"e_{bond}" for n, bond in self.node_bond.items()}
-        for name_, (a, b) in self.later:
-            self.signals[f"v_{name_}"] = f"{_node_signal(a)} - {_node_signal(b)}"
+        node_signals = {}
+        for n, bond in self.node_bond.items():
+            self.names.claim(f"v_{n}", Owner(f"signal 'v_{n}' (the voltage of node {n!r})", f"rename node {n!r}",
+                                             "signal"))
+            node_signals[f"v_{n}"] = f"e_{bond}"
+        for name_, (a, b), owner in self.later:
+            self.signal(f"v_{name_}", f"{_node_signal(a)} - {_node_signal(b)}", owner)
+        self.claim_graph_names({})
+        self.claim_text_names()
         signals = {**node_signals, **self.signals}
-        parameters = {**self.defaults, **self.given}
+        parameters = self.parameters_checked()
         initial_state = {}
         for state, (storage, output) in self.initial.items():
             initial_state[state] = _initial_state(storage, output, parameters)
@@ -693,3 +753,19 @@ def _initial_state(storage, output: float, parameters: Mapping) -> float:
 
 def _node_signal(n):
     return "0" if n == GROUND else f"v_{n}"
+
+
+def _passive_value(value, what: str, name: str):
+    """An R's, C's or L's value as :meth:`Circuit.R` takes it: ``None`` (the parameter ``name``), a number,
+    a parameter name or a sympy expression."""
+    if value is None:
+        return None
+    kind = {"resistance": "R", "capacitance": "C", "inductance": "L"}[what]
+    return checked_argument(value, f"the {what} of {kind} {name!r}", ("number", "name", "sympy"))
+
+
+def _flag(value, what: str, name: str) -> bool:
+    """A true/false argument (``on``, ``closed``) of component ``name``: ``True``/``False`` (numpy's too)."""
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, numbers.Integral) and value in (0, 1)):
+        return bool(value)
+    raise ParameterValueError(f"{what!r} of {name!r} must be True or False, got {value!r}", what, value)

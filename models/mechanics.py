@@ -128,12 +128,15 @@ from collections.abc import Callable, Mapping
 import sympy as sp
 
 from bondgraph import GY, TF, C, I, One, R, Se, Sf, Zero
-from bondgraph.errors import DuplicateNameError, InvalidGraphError, MissingParameterError, UnknownNameError
+from bondgraph.namespace import Owner
+from bondgraph.errors import (DuplicateNameError, InvalidGraphError, MissingParameterError, ParameterValueError,
+                              UnknownNameError)
 from switching import Automaton, HybridModel
 
 from .circuits import Input
-from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_name, checked_node, holds_at_start,
-                      parameter_name, source_value, units_by_prefix)
+from ._common import Range
+from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
+                      checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 
@@ -181,7 +184,9 @@ class Mechanism(Netlist):
         ``node``: ``dp/dt`` is the sum of the forces on the node, ``v = p/m``;
         ``v0`` its velocity and ``x0`` (if given) its node's position at t = 0.
         One mass per node: two masses moving together are one, ``m₁ + m₂``."""
-        self._add("M", name, (node,), value=m, v0=float(v0))
+        what = "mass" if self.kind == "translational" else "inertia"
+        self._add("M", name, (node,), value=self._value(m, what, name),
+                  v0=checked_number(v0, f"the initial velocity of {what} {name!r}"))
         if x0 is not None:
             self.position(node, x0)
 
@@ -195,24 +200,22 @@ class Mechanism(Netlist):
         node = checked_node(node, "position", "the frame")
         if node == FRAME:
             raise InvalidGraphError(f"the frame {FRAME!r} does not move: its position is 0")
-        x0 = float(x0)
-        if not math.isfinite(x0):
-            raise InvalidGraphError(f"the position of node {node!r} at t = 0 must be finite, got {x0}")
-        self._positions[node] = x0
+        self._positions[node] = checked_number(x0, f"the position of node {node!r} at t = 0")
 
     def spring(self, name: str, n1, n2, k=None, *, q0: float = 0.0, effort_law=None) -> None:
         """A spring between ``n1`` and ``n2``: ``F = k·q`` [N, N/m] with the
         deflection ``q = ∫(v(n1) − v(n2))dt`` (compression when ``n1`` is
         behind ``n2``), ``q = q0`` at t = 0.  ``effort_law``: a nonlinear
         ``F = φ(q)`` instead of ``k`` (a function of one argument)."""
-        self._add("K", name, (n1, n2), value=k, law=effort_law, q0=float(q0))
+        self._add("K", name, (n1, n2), value=self._value(k, "stiffness", name), law=effort_law,
+                  q0=checked_number(q0, f"the initial deflection q0 of spring {name!r}"))
 
     def damper(self, name: str, n1, n2, b=None, *, effort_law=None) -> None:
         """A damper between ``n1`` and ``n2``: ``F = b·(v(n1) − v(n2))``
         [N, N·s/m]; ``effort_law``: a nonlinear ``F = φ(v)`` instead (e.g.
         Coulomb friction ``lambda v: Fc*sympy.sign(v)``, whose stick/slip the
         toolkit's law switches resolve)."""
-        self._add("B", name, (n1, n2), value=b, law=effort_law)
+        self._add("B", name, (n1, n2), value=self._value(b, "damping", name), law=effort_law)
 
     def force(self, name: str, node, value) -> None:
         """A force [N] (rotational: a torque [N·m]) on ``node`` in its positive
@@ -236,7 +239,8 @@ class Mechanism(Netlist):
         """An ideal gear (a ``TF``) of ratio ``n`` from shaft ``n_in`` to
         ``n_out``: ``ω_out = ω_in/n`` and ``T_out = n·T_in`` (power is
         conserved).  A translational machine reads it as a lever."""
-        self._add("G", name, (n_in, n_out), value=ratio)
+        self._add("G", name, (n_in, n_out), value=checked_argument(ratio, f"the ratio of gear {name!r}",
+                                                                   ("number", "name", "sympy")))
 
     def motor(self, name: str, shaft, k, *, V, R, L=None, i0: float = 0.0) -> None:
         """A DC motor (a ``GY`` of constant ``k`` [V·s/rad = N·m/A]) driving
@@ -247,7 +251,14 @@ class Mechanism(Netlist):
         parameters are ``<name>_k``, ``<name>_V``, ``<name>_R``, ``<name>_L``
         (when numbers).  Without a load the shaft reaches the no-load speed
         ``V/k``."""
-        self._add("DC", name, (shaft,), k=k, V=source_value(V, name, (Input,)), R=R, L=L, i0=float(i0))
+        checked = {key: None if value is None else checked_argument(value, f"the {what} of motor {name!r}")
+                   for key, value, what in (("k", k, "constant k"), ("R", R, "armature resistance R"),
+                                            ("L", L, "armature inductance L"))}
+        if checked["k"] is None or checked["R"] is None:
+            raise ParameterValueError(f"motor {name!r}: give its constant k and armature resistance R (numbers or "
+                                      "parameter names)", name, None)
+        self._add("DC", name, (shaft,), V=source_value(V, name, (Input,)),
+                  i0=checked_number(i0, f"the initial current i0 of motor {name!r}"), **checked)
 
     def clutch(self, name: str, n1, n2, engaged_when: str, *, disengaged_when: str | None = None,
                engaged: bool | None = None, T_max=None) -> None:
@@ -267,6 +278,10 @@ class Mechanism(Netlist):
             if condition is not None and not isinstance(condition, str):
                 raise InvalidGraphError(f"clutch {name!r}: {label} must be a condition as text (e.g. "
                                         f"'t >= 0.5'), got {condition!r}", [str(name)])
+        if engaged is not None and not isinstance(engaged, bool):
+            raise ParameterValueError(f"clutch {name!r}: engaged must be True or False, got {engaged!r}",
+                                      "engaged", engaged)
+        T_max = None if T_max is None else checked_argument(T_max, f"the slip torque T_max of clutch {name!r}")
         self._add("CL", name, (n1, n2), engaged_when=engaged_when, disengaged_when=disengaged_when,
                   engaged=engaged, T_max=T_max)
 
@@ -278,7 +293,9 @@ class Mechanism(Netlist):
         if upper is None and lower is None:
             raise InvalidGraphError(f"stop {name!r}: give its position as upper= (the node stays below it) "
                                     "and/or lower= (above it)", [str(name)])
-        self._add("ST", name, (node, FRAME), upper=upper, lower=lower, e=e, v_th=v_th)
+        upper, lower = (None if value is None else checked_argument(value, f"the {side} position of stop {name!r}")
+                        for side, value in (("upper", upper), ("lower", lower)))
+        self._add("ST", name, (node, FRAME), upper=upper, lower=lower, **_impact_values(e, v_th, f"stop {name!r}"))
 
     def backlash(self, name: str, n1, n2, delta, *, e=0.0, v_th=0.0) -> None:
         """A backlash (play) of total width ``2·delta`` between ``n1`` and
@@ -287,11 +304,21 @@ class Mechanism(Netlist):
         (a hard stop between two nodes; guards: see the module
         documentation).  ``delta``: a number (the parameter
         ``<name>_delta``) or a parameter name."""
-        self._add("ST", name, (n1, n2), upper=delta, lower=("-", delta), e=e, v_th=v_th)
-
-    # ------------------------------------------------------------ queries
+        delta = checked_argument(delta, f"the half-width delta of backlash {name!r}")
+        if not isinstance(delta, str) and delta <= 0:
+            raise ParameterValueError(f"the half-width delta of backlash {name!r} is {delta:g}: give a positive "
+                                      "width", "delta", delta)
+        self._add("ST", name, (n1, n2), upper=delta, lower=("-", delta),
+                  **_impact_values(e, v_th, f"backlash {name!r}"))
 
     # ------------------------------------------------------------ input checks
+
+    def _value(self, value, what: str, name: str):
+        """A mass's, spring's or damper's value as its method takes it: ``None`` (the parameter ``name``),
+        a number, a parameter name or a sympy expression."""
+        if value is None:
+            return None
+        return checked_argument(value, f"the {what} of {name!r}", ("number", "name", "sympy"))
 
     def _add(self, kind, name, nodes, **values):
         name = checked_name(name, "component name", "'m1', 'clutch_A'")
@@ -322,8 +349,6 @@ class Mechanism(Netlist):
             if law is not None and not callable(law):
                 raise InvalidGraphError(f"{name!r}: give the law as a function of one argument, e.g. "
                                         "lambda q: k1*q + k3*q**3", [name])
-        if kind in ("M", "K", "B") and values.get("value") is None and values.get("law") is None:
-            values["value"] = name
         if isinstance(values.get("value"), str) and kind not in ("F", "S"):
             parameter_name(values["value"], f"value of {name!r}")
         self._parts[name] = Part(kind, name, nodes, values)
@@ -367,6 +392,7 @@ class _Builder(NetlistBuilder):
         self.X, self.V, self.F = KINDS[mechanism.kind]
         self.initial: dict[str, float] = {}
         self.velocity: dict[str, str] = {}  # node → its velocity from its mass's momentum
+        self.state_owners: dict[str, tuple] = {}  # state name → (what it is, how to rename it)
 
     # -- names and values
 
@@ -379,23 +405,38 @@ class _Builder(NetlistBuilder):
             x, v = f"-{x}", f"-{v}"
         return x, v
 
+    def force_and_speed(self, name: str, bond, sign: int, owner: str) -> None:
+        """The signals ``F_<name>`` and ``v_<name>`` of a part whose element is on ``bond``:
+        ``F = sign·e``, ``v = sign·f``."""
+        minus = "-" if sign < 0 else ""
+        self.signal(f"{self.F}_{name}", f"{minus}e_{bond.name}", owner)
+        self.signal(f"{self.V}_{name}", f"{minus}f_{bond.name}", owner)
+
     def mass(self, part):
         name, (n,) = part.name, part.nodes
-        value = self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
+        what = "mass" if self.mechanism.kind == "translational" else "inertia"
+        owner = f"{what} {name!r}"
+        value = self.number_or_parameter(part.values["value"], name, f"{what} of {owner}", rename=f"rename {owner}",
+                                         allowed=Range(f"the {what} of {owner}", 0.0, low_open=True))
         storage = I(name, value, state=f"p_{name}")
+        self.state_owners[f"p_{name}"] = (f"the momentum of {owner}", f"rename {owner}")
         self.note(n, self.graph.connect(self.node(n), storage))
         # from the state, not the bond's flow: in a locked mode a dependent mass's flow is the constraint's,
         # and the guards of an impact must see the velocities before the jump
         self.velocity[n] = f"p_{name}/({value})"
-        self.signals[f"{self.V}_{name}"] = self.velocity[n]
-        self.signals[f"{self.X}_{name}"] = f"{self.X}_{n}"
+        self.signal(f"{self.V}_{name}", self.velocity[n], owner)
+        self.signal(f"{self.X}_{name}", f"{self.X}_{n}", owner)
         if part.values["v0"]:
             self.initial[f"p_{name}"] = (value, part.values["v0"])
 
     def passive(self, part):
         name, law = part.name, part.values.get("law")
-        value = None if law else self.number_or_parameter(part.values["value"], name, f"value of {name!r}")
         spring = part.kind == "K"
+        owner = f"{'spring' if spring else 'damper'} {name!r}"
+        what = "stiffness" if spring else "damping"
+        value = None if law else self.number_or_parameter(part.values["value"], name, f"{what} of {owner}",
+                                                          rename=f"rename {owner}",
+                                                          allowed=Range(f"the {what} of {owner}", 0.0))
 
         def element(sign):
             if law:
@@ -403,10 +444,10 @@ class _Builder(NetlistBuilder):
                 return C(name, effort_law=wrapped) if spring else R(name, effort_law=wrapped)
             return C(name, 1 / value) if spring else R(name, value)
 
-        sign = self.branch(part, element)
-        minus = "-" if sign < 0 else ""
-        self.signals[f"{self.F}_{name}"] = f"{minus}e_{name}"
-        self.signals[f"{self.V}_{name}"] = f"{minus}f_{name}"
+        sign, bond = self.branch(part, element)
+        self.force_and_speed(name, bond, sign, owner)
+        if spring:
+            self.state_owners[self.graph.elements[name].state.name] = (f"the deflection of {owner}", f"rename {owner}")
         if spring and part.values["q0"]:
             storage = self.graph.elements[name]
             if law:
@@ -417,83 +458,95 @@ class _Builder(NetlistBuilder):
     def source(self, part):
         name, (n,) = part.name, part.nodes
         value = self.expression_value(part.values["value"], repr(name), name)
-        self.note(n, self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n)))
-        self.signals[f"{self.F}_{name}"] = f"e_{name}"
-        self.signals[f"{self.V}_{name}"] = f"f_{name}"
+        bond = self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n))
+        self.note(n, bond)
+        self.force_and_speed(name, bond, 1, f"{'force' if part.kind == 'F' else 'prescribed velocity'} {name!r}")
 
     def gear(self, part):
         name, (a, b) = part.name, part.nodes
-        ratio = self.number_or_parameter(part.values["value"], name, f"ratio of {name!r}")
+        owner = f"gear {name!r}"
+        ratio = self.number_or_parameter(part.values["value"], name, f"ratio of {owner}", rename=f"rename {owner}")
         gear = TF(name, 1 / ratio)
-        self.note(a, self.graph.connect(self.node(a), gear, name=f"{name}_in"))
-        self.note(b, self.graph.connect(gear, self.node(b), name=f"{name}_out"))
-        for end in ("in", "out"):
-            self.signals[f"{self.F}_{name}_{end}"] = f"e_{name}_{end}"
-            self.signals[f"{self.V}_{name}_{end}"] = f"f_{name}_{end}"
+        ends = {"in": self.graph.connect(self.node(a), gear, name=self.bond_name(f"{name}_in")),
+                "out": self.graph.connect(gear, self.node(b), name=self.bond_name(f"{name}_out"))}
+        self.note(a, ends["in"])
+        self.note(b, ends["out"])
+        for end, bond in ends.items():
+            self.signal(f"{self.F}_{name}_{end}", f"e_{bond.name}", owner)
+            self.signal(f"{self.V}_{name}_{end}", f"f_{bond.name}", owner)
 
     def motor(self, part):
         name, (n,), values = part.name, part.nodes, part.values
-        k = self.number_or_parameter(values["k"], f"{name}_k", f"constant k of {name!r}")
-        voltage = self.expression_value(values["V"], repr(name), f"{name}_V")
-        armature = self.graph.add(One(f"{name}_armature"))
-        self.graph.connect(Se(f"{name}_V", voltage), armature)
-        resistance = self.number_or_parameter(values["R"], f"{name}_R", f"resistance R of {name!r}")
-        self.graph.connect(armature, R(f"{name}_R", resistance))
+        owner = f"motor {name!r}"
+        k = self.number_or_parameter(values["k"], f"{name}_k", f"constant k of {owner}")
+        voltage = self.expression_value(values["V"], owner, f"{name}_V")
+        armature = self.graph.add(One(self.internal(f"{name}_armature")))
+        self.graph.connect(Se(self.internal(f"{name}_V"), voltage), armature)
+        resistance = self.number_or_parameter(values["R"], f"{name}_R", f"armature resistance R of {owner}",
+                                              allowed=Range(f"the armature resistance of {owner}", 0.0))
+        self.graph.connect(armature, R(self.internal(f"{name}_R"), resistance))
         if values["L"] is not None:
-            inductance = self.number_or_parameter(values["L"], f"{name}_L", f"inductance L of {name!r}")
-            self.graph.connect(armature, I(f"{name}_L", inductance, state=f"p_{name}_L"))
+            inductance = self.number_or_parameter(values["L"], f"{name}_L", f"armature inductance L of {owner}",
+                                                  allowed=Range(f"the armature inductance of {owner}", 0.0,
+                                                                low_open=True))
+            self.graph.connect(armature, I(self.internal(f"{name}_L"), inductance, state=f"p_{name}_L"))
+            self.state_owners[f"p_{name}_L"] = (f"the armature flux linkage of {owner}", f"rename {owner}")
             if values["i0"]:
                 self.initial[f"p_{name}_L"] = (inductance, values["i0"])
         elif values["i0"]:
             raise InvalidGraphError(f"motor {name!r}: i0 needs an inductance L (without one the current "
                                     "follows the voltage at once)", [name])
         gyrator = GY(name, k)
-        self.graph.connect(armature, gyrator, name=f"{name}_e")
-        self.note(n, self.graph.connect(gyrator, self.node(n), name=f"{name}_m"))
-        self.signals[f"i_{name}"] = f"f_{name}_e"
-        self.signals[f"emf_{name}"] = f"e_{name}_e"
-        self.signals[f"T_{name}"] = f"e_{name}_m"
-        self.signals[f"omega_{name}"] = f"f_{name}_m"
+        electrical = self.graph.connect(armature, gyrator, name=self.bond_name(f"{name}_e"))
+        mechanical = self.graph.connect(gyrator, self.node(n), name=self.bond_name(f"{name}_m"))
+        self.note(n, mechanical)
+        self.signal(f"i_{name}", f"f_{electrical.name}", owner)
+        self.signal(f"emf_{name}", f"e_{electrical.name}", owner)
+        self.signal(f"T_{name}", f"e_{mechanical.name}", owner)
+        self.signal(f"omega_{name}", f"f_{mechanical.name}", owner)
 
-    def locking(self, part):
+    def locking(self, part, owner: str):
         """A controlled 0-junction ``name`` between the part's nodes (off: no
         force; on: the nodes move together); its force and relative motion signals."""
         name, (a, b) = part.name, part.nodes
         junction = self.graph.add(Zero(name, controlled=True))
         if a == FRAME:
-            self.graph.connect(Sf(f"{name}_frame", 0), junction, name=f"{name}_in")
+            first = self.graph.connect(Sf(self.internal(f"{name}_frame"), 0), junction,
+                                       name=self.bond_name(f"{name}_in"))
         else:
-            self.note(a, self.graph.connect(self.node(a), junction, name=f"{name}_in"))
+            first = self.graph.connect(self.node(a), junction, name=self.bond_name(f"{name}_in"))
+            self.note(a, first)
         if b == FRAME:
-            self.graph.connect(junction, Sf(f"{name}_frame", 0), name=f"{name}_out")
+            self.graph.connect(junction, Sf(self.internal(f"{name}_frame"), 0), name=self.bond_name(f"{name}_out"))
         else:
-            self.note(b, self.graph.connect(junction, self.node(b), name=f"{name}_out"))
-        self.signals[f"{self.F}_{name}"] = f"e_{name}_in"
+            self.note(b, self.graph.connect(junction, self.node(b), name=self.bond_name(f"{name}_out")))
+        self.signal(f"{self.F}_{name}", f"e_{first.name}", owner)
         x, v = self.relative(part)
-        self.signals[f"{self.V}_{name}"] = v
+        self.signal(f"{self.V}_{name}", v, owner)
         return x
 
     def clutch(self, part):
         name, values = part.name, part.values
-        engaging = values["engaged_when"]
-        releasing = values["disengaged_when"] or f"not ({engaging})"
+        owner = f"clutch {name!r}"
+        engaging = self.user_text(values["engaged_when"])
+        releasing = self.user_text(values["disengaged_when"] or f"not ({engaging})")
         initial = values["engaged"]
         if initial is None:
             initial = holds_at_start(engaging, {**self.defaults, **self.given})
         if values["T_max"] is None:
-            self.locking(part)
+            self.locking(part, owner)
             states, extra = {"disengaged": {name: False}, "engaged": {name: True}}, {}
         else:
-            t_max = self.number_or_parameter(values["T_max"], f"{name}_T_max", f"T_max of {name!r}")
-            gate = sp.Symbol(f"engaged_{name}")
+            t_max = self.number_or_parameter(values["T_max"], f"{name}_T_max", f"slip torque T_max of {owner}",
+                                             allowed=Range(f"the slip torque of {owner}", 0.0))
+            gate = sp.Symbol(self.names.claim(f"engaged_{name}", Owner(
+                f"the engagement (0 or 1) of {owner}", f"rename {owner}", "mode value")))
 
             def element(sign):
                 return R(name, effort_law=lambda w: gate * t_max * sp.sign(w))  # odd: the same either way
 
-            sign = self.branch(part, element)
-            minus = "-" if sign < 0 else ""
-            self.signals[f"{self.F}_{name}"] = f"{minus}e_{name}"
-            self.signals[f"{self.V}_{name}"] = f"{minus}f_{name}"
+            sign, bond = self.branch(part, element)
+            self.force_and_speed(name, bond, sign, owner)
             states = {"disengaged": {}, "engaged": {}}
             extra = {"values": {"disengaged": {gate.name: 0}, "engaged": {gate.name: 1}}}
         automaton = Automaton(name, states, initial="engaged" if initial else "disengaged", **extra)
@@ -503,23 +556,27 @@ class _Builder(NetlistBuilder):
 
     def limit(self, part):
         name, values = part.name, part.values
+        backlash = isinstance(values["lower"], tuple)
+        owner = f"{'backlash' if backlash else 'stop'} {name!r}"
         massless = [n for n in part.nodes if n != FRAME and n not in self.velocity]
         if massless:
             raise InvalidGraphError(f"{name!r} acts on node(s) {', '.join(map(repr, massless))} without a mass: an "
                                     "impact needs the velocities before it; put a mass (inertia) on each node of a "
                                     "stop or backlash", [name])
-        x = self.locking(part)
-        self.signals[f"{self.X}_{name}"] = x
+        x = self.locking(part, owner)
+        self.signal(f"{self.X}_{name}", x, owner)
         d, w, force = f"{self.X}_{name}", f"{self.V}_{name}", f"{self.F}_{name}"
-        backlash = isinstance(values["lower"], tuple)
         default = f"{name}_delta" if backlash else None
-        e = self.number_or_parameter(values["e"], f"{name}_e", f"restitution e of {name!r}")
-        v_th = self.number_or_parameter(values["v_th"], f"{name}_v_th", f"v_th of {name!r}")
+        e = self.number_or_parameter(values["e"], f"{name}_e", f"restitution e of {owner}",
+                                     allowed=Range(f"the restitution of {owner}", 0.0, 1.0, required=True))
+        v_th = self.number_or_parameter(values["v_th"], f"{name}_v_th", f"landing speed v_th of {owner}",
+                                        allowed=Range(f"the landing speed of {owner}", 0.0, required=True))
         states, restitution, transitions = {"free": {name: False}}, {}, []
         for side, sense in (("upper", ""), ("lower", "-")):
             if values[side] is None:
                 continue
-            bound = self.number_or_parameter(values[side], default or f"{name}_{side}", f"{side} of {name!r}")
+            bound = self.number_or_parameter(values[side], default or f"{name}_{side}",
+                                             f"{'half-width delta' if backlash else side + ' position'} of {owner}")
             states[f"{side}_impact"] = {name: True}
             states[side] = {name: True}
             restitution[f"{side}_impact"] = e
@@ -547,9 +604,16 @@ class _Builder(NetlistBuilder):
              "DC": self.motor, "CL": self.clutch, "ST": self.limit}[part.kind](part)
         for n, junction in self.junctions.items():
             self.graph.displacement(f"{self.X}_{n}", of=junction)
-        signals = {f"{self.V}_{n}": self.velocity.get(n, f"f_{bond}") for n, bond in self.node_bond.items()}
+            self.state_owners[f"{self.X}_{n}"] = (f"the position of node {n!r}", f"rename node {n!r}")
+        signals = {}
+        for n, bond in self.node_bond.items():
+            self.names.claim(f"{self.V}_{n}", Owner(f"signal '{self.V}_{n}' (the velocity of node {n!r})",
+                                                    f"rename node {n!r}", "signal"))
+            signals[f"{self.V}_{n}"] = self.velocity.get(n, f"f_{bond}")
         signals.update(self.signals)
-        parameters = {**self.defaults, **self.given}
+        self.claim_graph_names(self.state_owners)
+        self.claim_text_names()
+        parameters = self.parameters_checked()
         initial_state = {f"{self.X}_{n}": x0 for n, x0 in m._positions.items()}
         values = {sp.Symbol(k): v for k, v in parameters.items()}
         for state, (scale, value) in self.initial.items():
@@ -568,3 +632,16 @@ class _Builder(NetlistBuilder):
         units = units_by_prefix(list(signals) + [s.name for s in self.graph.states], prefixes)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state, signals=signals,
                            inputs=self.inputs or None, name=name, units=units, **options)
+
+
+def _impact_values(e, v_th, owner: str) -> dict:
+    """A stop's or backlash's restitution ``e`` (0 ≤ e ≤ 1) and landing speed ``v_th`` (≥ 0), checked:
+    numbers in their range or parameter names."""
+    e = checked_argument(e, f"the restitution e of {owner}")
+    v_th = checked_argument(v_th, f"the landing speed v_th of {owner}")
+    if not isinstance(e, str) and not 0.0 <= e <= 1.0:
+        raise ParameterValueError(f"the restitution e of {owner} is {e:g}: give 0 <= e <= 1 (0 a plastic, 1 an "
+                                  "elastic impact)", "e", e)
+    if not isinstance(v_th, str) and v_th < 0:
+        raise ParameterValueError(f"the landing speed v_th of {owner} is {v_th:g}: give a speed >= 0", "v_th", v_th)
+    return {"e": e, "v_th": v_th}

@@ -23,16 +23,17 @@ from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 from bondgraph import t as TIME
 from bondgraph.errors import MissingParameterError, ParameterValueError, UnknownNameError, UnknownParameterError
 from bondgraph.errors import did_you_mean
+from bondgraph.namespace import Namespace, Owner, collision
 from bondgraph.reals import real_number
 from bondgraph.symbols import check_name, rate_symbol
 
 from ..errors import ModelDefinitionError
 from ..language.parsing import parse_condition, parse_expression
 
-__all__ = ["InMode", "base_names", "check_automata", "check_inputs", "check_law_switch_names", "collect_parameters",
+__all__ = ["InMode", "base_names", "check_automata", "check_inputs", "check_parameter_names", "check_law_switch_names", "collect_parameters",
            "computable", "initial_expressions", "initial_only_names", "initial_parameter_values",
            "initial_state",
-           "parameter_values", "parse_guards", "parse_signals"]
+           "model_namespace", "parameter_values", "parse_guards", "parse_signals"]
 
 
 @dataclass(frozen=True)
@@ -138,14 +139,50 @@ def base_names(graph, states) -> dict:
     return names
 
 
-def parse_signals(names: Mapping, signals: Mapping) -> tuple[dict, dict]:
+def model_namespace(model) -> Namespace:
+    """The model's one namespace (:mod:`bondgraph.namespace`) before its signals: the graph's names (``t``,
+    states, inputs, bond variables), the rates ``d<state>/dt``, the values the automata's states set
+    (mode constants), the branch symbols of the law switches, and the parameters of the element laws.
+    :func:`parse_signals` claims the signals in it, :func:`parameter_values` checks given names against it."""
+    graph, rate_symbols, automata, law_switches = model.graph, model.rate_symbols, model.automata, model.law_switches
+    names = graph.namespace().copy(f"model {model.name!r}")
+    for state, rate in rate_symbols.items():
+        names.claim(rate.name, Owner(f"the rate of state {state.name!r}", f"rename the state {state.name!r}", "rate"))
+    for automaton in automata:
+        if automaton.name in law_switches:  # its states set the law's branch, claimed below
+            continue
+        for table in automaton.values.values():
+            for key in table:
+                names.claim(key, Owner(f"a value set by the states of automaton {automaton.name!r}",
+                                       f"rename the value {key!r} of automaton {automaton.name!r}", "mode value"))
+    for sw in law_switches.values():
+        names.claim(sw.sigma.name, Owner(f"the branch of law switch {sw.name!r} ({sw.written} in the law of "
+                                         f"{sw.element!r})", "", "law branch"))
+    for p in sorted(graph.parameters, key=lambda s: s.name):
+        owner = names.owner(p.name)
+        if owner is None or owner.kind not in ("mode value", "law branch"):  # those a law reads, not parameters
+            names.claim(p.name, parameter_owner(p.name))
+    return names
+
+
+def parameter_owner(name: str) -> Owner:
+    """The owner of the parameter ``name`` in a model's namespace."""
+    return Owner(f"parameter {name!r}", f"rename parameter {name!r}", "parameter")
+
+
+def parse_signals(names: Mapping, signals: Mapping, namespace: Namespace | None = None) -> tuple[dict, dict]:
     """``(signals, cross)``: each signal's expression by name (a later signal
     may use an earlier one), and the :class:`InMode` signals as
-    ``name → (expression, {automaton: state})``."""
+    ``name → (expression, {automaton: state})``.  Each signal's name is
+    claimed in ``namespace`` (:func:`model_namespace`): a signal named like a
+    state, bond variable, parameter or input is a
+    :class:`~bondgraph.errors.NameCollisionError` naming both."""
     parsed, cross = {}, {}
     for name, expr in signals.items():
         check_name(name, "signal name")
-        if name in names and name not in parsed:
+        if namespace is not None:
+            namespace.claim(name, Owner(f"signal {name!r}", f"rename signal {name!r}", "signal"))
+        elif name in names and name not in parsed:
             raise ModelDefinitionError(
                 f"signal {name!r} has the name of a state, bond variable, parameter or input; rename it", [name]
             )
@@ -200,7 +237,8 @@ def check_inputs(graph, inputs: Mapping) -> dict:
 def collect_parameters(model) -> tuple:
     """The parameters ``model``'s definition uses (laws, signals, guards,
     restitutions, mode values), sorted by name: every free symbol that is not
-    time, a state, a rate, an input, a bond variable or a mode constant."""
+    time, a state, a rate, an input, a bond variable or a mode constant; each
+    claimed in the model's namespace."""
     graph = model.graph
     used = set(graph.parameters)
     for value in model._signals.values():
@@ -223,7 +261,11 @@ def collect_parameters(model) -> tuple:
         for automaton, state in overrides.items():
             model.mode({automaton: state})  # unknown automata or states fail here, at construction
     reserved |= graph.bond_symbols()
-    return tuple(sorted(used - reserved, key=lambda s: s.name))
+    parameters = tuple(sorted(used - reserved, key=lambda s: s.name))
+    for symbol in parameters:  # those only guards and signals use are claimed here (the laws' already are)
+        if symbol.name not in model.namespace:
+            model.namespace.claim(symbol.name, parameter_owner(symbol.name))
+    return parameters
 
 
 def parameter_values(model, values: Mapping) -> dict:
@@ -231,6 +273,7 @@ def parameter_values(model, values: Mapping) -> dict:
     unknown, real, finite unless the model allows it to be infinite)."""
     by_name = {s.name: s for s in model.parameter_symbols}
     given = {(k.name if isinstance(k, sp.Symbol) else str(k)): v for k, v in values.items()}
+    check_parameter_names(model, given)
     unknown = set(given) - set(by_name)
     if unknown:
         raise UnknownParameterError(unknown, by_name)
@@ -252,6 +295,22 @@ def parameter_values(model, values: Mapping) -> dict:
                 name, value)
         out[by_name[name]] = value
     return out
+
+
+def check_parameter_names(model, names) -> None:
+    """Each of ``names`` given a value as a parameter of ``model`` must not be
+    owned by another quantity of its namespace (the time, a state, a bond
+    variable, an input, a signal): else a
+    :class:`~bondgraph.errors.NameCollisionError` naming that quantity."""
+    namespace = getattr(model, "namespace", None)
+    if namespace is None:
+        return
+    for name in names:
+        owner = namespace.owner(name)
+        if owner is not None and owner.kind != "parameter":
+            raise collision(namespace.scope, name, owner, Owner(
+                "a parameter (a value is given for it)", "rename the parameter (and the text that uses it)",
+                "parameter"))
 
 
 def _text_only_names(model, names) -> dict:
@@ -311,6 +370,7 @@ def initial_only_names(expressions: Mapping, parameters) -> set:
 def initial_parameter_values(model, values: Mapping) -> dict:
     """symbol → float of the parameters only the initial state uses (each real and finite)."""
     out = {}
+    check_parameter_names(model, [k.name if isinstance(k, sp.Symbol) else str(k) for k in values])
     for name, v in values.items():
         name = name.name if isinstance(name, sp.Symbol) else str(name)
         v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)

@@ -105,8 +105,8 @@ class HybridModel:
     signals : mapping name → expression, optional
         Named signals (sympy expressions, or text parsed without executing
         code) over states, bond variables (``e_<bond>``, ``f_<bond>``),
-        parameters, ``t`` and earlier signals.  States and bond variables are
-        signals by their own names too.
+        parameters, ``t`` and earlier signals; states and bond variables are
+        signals by their own names too.  One name, one owner (:attr:`namespace`).
     inputs : mapping name → callable(t), optional
         Values of the graph's declared inputs.
     tolerance : Tolerance, optional
@@ -170,7 +170,9 @@ class HybridModel:
         self.state_index = {s: k for k, s in enumerate(self.states)}
         self.rate_symbols = {s: sp.Symbol(f"d{s.name}/dt") for s in self.states}
         self._names = definition.base_names(graph, self.states)
-        self._signals, self._cross = definition.parse_signals(self._names, signals or {})
+        #: name → owner of each name of the model, one owner a name (:mod:`bondgraph.namespace`)
+        self.namespace = definition.model_namespace(self)
+        self._signals, self._cross = definition.parse_signals(self._names, signals or {}, self.namespace)
         self._guards = definition.parse_guards(self.automata, {**self._names, **self._signals}, self._signals)
         #: the modes of :attr:`automata`, named, configured and left by their guards
         self.mode_space = ModeSpace(self.automata, self._guards)

@@ -9,6 +9,7 @@ from bondgraph import (
     BondGraph,
     C,
     DuplicateNameError,
+    NameCollisionError,
     HybridBondGraphError,
     I,
     InvalidGraphError,
@@ -109,9 +110,11 @@ def test_symbol_name_clash_between_state_and_bond_variable():
     g.connect(Se("V", "V"), j)
     g.connect(j, R("R", "R"))
     g.connect(j, C("C", "C", state="e_R"))  # a state named like the resistor's effort
-    with pytest.raises(DuplicateNameError) as info:
+    with pytest.raises(NameCollisionError) as info:
         g.validate()
-    assert "'e_R'" in str(info.value) and "state" in str(info.value) and "bond variable" in str(info.value)
+    message = str(info.value)
+    assert info.value.name == "e_R" and "the state of C 'C'" in message and "the effort of bond 'R'" in message
+    assert "rename" in message  # it says how to fix it
 
 
 def test_a_source_may_be_modulated_by_a_state():

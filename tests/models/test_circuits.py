@@ -9,7 +9,7 @@ from scipy.integrate import simpson
 from scipy.optimize import brentq
 
 from bondgraph.errors import (CausalityConflictError, DuplicateNameError, FloatingPartError, HybridBondGraphError,
-                              InvalidGraphError, MissingParameterError, UnknownNameError)
+                              InvalidGraphError, MissingParameterError, ParameterValueError, UnknownNameError)
 from models import diode_circuit
 from models.circuits import PWM, Circuit, Input
 from switching import load_model
@@ -459,7 +459,7 @@ def test_gmin_takes_a_parameter_name_and_refuses_what_is_no_conductance():
     model = c.build(gmin="g_leak", parameters={"g_leak": 1e-9})
     assert {s.name: v for s, v in model.parameter_values.items()}["g_leak"] == 1e-9 and "D1_gmin" in model.graph.elements
     for bad in (-1e-12, 0.0, float("nan"), True, [1e-12]):
-        with pytest.raises(InvalidGraphError, match="gmin"):
+        with pytest.raises(ParameterValueError, match="gmin"):
             c.build(gmin=bad)
     c.R("D1_gmin", "out", "0", 1.0)
     with pytest.raises(DuplicateNameError, match="D1_gmin"):
