@@ -73,6 +73,13 @@ class _Names:
     def law(self) -> set:
         return {"t"} | self.parameters | self.states | self.inputs | self.bond_variables | self.constants
 
+    def owner(self, name: str) -> str:
+        """What ``name`` already names in the part (one owner a name, :mod:`bondgraph.namespace`)."""
+        kinds = (("the time", {"t"}), ("a state", self.states), ("an input", self.inputs),
+                 (f"a bond variable (the {'effort' if name.startswith('e_') else 'flow'} of bond {name[2:]!r})",
+                  self.bond_variables), ("a mode constant", self.constants), ("a parameter", self.parameters))
+        return next((what for what, names in kinds if name in names), "another quantity")
+
     def symbols(self) -> dict:
         every = self.law() | self.signals
         return {name: (TIME if name == "t" else sp.Symbol(name)) for name in every}
@@ -274,7 +281,7 @@ class _PartBuilder:
         other = self.names.states | self.names.inputs | self.names.bond_variables | {"t"}
         for name, parameter in self.part.parameters.items():
             if name in other:
-                raise self.src.error(f"{name!r} is also the name of a state, input or bond variable (or time); "
+                raise self.src.error(f"{name!r} is already {self.names.owner(name)}; a name has one owner: "
                                      "rename the parameter", parameter.where[1], f"parameter {name!r}")
         for name in self.data.get("inputs", {}):
             self.part.graph.input(name)
@@ -453,8 +460,8 @@ class _PartBuilder:
             keys = ("signals", name)
             culprit = f"signal {name!r}"
             if name in law:
-                raise src.error("a signal cannot have the name of a parameter, state, input or bond variable; "
-                                "rename it", keys, culprit)
+                raise src.error(f"{name!r} is already {names.owner(name)}; a name has one owner: rename the "
+                                "signal", keys, culprit)
             if name in instance_signals:
                 raise src.error("a sub-model instance already has a signal of this name", keys, culprit)
             allowed = law | set(signal_values)

@@ -17,7 +17,8 @@ import re
 from models.circuits import PWM, Circuit
 from models.mechanics import Mechanism
 
-__all__ = ["SCENES", "fresh_names", "pattern_names", "renamed", "ROLE_KINDS"]
+__all__ = ["SCENES", "fresh_names", "pattern_names", "renamed", "ROLE_KINDS", "file_roles", "file_renaming",
+           "hierarchy_parts", "renamed_text", "same_tables"]
 
 #: the suffixes the builders append to a component's name (parameters, internal elements, bonds, signals)
 SUFFIXES = ("period", "duty", "v_f", "r_on", "gmin", "drop", "resistance", "ground", "in", "out", "p", "s",
@@ -138,3 +139,66 @@ def renamed(scene: str, rng: random.Random, how_many: int, made=()) -> tuple[dic
             pool = [p for p in pool if re.fullmatch(r"[A-Za-z0-9_]+", p) and p != "0"]
         names[role] = rng.choice(pool)
     return fresh, names
+
+
+# -- shipped models, renamed in their model files
+
+#: a key whose text value holds no name of the model (an element's type, an instant's kind, an automaton's
+#: state, prose), kept as it is; or a name: an identifier not inside a hierarchical name
+_TOKEN = re.compile(r'(?P<keep>\b(?:type|when|from|to|initial|unit|description|name|hbg_model_format)\s*=\s*"[^"]*")'
+                    r"|(?P<word>\b[A-Za-z_][A-Za-z0-9_]*\b)")
+#: a hierarchical name (``rod/body/I_x``)
+_HIERARCHICAL = re.compile(r"\b[A-Za-z_]\w*(?:/[A-Za-z_]\w*)+")
+
+
+def hierarchy_parts(text: str) -> set:
+    """Every part of a hierarchical name in a model file's ``text``: names no renaming may take or touch
+    (a plain word renamed would rename that part too; ``/`` between plain names is a division)."""
+    return {part for found in _HIERARCHICAL.findall(text) for part in found.split("/")}
+
+
+def file_roles(table: dict, parts=frozenset()) -> dict:
+    """role → its kind, for the plain names of a model file's ``table`` (read with tomllib): its
+    elements, bonds, parameters and signals, except the ``parts`` of hierarchical names."""
+    roles = {}
+    for kind, key in (("element", "elements"), ("bond", "bonds"), ("parameter", "parameters"),
+                      ("signal", "signals")):
+        for name in table.get(key, {}):
+            if "/" not in name and name not in parts:
+                roles.setdefault(name, kind)
+    return roles
+
+
+def same_tables(table: dict, name: str) -> set:
+    """The keys of every table of a model file's ``table`` that has ``name`` as a key (a file holds a
+    key once in a table: renaming ``name`` to one of these would break the file, not the model)."""
+    keys = set()
+    for value in table.values():
+        if isinstance(value, dict) and name in value:
+            keys |= set(value)
+    return keys
+
+
+def file_renaming(table: dict, old: str, new: str) -> dict:
+    """The words to replace in a model file when ``old`` becomes ``new``: the name itself and the
+    names the bond graph makes of it — its bond's variables ``e_``/``f_``, its storage's state."""
+    mapping = {old: new}
+    if old in table.get("bonds", {}):
+        mapping.update({f"e_{old}": f"e_{new}", f"f_{old}": f"f_{new}"})
+    element = table.get("elements", {}).get(old, {})
+    prefix = {"C": "q_", "I": "p_"}.get(element.get("type"))
+    if prefix and "state" not in element:
+        mapping[f"{prefix}{old}"] = f"{prefix}{new}"
+    return mapping
+
+
+def renamed_text(text: str, mapping: dict) -> str:
+    """``text`` (a model file) with every word of ``mapping`` replaced, except in comments and in the
+    values of the keys that hold no names (element types, transitions' kinds and states, prose)."""
+    lines = []
+    for line in text.splitlines():
+        if line.lstrip().startswith("#"):
+            lines.append(line)
+            continue
+        lines.append(_TOKEN.sub(lambda m: m.group() if m.group("keep") else mapping.get(m.group(), m.group()), line))
+    return "\n".join(lines) + "\n"

@@ -16,9 +16,17 @@ import warnings
 import numpy as np
 import pytest
 
-from bondgraph.errors import NameCollisionError
+import models
+from bondgraph.errors import HybridBondGraphError, NameCollisionError
+from switching import load_model
 
-from name_scenes import SCENES, fresh_names, renamed
+from name_scenes import (SCENES, file_renaming, file_roles, fresh_names, hierarchy_parts, pattern_names, renamed,
+                         renamed_text, same_tables)
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
 
 #: agreement of a renamed run with the fresh one: sympy orders the terms of a sum by their symbols'
 #: names, so renaming may change the last bits of each step; the runs' tolerance (rtol 1e-9) bounds
@@ -94,3 +102,76 @@ def test_renamed_to_generated_names_runs_the_same_or_is_refused_by_name():
 def test_renamed_to_generated_names_runs_the_same_or_is_refused_by_name_many():
     counts = outcomes(range(200, 1400), lambda seed: 1 + seed % 3)
     assert counts["same"] >= 300 and counts["refused"] >= 150, counts
+
+
+# -- every shipped model, renamed in its model file
+
+#: the part of a shipped model's own run the comparison takes (its converters' first tens of periods)
+SHIPPED_FRACTION = 0.1
+
+
+def shipped_run(model, name: str):
+    settings = dict(getattr(models.load(name), "RUN", {}))
+    t_end = settings.pop("t_end") * SHIPPED_FRACTION
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return model.simulate(t_end, **settings)
+
+
+_SHIPPED = {}
+
+
+def shipped(name: str, folder):
+    """(the model file's text, its table, the run of the model it holds) of the shipped model ``name``."""
+    if name not in _SHIPPED:
+        path = folder / f"{name}.toml"
+        models.load(name).build().save(path)
+        text = path.read_text()
+        _SHIPPED[name] = (text, tomllib.loads(text), shipped_run(load_model(path), name))
+    return _SHIPPED[name]
+
+
+def check_shipped(name: str, seed: int, folder) -> str:
+    """The shipped model ``name`` with one name renamed (drawn by ``seed``) to one a pattern makes of its
+    other names or one its namespace holds: ``"same"`` run, or ``"refused"`` naming the name."""
+    text, table, reference = shipped(name, folder)
+    rng = random.Random(seed)
+    parts = hierarchy_parts(text)
+    roles = file_roles(table, parts)
+    old = rng.choice(sorted(roles))
+    namespace = reference.model.namespace
+    if rng.random() < 0.5:  # a name the model has (a key of a table that has the old name breaks the file)
+        pool = [n for n in namespace if namespace.owner(n).kind != "word" and re.fullmatch(r"[A-Za-z_]\w*", n)]
+    else:  # a name a pattern makes of the model's other names
+        pool = [n for n in pattern_names({r: r for r in roles if r != old}) if n not in set(roles) | set(namespace)
+                or n in ("t", "pi")]
+    new = rng.choice(sorted(set(pool) - same_tables(table, old) - parts))
+    path = folder / f"{name}-{seed}.toml"
+    path.write_text(renamed_text(text, file_renaming(table, old, new)))
+    try:
+        run = shipped_run(load_model(path), name)
+    except HybridBondGraphError as error:
+        message = str(error)
+        assert new in message, (old, new, message)
+        return "refused"
+    same_run(run, reference)
+    return "same"
+
+
+def shipped_outcomes(seeds, folder) -> dict:
+    counts = {"same": 0, "refused": 0}
+    names = sorted(models.MODELS)
+    for seed in seeds:
+        counts[check_shipped(names[seed % len(names)], seed, folder)] += 1
+    return counts
+
+
+def test_every_shipped_model_renamed_to_generated_names_runs_the_same_or_is_refused_by_name(tmp_path):
+    counts = shipped_outcomes(range(44), tmp_path)  # four renamings of each of the eleven models
+    assert counts["same"] >= 10 and counts["refused"] >= 5, counts
+
+
+@pytest.mark.slow
+def test_every_shipped_model_renamed_to_generated_names_runs_the_same_or_is_refused_by_name_many(tmp_path):
+    counts = shipped_outcomes(range(44, 374), tmp_path)
+    assert counts["same"] >= 80 and counts["refused"] >= 40, counts
