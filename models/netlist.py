@@ -186,7 +186,7 @@ class NetlistBuilder:
     kind; the parameters' defaults, the signals, the initial values and the
     automata collected as the components are built.
 
-    Names (DESIGN §4, :mod:`bondgraph.namespace`): every parameter, signal and
+    Names (DESIGN.md §4a, :mod:`bondgraph.namespace`): every parameter, signal and
     state the build makes is claimed in :attr:`names` with the component that
     owns it, so that two components never share one silently (a resistor
     ``S1_period`` beside a PWM switch ``S1``, whose period is the parameter
@@ -195,8 +195,10 @@ class NetlistBuilder:
     user's: every value given that name shares it, and no name the build
     makes may be it (``"R1"`` given as R2's value beside a resistor ``R1``
     whose number makes the parameter ``R1`` is refused; name the shared
-    value ``"R_x"`` for both).  Condition and expression texts read any
-    parameter, signal or state by its name.  The elements and bonds the build
+    value ``"R_x"`` for both).  Condition and expression texts read signals,
+    states, inputs and ``t`` by their names; any other name in them is a
+    parameter the user named, so a text never reads a parameter the build made
+    of a component's number.  The elements and bonds the build
     adds besides the components (junctions, a diode's drop, a motor's
     armature) are named around the components' names (:meth:`internal`),
     and every signal reads its bond's variables off the bond made, never
@@ -247,11 +249,6 @@ class NetlistBuilder:
         while name in self._components or name in self.graph.bonds:
             name, k = f"{base}_{k}", k + 1
         return name
-
-    def bond_of(self, element: str):
-        """The one bond of the one-port ``element``."""
-        (bond,) = self.graph.bonds_of(element)
-        return bond
 
     def signal(self, name: str, text: str, owner: str) -> None:
         """Define the signal ``name`` as ``text``, claimed for ``owner`` (``"R 'R1'"``, ``"node 'a'"``)."""
