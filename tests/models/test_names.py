@@ -101,6 +101,10 @@ def test_a_parameter_named_like_a_bonds_flow_is_refused_naming_the_bond():
     g, automata, signals = clocked_graph("sw")
     refused(lambda: HybridModel(g, automata, values, signals=signals), "f_sw", "the flow of bond 'sw'",
             "a parameter")
+    given = {k: v for k, v in values.items() if k != "f_sw"}  # no value for f_sw: the text reads the flow
+    g, automata, signals = clocked_graph("sw")
+    model = HybridModel(g, automata, given, signals=signals)
+    assert model.namespace.owner("f_sw").kind == "bond variable" and "f_sw" not in model.namespace.names("parameter")
     g, automata, signals = clocked_graph("Rs")  # a bond of another name: f_sw is the parameter
     model = HybridModel(g, automata, values, signals=signals)
     assert {s.name for s in model.parameter_symbols} == {"V", "Rs", "C", "f_sw"}
