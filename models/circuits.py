@@ -129,6 +129,7 @@ from bondgraph.floating import floating_part
 from switching import Automaton, HybridModel
 
 from ._common import Range
+from .circuit_topology import first_floating_mode
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
@@ -396,8 +397,8 @@ class Circuit(Netlist):
         of its diodes and switches (a bridge's load with all four diodes
         blocking) is refused here, with a
         :class:`~bondgraph.errors.FloatingPartError` naming the mode, the
-        floating nodes and the fixes (:func:`floating_modes`; checked over
-        every mode of up to :data:`FLOATING_CHECK_MODES` modes).
+        floating nodes and the fixes (found on the netlist, whatever the
+        number of modes: :mod:`models.circuit_topology`).
         ``allow_floating=True`` builds it all the same, for a circuit whose
         floating modes are never reached (a run that reaches one stops with
         that error then)."""
@@ -406,12 +407,11 @@ class Circuit(Netlist):
         builder.gmin = gmin
         model = builder.model(name or self.name, options)
         if gmin is None and not allow_floating:
-            floating = floating_modes(model)
+            floating = first_floating_mode(list(self._parts.values()), model, floating_modes)
             if floating:
-                mode, error = floating[0]
-                others = f" (and in {len(floating) - 1} other mode(s))" if len(floating) > 1 else ""
+                mode, error = floating
                 raise FloatingPartError(
-                    f"circuit {self.name!r} floats in mode {mode.describe()}{others}: {error} Build it with "
+                    f"circuit {self.name!r} floats in mode {mode.describe()}: {error} Build it with "
                     "gmin=1e-12 (a leak across every diode and switch), or with allow_floating=True if no run "
                     "reaches such a mode.", error.elements, error.cut, error.configuration, error.kind)
         return model
@@ -427,7 +427,11 @@ def floating_modes(model) -> list:
     (:func:`bondgraph.floating.floating_part`: nodes no conducting element
     ties to a known voltage, or a loop of ideal conductors), in the order of
     the automata's states; empty when none does, or when the automata have
-    more than :data:`FLOATING_CHECK_MODES` modes (not checked)."""
+    more than :data:`FLOATING_CHECK_MODES` modes (not checked).  Whether a
+    circuit has such a mode at all, and a mode that shows each floating
+    part, are found on its netlist without enumerating
+    (:func:`models.circuit_topology.floating_witnesses`, which
+    :meth:`Circuit.build` uses)."""
     states = [tuple(a.states) for a in model.automata]
     if math.prod(len(s) for s in states) > FLOATING_CHECK_MODES:
         return []

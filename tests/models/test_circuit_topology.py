@@ -1,0 +1,122 @@
+"""The floating check of a circuit found on its netlist (models/circuit_topology.py):
+the same answer as checking every mode, at the cost of a few checks."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from bondgraph.errors import HybridBondGraphError, FloatingPartError
+from models.circuit_topology import first_floating_mode, floating_witnesses, tie_groups, witness_modes
+from models.circuits import PWM, Circuit, floating_modes
+
+
+def random_circuit(rng: random.Random) -> Circuit:
+    """A small random netlist: nodes 0, a, b, c; resistors, capacitors, inductors, sources, diodes (with
+    or without r_on) and switches between random pairs."""
+    c = Circuit("random")
+    nodes = ["0", "a", "b", "c"]
+    kinds = ["R", "R", "C", "L", "V", "I", "D", "D", "Dr", "S"]
+    for k in range(rng.randint(3, 7)):
+        kind = rng.choice(kinds)
+        n1, n2 = rng.sample(nodes, 2)
+        name = f"{kind}{k}"
+        if kind == "R":
+            c.R(name, n1, n2, 10.0)
+        elif kind == "C":
+            c.C(name, n1, n2, 1e-3)
+        elif kind == "L":
+            c.L(name, n1, n2, 1e-3)
+        elif kind == "V":
+            c.V(name, n1, n2, 5.0)
+        elif kind == "I":
+            c.I(name, n1, n2, 1.0)
+        elif kind == "D":
+            c.diode(name, n1, n2)
+        elif kind == "Dr":
+            c.diode(name, n1, n2, r_on=0.1)
+        else:
+            c.switch(name, n1, n2, "t < 1")
+    return c
+
+
+def compare(seed: int, count: int) -> tuple[int, int]:
+    """Compare the netlist's answers with every mode's on ``count`` random circuits: every witness
+    floats (it is among every mode's floating ones); some witness exists when a mode floats; the check
+    the build uses (witnesses, then every mode when a conflict hid them) finds a floating mode exactly
+    when one exists.  Returns (circuits that float, of those the witnesses alone found)."""
+    rng = random.Random(seed)
+    compared = floating = found = 0
+    while compared < count:
+        circuit = random_circuit(rng)
+        try:
+            model = circuit.build(allow_floating=True)
+        except HybridBondGraphError:  # a topology the circuit refuses whatever its modes
+            continue
+        parts = list(circuit._parts.values())
+        every = floating_modes(model)
+        witnesses = floating_witnesses(parts, model)
+        assert all(mode in [m for m, _ in every] for mode, _ in witnesses), (circuit._parts, witnesses)
+        assert bool(witness_modes(parts, model)) or not every, (circuit._parts, every)
+        assert (first_floating_mode(parts, model, floating_modes) is not None) == bool(every), circuit._parts
+        compared += 1
+        floating += bool(every)
+        found += bool(witnesses)
+    return floating, found
+
+
+def test_the_netlist_finds_a_floating_mode_exactly_when_one_of_every_mode_floats():
+    floating, found = compare(41, 120)
+    assert floating >= 20 and found == floating  # both answers are met; no witness hidden here
+
+
+@pytest.mark.slow
+def test_the_netlist_finds_a_floating_mode_exactly_when_one_of_every_mode_floats_many():
+    floating, found = compare(4141, 3000)
+    assert floating >= 500 and found >= 0.99 * floating, (floating, found)
+
+
+def bridges(n: int) -> Circuit:
+    c = Circuit("bridges")
+    for k in range(n):
+        c.V(f"V{k}", f"a{k}", "0", "325*sin(2*pi*50*t)")
+        c.diode(f"D{k}_1", f"a{k}", f"p{k}")
+        c.diode(f"D{k}_2", "0", f"p{k}")
+        c.diode(f"D{k}_3", f"n{k}", f"a{k}")
+        c.diode(f"D{k}_4", f"n{k}", "0")
+        c.C(f"C{k}", f"p{k}", f"n{k}", 1e-3)
+        c.R(f"R{k}", f"p{k}", f"n{k}", 100.0)
+    return c
+
+
+def test_bridges_beyond_a_thousand_modes_are_checked_and_each_floating_load_found():
+    circuit = bridges(3)  # 2^12 modes: beyond what enumerating every mode checked
+    with pytest.raises(FloatingPartError) as info:
+        circuit.build()
+    assert set(info.value.elements) == {f"node_{side}{k}" for side in "pn" for k in range(3)}
+    assert "D0_1=off" in str(info.value) and "gmin" in str(info.value)
+
+
+def test_switches_in_parallel_are_a_free_loop_whatever_their_number():
+    c = Circuit("switches")
+    c.V("V1", "in", "0", 12.0)
+    c.R("Rs", "in", "a", 0.1)
+    for k in range(24):
+        c.switch(f"S{k}", "a", "b", PWM(1e-4, 0.5))
+    c.L("L1", "b", "c", 1e-3)
+    c.R("RL", "c", "0", 10.0)
+    with pytest.raises(FloatingPartError) as info:
+        c.build()
+    assert info.value.kind == "flow" and "loop" in str(info.value)
+
+
+def test_a_long_ladder_is_one_tie_group_with_ground():
+    c = Circuit("ladder")
+    c.V("V1", "n0", "0", 1.0)
+    for k in range(400):
+        c.R(f"R{k}", f"n{k}", f"n{k + 1}", 1.0)
+        c.C(f"C{k}", f"n{k + 1}", "0", 1e-3)
+    assert len(tie_groups(c._parts.values())) == 1
+    model = c.build()
+    assert len(model.states) == 400
