@@ -9,6 +9,7 @@ derive their own from these bases, so the hierarchy stays single.
 
 from __future__ import annotations
 
+import copy
 import difflib
 from collections.abc import Iterable
 
@@ -29,6 +30,7 @@ __all__ = [
     "PhysicalRangeWarning",
     "EnergyGainWarning",
     "CoarseStepWarning",
+    "prefixed",
 ]
 
 
@@ -51,6 +53,14 @@ def did_you_mean(name: str, known) -> str:
     the hint every error about an unknown name ends with."""
     close = close_names(name, known)
     return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+
+
+def prefixed(error: Exception, prefix: str) -> Exception:
+    """A copy of ``error`` (same type, same attributes) whose message begins with ``prefix``
+    (``"mode S1=closed, D1=on: "``, ``"at t = 0.001, "``): context added where it is known."""
+    other = copy.copy(error)
+    other.args = (f"{prefix}{error}",) + tuple(error.args[1:])
+    return other
 
 
 class HybridBondGraphError(Exception):

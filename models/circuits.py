@@ -101,9 +101,14 @@ node to ground instead puts the floating nodes at arbitrary voltages and
 adds spurious instants).  A mode in which
 ideal elements short an ideal voltage source — a switch closing while an ideal
 diode across the source's path conducts (a buck converter's freewheeling
-diode) — is over-determined and refused
-(:class:`~bondgraph.errors.CausalityConflictError`): give that diode an
-``r_on``, and the mode is judged by its reverse current and left.  A PWM
+diode) — is over-determined: it is passed at the instant as a *mythical*
+mode whose guards are judged in the limit of a vanishing resistance in
+every conducting switch and diode (:mod:`switching.library.conflicts`): the
+shorted source drives the diode's current backwards, an impulse, so
+``i_D < 0`` holds and the diode turns off — the ideal buck runs as drawn.
+A conflict no automaton leaves (a switch tying two voltage sources) stops
+the run at its instant with a
+:class:`~bondgraph.errors.CausalityConflictError` naming the mode.  A PWM
 switch needs integrator steps shorter than its shortest on or off interval
 (``max_step <= min(duty, 1 − duty)·period``).
 """

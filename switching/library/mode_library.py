@@ -172,6 +172,8 @@ class ModeLibrary:
         self.symbols_memo: dict = {}
         self.jacobians: dict = {}
         self.gradient_memo: dict = {}
+        #: conflicting mode → its guards in the limit of vanishing resistances (:mod:`.conflicts`)
+        self.conflicts: dict = {}
         self.preparation_seconds = 0.0
         self._preparing = False
         self._fingerprint = None
@@ -263,6 +265,18 @@ class ModeLibrary:
                     self.cache.store(key, source)
                 self.compiled[mode] = CompiledMode(self.model, mode, source, meta)
         return self.compiled[mode]
+
+    def conflict_guards(self, mode, error):
+        """The guards of ``mode``, whose derivation raised the causality conflict ``error``, judged in the
+        limit of vanishing resistances (:class:`~switching.library.conflicts.ConflictGuards`; kept).  Raises
+        ``error`` when they cannot be judged so."""
+        found = self.conflicts.get(mode)
+        if found is None:
+            from .conflicts import ConflictGuards
+
+            with self._preparation():
+                found = self.conflicts[mode] = ConflictGuards(self.model, mode, error)
+        return found
 
     @property
     def visited_modes(self) -> tuple:

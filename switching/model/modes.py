@@ -26,7 +26,7 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.elements import C, I
-from bondgraph.errors import FloatingPartError
+from bondgraph.errors import AlgebraicLoopError, CausalityConflictError, prefixed
 
 from .law_automata import SLIDING, expand_rates, sliding_values
 
@@ -104,9 +104,8 @@ class ModeEquations:
         # a hybrid model is closed: declared ports are for composing it, not inputs of its modes
         try:
             equations = graph.equations(self.configuration, open_ports=False)
-        except FloatingPartError as error:  # name the mode, which is what the user wrote
-            raise FloatingPartError(f"mode {mode.describe()}: {error}", error.elements, error.cut,
-                                    error.configuration, error.kind) from None
+        except (CausalityConflictError, AlgebraicLoopError) as error:  # name the mode, which the user wrote
+            raise prefixed(error, f"mode {mode.describe()}: ") from None
         self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
         self.restitution = model.restitution_of(mode)
         sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]

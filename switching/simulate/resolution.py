@@ -38,7 +38,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bondgraph.errors import FloatingPartError, HybridBondGraphError
+from bondgraph.errors import (AlgebraicLoopError, CausalityConflictError, FloatingPartError, HybridBondGraphError,
+                              prefixed)
 from codegen.runtime import PulseError
 
 from ..model.automaton import A_POSTERIORI
@@ -419,9 +420,19 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
         if action == JUMP_AND_DECIDE:
             try:
                 cm = model.compiled_mode(current)
-            except FloatingPartError as error:  # a mode first met here: say when
-                raise FloatingPartError(f"at t = {t:.12g}, {error}", error.elements, error.cut, error.configuration,
-                                        error.kind) from None
+            except (CausalityConflictError, AlgebraicLoopError) as error:  # a mode first met here: say when
+                fired = _conflict_passed(model, current, error, x, t)
+                if not fired:
+                    raise prefixed(error, f"at t = {t:.12g}, ") from None
+                # passed as mythical (its sources conflict): where it leads, its guards decide
+                steps.append(Step(current, "mythical", x, x, tuple(fired)))
+                target = _next_mode(model, current, fired)
+                if target not in number:
+                    number[target] = len(modes)
+                    modes.append(target)
+                state = instant_next(state, FIRED, number[target], x, max_steps, chain, pin_modes, pin_x)
+                pulses = any(f.pulses for f in fired)
+                continue
             x_plus = cm.jump(x, t)
             # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
             # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
@@ -482,6 +493,20 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             if action != JUMP_AND_DECIDE:  # a pinnacle: a new chain
                 chain_start = len(steps)
         state = following
+
+
+def _conflict_passed(model, mode: Mode, error, x: np.ndarray, t: float) -> list:
+    """The transitions that leave the conflicting candidate ``mode`` (a causality conflict, not a floating
+    part) judged in the limit of vanishing resistances (:mod:`switching.library.conflicts`), as
+    :class:`FiredGuard` records; empty when it is no conflict or none holds."""
+    if not isinstance(error, CausalityConflictError) or isinstance(error, FloatingPartError):
+        return []
+    try:
+        guards = model.library.conflict_guards(mode, error)
+    except HybridBondGraphError:
+        return []
+    return [FiredGuard(automaton, tr.source, tr.target, text, tr.when, comparisons, tr.pulses)
+            for automaton, tr, text, comparisons in guards.fired(x, t)]
 
 
 class CompiledInstant(Instant):

@@ -408,6 +408,62 @@ def test_voltage_sources_paralleled_by_a_switch_are_still_over_determined():
     assert "over-determine" in str(info.value) and "'V1'" in str(info.value) and "S: on" in str(info.value)
 
 
+def ideal_buck(scale=1.0, duty=0.4, period=1e-5):
+    """A buck converter with an ideal switch and an ideal freewheeling diode into a constant-voltage load:
+    every slope of the inductor current is a constant (voltages in V·scale, currents in A·scale)."""
+    c = Circuit("buck")
+    c.V("V1", "in", "0", 12.0 * scale)
+    c.switch("S1", "in", "sw", PWM(period, duty))
+    c.diode("D1", "0", "sw")
+    c.L("L1", "sw", "out", 100e-6, i0=1.0 * scale)
+    c.V("Vo", "out", "0", 4.8 * scale)
+    return c.build()
+
+
+@pytest.mark.parametrize("method", ["RK45", "auto"])
+def test_an_ideal_buck_passes_the_shorted_source_as_mythical_and_turns_the_diode_off(method):
+    """Closing the switch while the freewheeling diode conducts would short the source: the mode
+    S1=closed, D1=on is passed as mythical, its diode current driven backwards as the limit of a
+    vanishing resistance (an impulse), so D1 turns off; the current rises by (V − Vo)·D·T/L and falls
+    by Vo·(1 − D)·T/L, exactly."""
+    V, Vo, L, D, T = 12.0, 4.8, 100e-6, 0.4, 1e-5
+    run = ideal_buck().simulate(10 * T, method, max_step=T / 20, rtol=1e-10)
+    closing = [e for e in run.events if e.steps[0].mode.states == ("open", "on")]
+    assert len(closing) >= 9
+    for event in closing:
+        assert [(s.mode.describe(), s.kind) for s in event.steps] == [
+            ("S1=open, D1=on", "start"), ("S1=closed, D1=on", "mythical"), ("S1=closed, D1=off", "continuous")]
+        (turn_off,) = event.steps[1].fired
+        assert turn_off.automaton == "D1" and turn_off.comparisons[0].left.impulse < 0  # i_D1 → −∞
+    np.testing.assert_allclose([e.t for e in closing], [k * T for k in range(1, len(closing) + 1)], rtol=1e-12)
+    rise, fall = (V - Vo) * D * T / L, Vo * (1 - D) * T / L
+    assert rise == pytest.approx(fall)  # the load's voltage is the average: a periodic current from the start
+    i_L = run.signal("i_L1")
+    closings = np.isin(run.t, [e.t for e in closing])
+    openings = np.isin(run.t, run.event_times) & ~closings
+    np.testing.assert_allclose(i_L[closings], 1.0, rtol=1e-9)          # the current's minimum, each period
+    np.testing.assert_allclose(i_L[openings], 1.0 + rise, rtol=1e-9)   # its maximum
+
+
+def test_an_ideal_buck_in_other_units_has_the_same_instants_and_modes():
+    runs = [ideal_buck(scale).simulate(5e-5, "RK45", max_step=5e-7, rtol=1e-10) for scale in (1.0, 1e-3, 1e3)]
+    for other in runs[1:]:
+        assert [[s.mode for s in e.steps] for e in other.events] == [[s.mode for s in e.steps] for e in runs[0].events]
+        np.testing.assert_allclose(other.event_times, runs[0].event_times, rtol=1e-12)
+
+
+def test_a_conflict_no_guard_settles_names_its_instant_and_mode():
+    c = Circuit("parallel_sources")  # closing the switch ties two sources of different voltages: no automaton
+    c.V("V1", "a", "0", 5.0)           # can leave that mode, so the run stops there, saying when and where
+    c.R("R0", "a", "0", 10.0)
+    c.switch("S", "a", "b", closed_when="t >= 1e-4")
+    c.V("V2", "b", "0", 6.0)
+    c.R("R1", "b", "0", 10.0)
+    with pytest.raises(CausalityConflictError) as info:
+        c.build().simulate(1e-3, "RK45")
+    assert str(info.value).startswith("at t = 0.0001, mode S=closed: ") and "'V1'" in str(info.value)
+
+
 def test_capacitor_filtered_bridge_with_gmin_switches_at_the_exact_instants_and_no_others():
     V, w, R, C = 10.0, 2 * math.pi * 50, 100.0, 100e-6
     run = bridge(C, gmin=1e-12).simulate(0.05, "RK45", **RUN)
