@@ -178,15 +178,16 @@ def floating_witnesses(parts, model, limit: int | None = None) -> list:
     return found
 
 
-def first_floating_mode(parts, model, every_mode):
-    """``(mode, FloatingPartError)`` of a mode that floats part of the circuit, or ``None`` when no mode
-    does: a witness (:func:`floating_witnesses`) when one floats; else, when witnesses exist (the
-    netlist says some mode may float) but a conflict hid the part in each, the first of
-    ``every_mode(model)`` (a check of every mode, or ``[]`` when there are too many)."""
-    found = floating_witnesses(parts, model, limit=1)
+def first_floating_mode(parts, model, every_mode, runs=lambda mode: False):
+    """``(mode, FloatingPartError)`` of a mode that floats part of the circuit and that the model cannot
+    run (``runs(mode)`` false: the limit of vanishing leaks, :func:`bondgraph.regularize.floating_limit`,
+    has no equations for it), or ``None`` when there is none: among the witnesses
+    (:func:`floating_witnesses`); else, when witnesses exist (the netlist says some mode may float) but
+    a conflict hid the part in each, among ``every_mode(model)`` (a check of every mode, or ``[]`` when
+    there are too many)."""
+    found = floating_witnesses(parts, model)
     if found:
-        return found[0]
+        return next(((mode, error) for mode, error in found if not runs(mode)), None)
     if not witness_modes(parts, model):
         return None
-    every = every_mode(model)
-    return every[0] if every else None
+    return next(((mode, error) for mode, error in every_mode(model) if not runs(mode)), None)

@@ -81,14 +81,19 @@ Example — a capacitor charged through a resistor::
     >>> round(float(run.signal("v_C1")[-1]), 4)    # 10 (1 − e^−5)
     9.9326
 
-Limitations: a mode where every diode and switch around a group of nodes
+Floating parts: a mode where every diode and switch around a group of nodes
 blocks leaves those nodes floating (their voltage, and the voltage across
-each blocking element, is undefined: a full bridge rectifier with every
-diode off); a circuit with such a mode is refused when it is built, with a
-:class:`~bondgraph.errors.FloatingPartError` that names the mode and the
-floating nodes (their 0-junctions ``node_<n>``) and says it is
-under-determined (:func:`floating_modes` checks every mode of the diodes and
-switches; ``build(allow_floating=True)`` skips the check, and a run that
+each blocking element, is not fixed by the ideal elements: a full bridge
+rectifier with every diode off).  Such a mode runs as the limit of
+vanishing leaks across the blocking elements (DESIGN.md §6b,
+:func:`bondgraph.regularize.floating_limit`): the leaks divide the voltage
+across the blocking elements equally, so a bridge's diode turns on exactly
+where ``|v_in|`` meets ``v_out``.  A circuit with a floating mode that has
+no limit (an inductor alone across a bridge's load) is refused when it is
+built, with a :class:`~bondgraph.errors.FloatingPartError` that names the
+mode and the floating nodes (their 0-junctions ``node_<n>``) and says it is
+under-determined (:mod:`models.circuit_topology` finds the candidates on
+the netlist; ``build(allow_floating=True)`` skips the check, and a run that
 reaches such a mode stops there with the same error).  ``build(gmin=1e-12)`` puts a leak conductance across
 every diode and switch (SPICE's ``GMIN``; explicit, off by default): no node
 then floats, and the leaks divide the network's voltage over the blocking
@@ -398,12 +403,13 @@ class Circuit(Netlist):
         the instants by a relative O(gmin·R) of the circuit's resistances and
         adds none.
 
-        Without ``gmin``, a circuit that leaves nodes floating in some mode
-        of its diodes and switches (a bridge's load with all four diodes
-        blocking) is refused here, with a
+        Without ``gmin``, a mode that leaves nodes floating (a bridge's load
+        with all four diodes blocking) runs as the limit of vanishing leaks;
+        a circuit with such a mode that has no limit is refused here, with a
         :class:`~bondgraph.errors.FloatingPartError` naming the mode, the
         floating nodes and the fixes (found on the netlist, whatever the
-        number of modes: :mod:`models.circuit_topology`).
+        number of modes: :mod:`models.circuit_topology`; the candidates are
+        derived here, as a run would derive them when it meets them).
         ``allow_floating=True`` builds it all the same, for a circuit whose
         floating modes are never reached (a run that reaches one stops with
         that error then)."""
@@ -412,7 +418,8 @@ class Circuit(Netlist):
         builder.gmin = gmin
         model = builder.model(name or self.name, options)
         if gmin is None and not allow_floating:
-            floating = first_floating_mode(list(self._parts.values()), model, floating_modes)
+            floating = first_floating_mode(list(self._parts.values()), model, floating_modes,
+                                           lambda mode: _runs(model, mode))
             if floating:
                 mode, error = floating
                 raise FloatingPartError(
@@ -778,3 +785,13 @@ def _flag(value, what: str, name: str) -> bool:
     if isinstance(value, (bool, np.bool_)) or (isinstance(value, numbers.Integral) and value in (0, 1)):
         return bool(value)
     raise ParameterValueError(f"{what!r} of {name!r} must be True or False, got {value!r}", what, value)
+
+
+def _runs(model, mode) -> bool:
+    """Whether ``mode`` of ``model`` has equations — its own, or, where part of it floats, the limit of
+    vanishing leaks (:func:`bondgraph.regularize.floating_limit`)."""
+    try:
+        model.mode_equations(mode)
+    except FloatingPartError:
+        return False
+    return True

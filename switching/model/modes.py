@@ -26,7 +26,9 @@ import numpy as np
 import sympy as sp
 
 from bondgraph.elements import C, I
-from bondgraph.errors import AlgebraicLoopError, CausalityConflictError, prefixed
+from bondgraph.errors import (AlgebraicLoopError, CausalityConflictError, FloatingPartError, HybridBondGraphError,
+                              prefixed)
+from bondgraph.regularize import floating_limit
 
 from .law_automata import SLIDING, expand_rates, sliding_values
 
@@ -104,9 +106,15 @@ class ModeEquations:
         # a hybrid model is closed: declared ports are for composing it, not inputs of its modes
         try:
             equations = graph.equations(self.configuration, open_ports=False)
+            jump = graph.jump_map(self.configuration, model.jump_law)
+        except FloatingPartError as error:  # under-determined: the limit of vanishing leaks (DESIGN.md §6b)
+            try:
+                equations, jump = floating_limit(graph, self.configuration, model.jump_law)
+            except (HybridBondGraphError, ValueError, sp.PolynomialError):
+                raise prefixed(error, f"mode {mode.describe()}: ") from None
         except (CausalityConflictError, AlgebraicLoopError) as error:  # name the mode, which the user wrote
             raise prefixed(error, f"mode {mode.describe()}: ") from None
-        self.jump = graph.jump_map(self.configuration, model.jump_law).substituted(self.values)
+        self.jump = jump.substituted(self.values)
         self.restitution = model.restitution_of(mode)
         sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]
         if sliding:  # σ of each sliding law switch from ṡ = 0 (switching.model.law_automata)
