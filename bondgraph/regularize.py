@@ -45,16 +45,22 @@ __all__ = ["EPSILON", "regularized_graph", "regularized_equations", "leading_ter
 EPSILON = sp.Symbol("epsilon_conflict", positive=True)
 
 
-def regularized_graph(graph, config: dict) -> BondGraph:
-    """A copy of ``graph`` with a resistance :data:`EPSILON` bonded to every controlled 1-junction that
-    ``config`` turns on (its elements, bonds, displacements and inputs kept, by name)."""
-    copy = BondGraph(f"{graph.name} (regularized)")
+def _copy(graph, name: str) -> BondGraph:
+    """A copy of ``graph``: its elements, bonds (by name), displacements and inputs."""
+    copy = BondGraph(name)
     for element in graph.elements.values():
         copy.add(element)
     for bond in graph.bonds.values():
         copy.connect(bond.tail, bond.head, name=bond.name)
     copy.displacements = dict(graph.displacements)
     copy.inputs = dict(graph.inputs)
+    return copy
+
+
+def regularized_graph(graph, config: dict) -> BondGraph:
+    """A copy of ``graph`` with a resistance :data:`EPSILON` bonded to every controlled 1-junction that
+    ``config`` turns on (its elements, bonds, displacements and inputs kept, by name)."""
+    copy = _copy(graph, f"{graph.name} (regularized)")
     for name, element in graph.elements.items():
         if isinstance(element, One) and element.controlled and config.get(name, True):
             copy.connect(name, R(f"{name}/conflict_resistance", EPSILON))
@@ -112,13 +118,7 @@ def limit_graph(graph, config: dict) -> tuple[BondGraph, dict]:
     resistance :data:`EPSILON` where ``config`` turns it on, ``1/ε`` where it turns it off (an ideal
     switch as the limit of a vanishing and of a growing resistance); controlled 0-junctions as in
     ``config``."""
-    copy = BondGraph(f"{graph.name} (limit)")
-    for element in graph.elements.values():
-        copy.add(element)
-    for bond in graph.bonds.values():
-        copy.connect(bond.tail, bond.head, name=bond.name)
-    copy.displacements = dict(graph.displacements)
-    copy.inputs = dict(graph.inputs)
+    copy = _copy(graph, f"{graph.name} (limit)")
     limited = dict(config)
     for name, element in graph.elements.items():
         if isinstance(element, One) and element.controlled:

@@ -72,10 +72,11 @@ NOTEBOOKS = {
         py(SETUP),
         md("## A buck converter\n\n"
            "An ideal switch S driven by PWM (period T = 1/f, duty D), a freewheeling diode, an LC filter and a "
-           "resistive load.  The diode gets a small on-resistance: with both ideal, the mode *S closed, D on* would "
-           "short the source, an over-determined bond graph.  (A rectifier bridge whose diodes may all block would "
-           "instead need `build(gmin=...)`: a tiny leak conductance across each diode so that the load nodes never "
-           "float, SPICE's GMIN.)"),
+           "resistive load.  Both could be ideal: where S closes while D conducts, the mode *S closed, D on* would "
+           "short the source; it is passed as a mythical mode whose guards are judged in the limit of vanishing "
+           "resistances, so the diode's current is driven backwards and D turns off (DESIGN.md §6a).  Here the "
+           "diode gets a small on-resistance, as a real one has.  (A rectifier bridge whose diodes all block runs "
+           "as the limit of vanishing leaks across them, §6b; `build(gmin=...)` puts finite ones, SPICE's GMIN.)"),
         py("from models.circuits import PWM, Circuit\n"
            "Vin, D, f, L, C, R = 12.0, 0.4, 10e3, 1e-3, 100e-6, 10.0\n"
            "buck = Circuit('buck')\n"
