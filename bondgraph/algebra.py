@@ -18,7 +18,7 @@ import sympy as sp
 
 from .budget import ENVIRONMENT_VARIABLE
 from .errors import AlgebraicLoopError
-from .solving import SolveFailure, solve, vanishes
+from .solving import SolveFailure, singular, solve
 
 __all__ = ["dependency_components", "solve_explicit"]
 
@@ -103,8 +103,7 @@ def _solve_loop(members, equations, solved, owner, what) -> dict:
     except (ValueError, NotImplementedError):  # sympy raises NonlinearError(ValueError)
         A = None
     if A is not None:
-        det = A.det(method="berkowitz")
-        if vanishes(det, f"deciding whether the {what} through {', '.join(elements)} is singular"):
+        if singular(A, f"deciding whether the {what} through {', '.join(elements)} is singular"):
             raise AlgebraicLoopError(
                 f"{what} through {', '.join(elements)} is singular (its equations are linearly dependent): "
                 "the junction structure leaves these variables undetermined. Add a storage or resistive element "

@@ -55,11 +55,12 @@ def did_you_mean(name: str, known) -> str:
     return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
 
 
-def prefixed(error: Exception, prefix: str) -> Exception:
+def prefixed(error: Exception, prefix: str, suffix: str = "") -> Exception:
     """A copy of ``error`` (same type, same attributes) whose message begins with ``prefix``
-    (``"mode S1=closed, D1=on: "``, ``"at t = 0.001, "``): context added where it is known."""
+    (``"mode S1=closed, D1=on: "``, ``"at t = 0.001, "``) and ends with ``suffix``: context added
+    where it is known."""
     other = copy.copy(error)
-    other.args = (f"{prefix}{error}",) + tuple(error.args[1:])
+    other.args = (f"{prefix}{error}{suffix}",) + tuple(error.args[1:])
     return other
 
 

@@ -20,7 +20,7 @@ import sympy as sp
 
 from . import budget
 
-__all__ = ["SolveFailure", "solve", "simplified", "vanishes"]
+__all__ = ["SolveFailure", "solve", "simplified", "vanishes", "singular"]
 
 
 class SolveFailure(Exception):
@@ -69,25 +69,69 @@ def simplified(expr: sp.Expr, step: str, how=sp.simplify) -> sp.Expr:
 
 
 def vanishes(expr: sp.Expr, step: str) -> bool:
-    """Whether ``expr`` is identically zero: ``simplify(expr) == 0`` in the
-    budget, else (budget run out) ``expr`` evaluated at three random points
-    of its symbols, each within ``1e-9`` of zero relative to its top-level
-    terms (a non-zero analytic function vanishes at a random point with
-    probability 0)."""
-    try:
-        return budget.run(step, sp.simplify, expr) == 0
-    except budget.OverBudget:
-        pass
+    """Whether ``expr`` is identically zero, decided at three random points
+    of its symbols (rationals between 1 and 2: physical quantities of a
+    law are positive): in exact rational arithmetic where ``expr`` is a
+    rational function of them, else at 60 digits and within ``1e-40`` of
+    zero relative to its top-level terms.  A non-zero value anywhere proves
+    ``expr`` non-zero at once; a non-zero analytic function vanishes at a
+    random point with probability 0.  (A determinant of a resistive network
+    with leaks of 10⁻⁹ S cancels to 15 digits in double precision: floats
+    would call it zero.)  Where ``expr`` has no value at such a point,
+    ``simplify(expr) == 0`` in the budget decides (``step`` names it)."""
     rng = random.Random(20240601)
     symbols = sorted(expr.free_symbols, key=str)
     terms = sp.Add.make_args(expr)
     for _ in range(3):
-        point = {s: sp.Float(rng.uniform(0.5, 2.0)) for s in symbols}
+        point = {s: sp.Rational(rng.randint(10**6, 2 * 10**6), 10**6 + 3) for s in symbols}
         try:
-            value = complex(expr.xreplace(point).evalf())
-            scale = max([abs(complex(term.xreplace(point).evalf())) for term in terms] + [1.0])
+            value = expr.xreplace(point)
+            if value.is_Rational:
+                if value != 0:
+                    return False
+                continue
+            value = complex(value.evalf(60))
+            scale = max([abs(complex(term.xreplace(point).evalf(60))) for term in terms] + [1.0])
         except (TypeError, ValueError, ArithmeticError):
-            return False  # not a number there: not identically zero as far as can be told
-        if abs(value) > 1e-9 * scale:
+            break  # no number there: the simplifier decides
+        if abs(value) > 1e-40 * scale:
             return False
-    return True
+    else:
+        return True
+    try:
+        return budget.run(step, sp.simplify, expr) == 0
+    except budget.OverBudget:
+        return False
+
+
+def singular(matrix: sp.Matrix, step: str) -> bool:
+    """Whether the square ``matrix`` (of expressions) is singular for all values of its symbols,
+    decided at three random points (rationals between 1 and 2): its determinant there, exactly
+    (fraction-free) where the entries become rationals, else at 60 digits and within ``1e-40`` of
+    zero relative to Hadamard's bound (the product of the rows' norms).  A non-zero determinant
+    anywhere proves the matrix regular at once — no symbolic determinant is formed, whose
+    expansion grows as n! terms.  Where an entry has no value at such a point, :func:`vanishes`
+    decides on the symbolic determinant."""
+    import mpmath
+
+    rng = random.Random(20240601)
+    symbols = sorted(matrix.free_symbols, key=str)
+    for _ in range(3):
+        point = {s: sp.Rational(rng.randint(10**6, 2 * 10**6), 10**6 + 3) for s in symbols}
+        at = matrix.xreplace(point)
+        if all(entry.is_Rational for entry in at):
+            if at.det(method="bareiss") != 0:
+                return False
+            continue
+        try:
+            with mpmath.workdps(60):
+                rows = [[mpmath.mpc(complex(entry.evalf(60))) for entry in at.row(i)] for i in range(at.rows)]
+                determinant = abs(mpmath.det(mpmath.matrix(rows)))
+                bound = mpmath.fprod(max(mpmath.norm(mpmath.matrix(row)), 1e-300) for row in rows)
+        except (TypeError, ValueError, ArithmeticError, ZeroDivisionError):
+            break
+        if determinant > mpmath.mpf("1e-40") * bound:
+            return False
+    else:
+        return True
+    return vanishes(matrix.det(method="berkowitz"), step)

@@ -28,6 +28,7 @@ import sympy as sp
 from bondgraph.elements import C, I
 from bondgraph.errors import (AlgebraicLoopError, CausalityConflictError, FloatingPartError, HybridBondGraphError,
                               prefixed)
+from bondgraph import budget
 from bondgraph.regularize import floating_limit
 
 from .law_automata import SLIDING, expand_rates, sliding_values
@@ -109,9 +110,12 @@ class ModeEquations:
             jump = graph.jump_map(self.configuration, model.jump_law)
         except FloatingPartError as error:  # under-determined: the limit of vanishing leaks (DESIGN.md §6b)
             try:
-                equations, jump = floating_limit(graph, self.configuration, model.jump_law)
-            except (HybridBondGraphError, ValueError, sp.PolynomialError):
-                raise prefixed(error, f"mode {mode.describe()}: ") from None
+                equations, jump = budget.run(f"the limit of vanishing leaks of mode {mode.describe()}",
+                                             floating_limit, graph, self.configuration, model.jump_law)
+            except (HybridBondGraphError, ValueError, sp.PolynomialError) as why:  # no limit, or none in the budget
+                reason = str(why).splitlines()[0] if str(why) else type(why).__name__
+                raise prefixed(error, f"mode {mode.describe()}: ",
+                               f" (The limit of vanishing leaks gives this mode no equations: {reason}.)") from None
         except (CausalityConflictError, AlgebraicLoopError) as error:  # name the mode, which the user wrote
             raise prefixed(error, f"mode {mode.describe()}: ") from None
         self.jump = jump.substituted(self.values)

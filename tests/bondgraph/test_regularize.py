@@ -65,3 +65,38 @@ def test_two_closed_switches_in_parallel_share_a_current_equally_in_the_limit():
     current = sp.Symbol("V") / sp.Symbol("R")
     assert sp.simplify(equations.flows["s__first"] - current / 2) == 0
     assert sp.simplify(equations.flows["s__second"] - current / 2) == 0
+
+
+def test_a_matrix_is_called_singular_only_when_it_is_for_every_value_of_its_symbols():
+    """Decided at random rational points, exactly: a leak of 1e-9 S beside ohms cancels to 15 digits in
+    double precision, and the old float check called such well-posed networks singular."""
+    from bondgraph.solving import singular
+
+    R, g = sp.symbols("R g", positive=True)
+    assert singular(sp.Matrix([[R, 2 * R], [1, 2]]), "test")
+    assert not singular(sp.Matrix([[1 + g, 1], [1, 1]]), "test")
+    leak = sp.Float(1e-9)
+    assert not singular(sp.Matrix([[1 / R + leak, -1 / R], [-1 / R, 1 / R + leak]]), "test")
+    assert singular(sp.Matrix([[sp.sin(R), sp.cos(R)], [2 * sp.sin(R), 2 * sp.cos(R)]]), "test")
+    assert not singular(sp.Matrix([[sp.sin(R), 1], [1, sp.sin(R)]]), "test")
+
+
+def test_a_resistive_bridge_with_line_resistance_and_leaks_derives_every_mode():
+    """The audit's bridge: 0.5 Ω line resistance, diodes with r_on, gmin = 1e-9; the mode with every diode
+    blocking is a resistive network with leaks, well-posed (it was called singular)."""
+    from models.circuits import Circuit
+
+    c = Circuit("bridge")
+    c.V("Vs", "s", "0", "325*sin(2*pi*50*t)")
+    c.R("Rs", "s", "x", 0.5)
+    for name, a, b in (("D1", "x", "p"), ("D2", "0", "p"), ("D3", "n", "x"), ("D4", "n", "0")):
+        c.diode(name, a, b, r_on=0.02)
+    c.C("C1", "p", "n", 1e-3)
+    c.R("RL", "p", "n", 100.0)
+    model = c.build(gmin=1e-9)
+    blocking = model.mode_equations(model.mode({f"D{k}": "off" for k in range(1, 5)}))
+    q, C, RL = sp.Symbol("q_C1"), sp.Symbol("C1"), sp.Symbol("RL")
+    rate = blocking.f[q].subs({s: v for s, v in model.parameter_values.items()}).subs(sp.Symbol("t"), 0)
+    # at t = 0 the source is 0: the capacitor discharges through RL and, in parallel, the leaks (two in series
+    # each way, through the line): 1/R = 1/RL + gmin/2 · (the two leak paths in parallel) → ≈ 1/RL
+    assert float(rate.subs(q, 1.0)) == pytest.approx(-1.0 / (1e-3 * 100.0), rel=1e-6)
