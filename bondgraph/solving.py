@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import random
 
+import mpmath
 import sympy as sp
 
 from . import budget
@@ -112,8 +113,6 @@ def singular(matrix: sp.Matrix, step: str) -> bool:
     anywhere proves the matrix regular at once — no symbolic determinant is formed, whose
     expansion grows as n! terms.  Where an entry has no value at such a point, :func:`vanishes`
     decides on the symbolic determinant."""
-    import mpmath
-
     rng = random.Random(20240601)
     symbols = sorted(matrix.free_symbols, key=str)
     for _ in range(3):
