@@ -122,7 +122,6 @@ at the start, or just after it, when the shafts turn together).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 
 import sympy as sp
