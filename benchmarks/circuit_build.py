@@ -16,7 +16,8 @@ wall time; nothing is simulated.  The circuits:
   it first blocks;
 * N switches in parallel between a source and an RL load: a loop of ideal
   switches, its all-closed mode derived in the limit of vanishing
-  resistances (the symbolic ε loop of N resistances is what costs).
+  resistances (the symbolic ε loop of N resistances is what costs: beyond
+  the symbolic budget, 5 s by default, the circuit is refused as before).
 
 Issue 41's targets: a 400-section RC ladder in under 2 s, a circuit of 24
 switches in under 5 s.
@@ -24,53 +25,14 @@ switches in under 5 s.
 
 from __future__ import annotations
 
+import sys
 import time
+from pathlib import Path
 
-from bondgraph.errors import FloatingPartError
-from models.circuits import PWM, Circuit
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-
-def ladder(n: int) -> Circuit:
-    c = Circuit("ladder")
-    c.V("V1", "n0", "0", 1.0)
-    for k in range(n):
-        c.R(f"R{k}", f"n{k}", f"n{k + 1}", 1.0)
-        c.C(f"C{k}", f"n{k + 1}", "0", 1e-3)
-    return c
-
-
-def diode_chain(n: int) -> Circuit:
-    c = Circuit("diodes")
-    c.V("V1", "n0", "0", "10*sin(2*pi*50*t)")
-    for k in range(n):
-        c.diode(f"D{k}", f"n{k}", f"n{k + 1}")
-        c.C(f"C{k}", f"n{k + 1}", "0", 1e-6)
-        c.R(f"R{k}", f"n{k + 1}", "0", 1e3)
-    return c
-
-
-def bridges(n: int) -> Circuit:
-    c = Circuit("bridges")
-    for k in range(n):
-        c.V(f"V{k}", f"a{k}", "0", "325*sin(2*pi*50*t)")
-        c.diode(f"D{k}_1", f"a{k}", f"p{k}")
-        c.diode(f"D{k}_2", "0", f"p{k}")
-        c.diode(f"D{k}_3", f"n{k}", f"a{k}")
-        c.diode(f"D{k}_4", f"n{k}", "0")
-        c.C(f"C{k}", f"p{k}", f"n{k}", 1e-3)
-        c.R(f"R{k}", f"p{k}", f"n{k}", 100.0)
-    return c
-
-
-def parallel_switches(n: int) -> Circuit:
-    c = Circuit("switches")
-    c.V("V1", "in", "0", 12.0)
-    c.R("Rs", "in", "a", 0.1)
-    for k in range(n):
-        c.switch(f"S{k}", "a", "b", PWM(1e-4, 0.5))
-    c.L("L1", "b", "c", 1e-3)
-    c.R("RL", "c", "0", 10.0)
-    return c
+from bondgraph.errors import FloatingPartError  # noqa: E402
+from models.netlists import bridges, diode_chain, ladder, parallel_switches  # noqa: E402
 
 
 def timed(make, n: int) -> tuple[float, str]:
@@ -80,7 +42,7 @@ def timed(make, n: int) -> tuple[float, str]:
         circuit.build()
         outcome = "built"
     except FloatingPartError as error:
-        outcome = f"refused ({error.kind} floats with no limit)"
+        outcome = f"refused ({error.kind} floats; no limit found within the symbolic budget)"
     return time.perf_counter() - start, outcome
 
 

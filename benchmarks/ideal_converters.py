@@ -20,13 +20,17 @@ a study that runs a circuit many times meets.
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import brentq
 
-from models.circuits import PWM, Circuit
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from models.circuits import PWM, Circuit  # noqa: E402
 
 
 def buck():

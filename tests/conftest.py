@@ -32,6 +32,6 @@ def _slow_variants_are_opt_in(request):
     """Tests marked ``slow`` (exhaustive variants, runs that compile another
     numba kernel) run only when asked for: ``pytest -m slow`` or ``HBG_SLOW=1``."""
     if request.node.get_closest_marker("slow") and not _slow_requested(request.config):
-        pytest.skip("slow variant (an exhaustive run, or one compiling a numba kernel of its own, ~15–30 s; CI runs "
-                    "them all after the default set): "
+        pytest.skip("slow variant (an exhaustive sweep — renamings, random circuits, grids — or a run compiling a "
+                    "numba kernel of its own; 15 s to 2 min each; CI runs them all after the default set): "
                     "run with -m slow or HBG_SLOW=1")

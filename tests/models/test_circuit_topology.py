@@ -7,9 +7,10 @@ import random
 
 import pytest
 
-from bondgraph.errors import HybridBondGraphError, FloatingPartError
+from bondgraph.errors import HybridBondGraphError
 from models.circuit_topology import first_floating_mode, floating_witnesses, tie_groups, witness_modes
-from models.circuits import PWM, Circuit, floating_modes
+from models.circuits import Circuit, floating_modes
+from models.netlists import bridges, ladder, parallel_switches
 
 
 def random_circuit(rng: random.Random) -> Circuit:
@@ -77,19 +78,6 @@ def test_the_netlist_finds_a_floating_mode_exactly_when_one_of_every_mode_floats
     assert floating >= 500 and found >= 0.99 * floating, (floating, found)
 
 
-def bridges(n: int) -> Circuit:
-    c = Circuit("bridges")
-    for k in range(n):
-        c.V(f"V{k}", f"a{k}", "0", "325*sin(2*pi*50*t)")
-        c.diode(f"D{k}_1", f"a{k}", f"p{k}")
-        c.diode(f"D{k}_2", "0", f"p{k}")
-        c.diode(f"D{k}_3", f"n{k}", f"a{k}")
-        c.diode(f"D{k}_4", f"n{k}", "0")
-        c.C(f"C{k}", f"p{k}", f"n{k}", 1e-3)
-        c.R(f"R{k}", f"p{k}", f"n{k}", 100.0)
-    return c
-
-
 def test_bridges_beyond_a_thousand_modes_are_checked_and_each_floating_load_found():
     circuit = bridges(3)  # 2^12 modes: beyond what enumerating every mode checked
     model = circuit.build(allow_floating=True)
@@ -101,24 +89,14 @@ def test_bridges_beyond_a_thousand_modes_are_checked_and_each_floating_load_foun
 
 
 def test_switches_in_parallel_are_a_free_loop_whatever_their_number():
-    c = Circuit("switches")
-    c.V("V1", "in", "0", 12.0)
-    c.R("Rs", "in", "a", 0.1)
-    for k in range(24):
-        c.switch(f"S{k}", "a", "b", PWM(1e-4, 0.5))
-    c.L("L1", "b", "c", 1e-3)
-    c.R("RL", "c", "0", 10.0)
+    c = parallel_switches(24)
     model = c.build(allow_floating=True)
     ((mode, error),) = floating_witnesses(list(c._parts.values()), model, limit=1)
     assert error.kind == "flow" and "loop" in str(error) and len(error.elements) >= 2
 
 
 def test_a_long_ladder_is_one_tie_group_with_ground():
-    c = Circuit("ladder")
-    c.V("V1", "n0", "0", 1.0)
-    for k in range(400):
-        c.R(f"R{k}", f"n{k}", f"n{k + 1}", 1.0)
-        c.C(f"C{k}", f"n{k + 1}", "0", 1e-3)
+    c = ladder(400)
     assert len(tie_groups(c._parts.values())) == 1
     model = c.build()
     assert len(model.states) == 400
