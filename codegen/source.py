@@ -107,18 +107,28 @@ class _Printer(PythonCodePrinter):
         self._names = names
         self._temporaries = temporaries or {}
         self._defining = None
+        #: the temporaries assigned so far (the printer also meets nodes it builds itself, a
+        #: fraction's numerator, which may equal a temporary not yet assigned)
+        self.available = set(self._temporaries)
+        #: the names of the temporaries the last text printed uses
+        self.used: set = set()
+
+    def _temporary(self, expr):
+        if not self._temporaries or not isinstance(expr, sp.Basic) or expr == self._defining:
+            return None
+        name = self._temporaries.get(expr)
+        if name is None or expr not in self.available:
+            return None
+        self.used.add(name)
+        return name
 
     def _print(self, expr, **kwargs):
-        name = self._temporaries.get(expr) if self._temporaries and isinstance(expr, sp.Basic) else None
-        if name is not None and expr != self._defining:
-            return name
-        return super()._print(expr, **kwargs)
+        name = self._temporary(expr)
+        return name if name is not None else super()._print(expr, **kwargs)
 
     def parenthesize(self, item, level, strict=False):
-        name = self._temporaries.get(item) if self._temporaries and isinstance(item, sp.Basic) else None
-        if name is not None and item != self._defining:
-            return name  # a temporary is a name: no parentheses
-        return super().parenthesize(item, level, strict)
+        name = self._temporary(item)
+        return name if name is not None else super().parenthesize(item, level, strict)  # a name: no parentheses
 
     def definition(self, expr) -> str:
         """``expr`` printed as the value of its own temporary (its repeated parts by theirs)."""
@@ -382,6 +392,7 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     else:
         temporaries = {expr: memo.temporary(expr) for expr in shared}
     printer = _Printer(spec.raw, names, temporaries)
+    printer.available = set()
 
     lines = [_def_line(spec), *_docstring(spec, len(outputs), argument_doc)]
     for arg in spec.arguments:
@@ -399,15 +410,21 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
         else:
             key = (expr, False, _outer_temporaries(expr, temporaries) if temporaries else frozenset())
         printed = table.get(key)
-        if printed is None:
+        # text printed for another function is reused when every temporary it names is assigned here
+        if printed is None or not printed[1] <= assigned:
             memo.misses += 1
-            printed = table[key] = printer.definition(expr) if definition else printer.doprint(expr)
+            printer.used = set()
+            words = printer.definition(expr) if definition else printer.doprint(expr)
+            printed = table[key] = (words, frozenset(printer.used))
         else:
             memo.hits += 1
-        return printed
+        return printed[0]
 
+    assigned: set = set()
     for expr in shared:
         lines.append(f"    {temporaries[expr]} = {text(expr, definition=True)}")
+        printer.available.add(expr)
+        assigned.add(temporaries[expr])
     if spec.raw:
         lines.append("    return [" + ", ".join(text(e) for e in outputs) + "]")
     else:

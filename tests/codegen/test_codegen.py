@@ -244,3 +244,22 @@ def test_a_mode_made_now_and_one_read_from_its_source_are_the_same(build):
             assert "p[" in made.source.splitlines()[frame.lineno - 1]
         else:
             raise AssertionError("the generated rates ran without parameters")
+
+
+def test_text_shared_between_functions_names_only_temporaries_each_assigns():
+    """The printer rebuilds nodes (``b**2`` of the denominator of ``a*b**-2``) that may equal a temporary
+    of one function; its text, reused for another function without that temporary, named a variable
+    the other never assigned (a bridge with line resistance and diode ``r_on`` stopped on it)."""
+    from codegen.source import Argument, FunctionSpec, PrintMemo, function_source, module_namespace
+
+    a, b, c = sp.symbols("a b c", positive=True)
+    arguments = (Argument("x", (a, b, c)),)
+    memo = PrintMemo()
+    both = FunctionSpec("both", arguments, (a / b**2, sp.sin(b**2), sp.cos(b**2)))
+    alone = FunctionSpec("alone", arguments, (a / b**2,))
+    values = np.array([2.0, 3.0, 5.0])
+    for spec in (both, alone, both):
+        namespace = dict(module_namespace())
+        exec(compile(function_source(spec, memo), "<test>", "exec"), namespace)
+        out = namespace[spec.name](values, np.zeros(len(spec.outputs)))
+        assert out[0] == pytest.approx(2.0 / 9.0, rel=1e-15)
