@@ -18,7 +18,7 @@ import sympy as sp
 
 from .budget import ENVIRONMENT_VARIABLE
 from .errors import AlgebraicLoopError
-from .solving import SolveFailure, singular, solve
+from .solving import SolveFailure, lambert_solution, singular, solve
 
 __all__ = ["dependency_components", "solve_explicit"]
 
@@ -153,8 +153,12 @@ def _solve_nonlinear_loop(residuals, members, elements, what) -> dict:
                         "in the causality the loop needs.",
                         elements,
                     )
+        lambert = lambert_solution(residuals[0], remaining[0]) if len(residuals) == len(remaining) == 1 else None
         try:
-            solutions = solve(residuals, remaining, f"solving the {what} through {', '.join(elements)}")
+            if lambert is not None:  # an exponential law in series with a resistance: Lambert's W
+                solutions = [{remaining[0]: lambert}]
+            else:
+                solutions = solve(residuals, remaining, f"solving the {what} through {', '.join(elements)}")
             found = f"has {len(solutions)} closed-form solution(s), not exactly one"
             over_budget = False
         except SolveFailure as failure:

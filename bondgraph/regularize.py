@@ -35,7 +35,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from .elements import One, R
+from .elements import Junction, One, R, Se, Sf
+from .errors import FloatingPartError
 from .graph import BondGraph
 
 __all__ = ["EPSILON", "regularized_graph", "regularized_equations", "leading_term", "limit", "limit_graph",
@@ -128,28 +129,104 @@ def limit_graph(graph, config: dict) -> tuple[BondGraph, dict]:
     return copy, limited
 
 
+def _free_variables(graph, config: dict, limit_of: int = 64) -> tuple[BondGraph, list, object]:
+    """``(graph with virtual sources, their symbols, equations)``: ``graph`` with an effort source
+    ``z_k`` bonded to one floating junction of each free effort direction and a flow source on one
+    junction of each free loop, added one at a time until the configuration derives — every bond
+    variable then an expression of the states, inputs, ``t`` and the ``z_k`` (affine in them: a free
+    direction of the junction structure moves no port).  Raises the last ``FloatingPartError`` when a
+    source added does not remove a free direction."""
+    copy = _copy(graph, f"{graph.name} (floating)")
+    symbols: list = []
+    for k in range(limit_of):
+        try:
+            return copy, symbols, copy.equations(dict(config), open_ports=False)
+        except FloatingPartError as error:
+            junction = next(iter(error.elements), None)
+            if junction is None or junction not in copy.elements or (symbols and _stuck(error, copy)):
+                raise
+            z = sp.Symbol(f"floating_{k}")
+            source = (Se if error.kind == "effort" else Sf)(f"{junction}/floating_{k}", z)
+            copy.connect(source, junction)
+            symbols.append(z)
+    raise ValueError(f"more than {limit_of} free directions")
+
+
+def _stuck(error, copy) -> bool:
+    """Whether the floating junction ``error`` names already carries a virtual source (adding another
+    would remove nothing)."""
+    return any("/floating_" in bond.tail for bond in copy.bonds_of(error.elements[0]))
+
+
+def _across(graph, values: dict, junction: str) -> sp.Expr:
+    """Σ of the efforts (a 1-junction) or flows (a 0-junction) of ``junction``'s bonds, + into it: what a
+    resistance bonded to it would take — the effort across a blocking switch, the flow through a
+    released coupling."""
+    total = sp.Integer(0)
+    for bond in graph.bonds_of(junction):
+        if bond.name in values:
+            total += values[bond.name] if bond.head == junction else -values[bond.name]
+    return total
+
+
 def floating_limit(graph, config: dict, jump_law: str):
     """``(equations, jump map)`` of an under-determined ``config`` (floating nodes, a free loop
-    current) as the limit of :func:`limit_graph` when ``ε → 0⁺``: the rates, constraints, efforts and
-    flows of every bond of ``graph`` are the limits of the regularized ones — a floating node's
-    potential the one the vanishing leaks give it (a bridge's blocking diodes share the voltage
-    across them equally), a free loop's current the one the vanishing resistances divide.  Raises
-    ``ValueError`` where a limit does not exist (a rate that grows without bound: a capacitor shorted,
-    whose charge jumps) or the expressions are no rational functions of ``ε``."""
+    current, a torque free between couplings in parallel) as the limit of vanishing leaks: every
+    blocking controlled 1-junction in series with a resistance ``1/ε``, every conducting one with ``ε``
+    (dually for controlled 0-junctions: an engaged coupling's effort, a released one's flow), ``ε → 0⁺``.
+
+    The limit is found without ``ε``.  The configuration with a virtual source on each free direction
+    (:func:`_free_variables`) gives every bond variable as an affine function of the sources'
+    values ``z``; the leaks pick the ``z`` that dissipates least in them (a linear network's currents
+    minimise its dissipation, and the leaks' is the only dissipation ``z`` changes),
+
+        min_z  Σ_blocking a_k(z)² + Σ_conducting f_k(z)²   (a_k the effort across, f_k the flow;
+                                                            for 0-junctions the flow through, the effort),
+
+    i.e. ``Mz = −r`` with ``M_ij = Σ ∂v_k/∂z_i ∂v_k/∂z_j`` and ``r_i = Σ ∂v_k/∂z_i v_k(0)``.  A
+    floating node takes the potential that divides the voltage across the blocking elements around it
+    equally; a free loop current is divided equally among the conducting elements of the loop; a
+    storage element the configuration ties (a capacitor across conducting diodes) keeps its
+    dependent state, as in any mode.  Raises ``ValueError`` where no leak decides a free direction,
+    a virtual source would carry power (the configuration is over-determined as well) or the jump
+    map depends on ``z``."""
     from dataclasses import replace
 
-    regularized, limited = limit_graph(graph, config)
-    equations = regularized.equations(limited, open_ports=False)
-    jump = regularized.jump_map(limited, jump_law)
-    if jump.expressions is None or any(sp.sympify(v).has(EPSILON) for v in jump.expressions.values()):
-        raise ValueError("the jump map into the configuration depends on the regularization")
+    augmented, free, equations = _free_variables(graph, config)
+    jump = augmented.jump_map(dict(config), jump_law)
+    if not free:
+        return equations, jump
+    if jump.expressions is None or any(sp.sympify(v).has(*free) for v in jump.expressions.values()):
+        raise ValueError("the jump map into the configuration depends on the floating part")
+    variables = []
+    for name, element in graph.elements.items():
+        if not (isinstance(element, Junction) and element.controlled):
+            continue
+        on, series = config.get(name, True), isinstance(element, One)
+        if on:  # a conducting switch's flow (a 1-junction), an engaged coupling's effort (a 0-junction)
+            table = equations.flows if series else equations.efforts
+            variables.append(table[graph.bonds_of(name)[0].name])
+        else:  # the effort across a blocking switch, the flow through a released coupling
+            variables.append(_across(graph, equations.efforts if series else equations.flows, name))
+    if not variables:
+        raise ValueError("no leak decides the floating part (it touches no diode or switch)")
+    at_zero = {z: 0 for z in free}
+    slopes = sp.Matrix([[sp.diff(v, z) for z in free] for v in variables])
+    if any(s.has(*free) for s in slopes):
+        raise ValueError("the floating part enters the equations nonlinearly")
+    offsets = sp.Matrix([v.xreplace(at_zero) for v in variables])
+    normal = slopes.T * slopes
+    if normal.det() == 0:
+        raise ValueError("no leak decides the floating part (it touches no diode or switch)")
+    solution = dict(zip(free, list(-normal.LUsolve(slopes.T * offsets))))
+    for source in (b for b in augmented.bonds if b not in graph.bonds):
+        power = sp.expand(equations.efforts[source] * equations.flows[source]).xreplace(solution)
+        if sp.simplify(power) != 0:
+            raise ValueError("a virtual source of the floating part carries power (the configuration is "
+                             "over-determined as well)")
 
-    def table(mapping, keys=None):
-        return {k: limit(v) for k, v in mapping.items() if keys is None or k in keys}
-
-    equations = replace(
-        equations, graph_name=graph.name, configuration=dict(config), constraints=table(equations.constraints),
-        implicit_rates=table(equations.implicit_rates), rates=table(equations.rates),
-        efforts=table(equations.efforts, graph.bonds), flows=table(equations.flows, graph.bonds),
-        _dependent_rates=table(equations._dependent_rates))
+    equations = equations.substituted(solution)  # (recorded: a derivation again from its graph substitutes it)
+    equations = replace(equations, graph_name=graph.name, configuration=dict(config),
+                        efforts={k: v for k, v in equations.efforts.items() if k in graph.bonds},
+                        flows={k: v for k, v in equations.flows.items() if k in graph.bonds})
     return equations, jump

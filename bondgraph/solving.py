@@ -21,7 +21,7 @@ import sympy as sp
 
 from . import budget
 
-__all__ = ["SolveFailure", "solve", "simplified", "vanishes", "singular"]
+__all__ = ["SolveFailure", "solve", "lambert_solution", "simplified", "vanishes", "singular"]
 
 
 class SolveFailure(Exception):
@@ -58,6 +58,46 @@ def solve(equations, unknowns, step: str, seconds: float | None = None) -> list[
     except Exception as exc:  # NotImplementedError and sympy's own errors: no closed form
         raise SolveFailure(f"sympy cannot solve it ({type(exc).__name__}: {exc})") from None
     return [{v: value.xreplace(back) for v, value in solution.items()} for solution in solutions]
+
+
+def lambert_solution(residual: sp.Expr, unknown: sp.Symbol) -> sp.Expr | None:
+    """The solution of ``a·v + b + c·exp(d·v + e) = 0`` for ``v = unknown`` (``a, b, c, d, e`` free of it),
+    or ``None`` when ``residual`` has another form or the solution is not unique:
+
+        v = −W₀(z)/d − b/a,   z = (d·c/a)·exp(e − d·b/a),
+
+    ``W₀`` the principal branch of Lambert's W.  Unique where ``d·c/a > 0`` (then ``a·v + c·exp(d·v)`` is
+    monotonic and ``z > 0``), judged with every symbol positive (a parameter is a resistance, a
+    saturation current, a thermal voltage).  An exponential diode in series with a resistance forms
+    this loop: ``i = Is·(exp((V − R·i)/VT) − 1)`` gives ``i = (VT/R)·W₀((Is·R/VT)·exp((V + R·Is)/VT)) − Is``
+    — sympy's ``solve`` searches for it for minutes when ``V`` holds a source's ``sin(ωt)`` and a
+    capacitor's charge.  The code generator writes ``W₀(K·exp(x))`` with the Wright omega function,
+    which never overflows (:mod:`codegen.lambert`)."""
+    linear, constant, exponential = sp.Integer(0), sp.Integer(0), []
+    for term in sp.Add.make_args(sp.expand(residual, power_exp=False, log=False, multinomial=False)):
+        if not term.has(unknown):
+            constant += term
+            continue
+        coefficient, rest = term.as_independent(unknown, as_Add=False)
+        if rest == unknown:
+            linear += coefficient
+        elif isinstance(rest, sp.exp):
+            exponential.append((coefficient, rest.args[0]))
+        else:
+            return None
+    if len(exponential) != 1 or linear == 0:
+        return None
+    c, argument = exponential[0]
+    d = sp.diff(argument, unknown)
+    if d == 0 or d.has(unknown):
+        return None
+    e = argument.xreplace({unknown: 0})
+    a, b = linear, constant
+    slope = d * c / a
+    positive = {s: sp.Symbol(s.name, positive=True) for s in slope.free_symbols if isinstance(s, sp.Symbol)}
+    if slope.xreplace(positive).is_positive is not True:
+        return None
+    return -sp.LambertW(slope * sp.exp(e - d * b / a)) / d - b / a
 
 
 def simplified(expr: sp.Expr, step: str, how=sp.simplify) -> sp.Expr:

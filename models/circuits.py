@@ -88,8 +88,10 @@ rectifier with every diode off).  Such a mode runs as the limit of
 vanishing leaks across the blocking elements (DESIGN.md §6b,
 :func:`bondgraph.regularize.floating_limit`): the leaks divide the voltage
 across the blocking elements equally, so a bridge's diode turns on exactly
-where ``|v_in|`` meets ``v_out``.  A circuit with a floating mode that has
-no limit (an inductor alone across a bridge's load) is refused when it is
+where ``|v_in|`` meets ``v_out``; an element the mode ties stays a
+dependent state (an inductor alone across a bridge's load: its current 0
+while every diode blocks).  A circuit with a floating mode that has no
+limit (a free direction no diode or switch touches) is refused when it is
 built, with a :class:`~bondgraph.errors.FloatingPartError` that names the
 mode and the floating nodes (their 0-junctions ``node_<n>``) and says it is
 under-determined (:mod:`models.circuit_topology` finds the candidates on
@@ -405,7 +407,8 @@ class Circuit(Netlist):
 
         Without ``gmin``, a mode that leaves nodes floating (a bridge's load
         with all four diodes blocking) runs as the limit of vanishing leaks;
-        a circuit with such a mode that has no limit is refused here, with a
+        a circuit with such a mode that has no limit (a free direction no diode
+        or switch touches) is refused here, with a
         :class:`~bondgraph.errors.FloatingPartError` naming the mode, the
         floating nodes and the fixes (found on the netlist, whatever the
         number of modes: :mod:`models.circuit_topology`; the candidates are

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .calls import argmax_abs, fun
+from .calls import argmax_abs, finite, fun
 from .compiler import (dispatch, euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, rodas_dense,
                        stamp_with_rules)
 
@@ -197,9 +197,11 @@ def fixed_step(kind, m, k, t, t_end, dt, streak, history, check, A, W, M, info):
 def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
     """One accepted step of RK45 from ``(t, y)``, trying ``h_abs`` first (bounded by ``max_step`` and ten
     spacings of floating-point numbers at ``t``), with scipy's error norm and step factors (0.2 to 10, safety
-    0.9; no growth right after a rejection): the stages in ``K``, the end in ``y_new``, ``f_new``, the last
-    stage's argument in ``tmp``.  Returns ``(ok, t_new, h, h_abs)``: not ok when the step size collapsed, or
-    (``h_abs`` NaN) when the error is not a number (NaN rates); ``h_abs`` the size to try next."""
+    0.9; no growth right after a rejection; a trial whose stages leave the reals is rejected with 0.2): the
+    stages in ``K``, the end in ``y_new``, ``f_new``, the last stage's argument in ``tmp``.  Returns ``(ok,
+    t_new, h, h_abs)``: not ok when the step size collapsed, or (``h_abs`` NaN) when the rates are not numbers
+    where the step starts or the trials left the reals down to the smallest step; ``h_abs`` the size to try
+    next."""
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
     ke = y.shape[0]
@@ -210,11 +212,12 @@ def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
         h_abs = min_step
     accepted = False
     rejected = False
+    left_reals = False  # the last trial left the reals: a collapse then reports NaN (a law left its domain)
     h = 0.0
     t_new = t
     while not accepted:
         if h_abs < min_step:
-            return False, t, h, h_abs
+            return False, t, h, np.nan if left_reals else h_abs
         h = h_abs
         t_new = t + h
         if t_new - t_end > 0:
@@ -245,8 +248,16 @@ def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
             sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
             err[i] = acc * h / sc
         error_norm = _rms(err)
-        if error_norm != error_norm:  # NaN (a rate or a stage not a number): no step size helps; never loop on
-            return False, t, h, np.nan
+        if error_norm != error_norm:
+            if not finite(f):  # NaN rates where the step starts: no step size helps; never loop on
+                return False, t, h, np.nan
+            # a trial stage left the reals (an exponential law overflowing on a step too long for a stiff
+            # flow): rejected, as scipy's RK45 rejects a NaN error norm (factor 0.2)
+            h_abs *= 0.2
+            rejected = True
+            left_reals = True
+            continue
+        left_reals = False
         if error_norm < 1:
             if error_norm == 0:
                 factor = 10.0

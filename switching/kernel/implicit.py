@@ -55,7 +55,7 @@ from ..rules.rosenbrock import C as RC
 from ..rules.rosenbrock import D as RD
 from ..rules.rosenbrock import GAMMA, H as RH
 from ..rules.rosenbrock import GAMMA_C as RG
-from .calls import fun, jac
+from .calls import finite, fun, jac
 from .compiler import dispatch, inline, rodas_control, stamp_with_rules
 
 __all__ = ["implicit_workspaces", "jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
@@ -360,10 +360,11 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     h_abs = max(h_abs, min_step)
     jacobian(m, k, t, y, f, M, L, tmp, f_new)
     rejected = False
+    left_reals = False  # the last trial left the reals: a collapse then reports NaN (a law left its domain)
     h = 0.0
     while True:
         if h_abs < min_step:
-            return False, t, h, h_abs
+            return False, t, h, np.nan if left_reals else h_abs
         t_new = t + h_abs
         if t_new - t_end > 0:
             t_new = t_end
@@ -371,8 +372,14 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
         h_abs = abs(h)
         factored = _factor(jbuf, lu, piv, order, int(ctl[2]), ke, 1.0 / (GAMMA * h))
         error = _stages(m, k, t, h, rtol, atol, A, W, L, M) if factored else np.inf
-        if error != error:  # NaN (a rate, the Jacobian or a stage not a number): never loop on
-            return False, t, h, np.nan
+        if error != error:
+            if not finite(f):  # NaN rates where the step starts: never loop on
+                return False, t, h, np.nan
+            rejected = True  # a stage left the reals (an exponential law overflowing): a shorter step
+            left_reals = True
+            h_abs *= 0.2
+            continue
+        left_reals = False
         h_next, h_acc, err_acc = rodas_control(error, h_abs, ctl[0], ctl[1], rejected)
         if error <= 1.0:
             ctl[0] = h_acc

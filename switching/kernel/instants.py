@@ -24,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..rules.instants import CONTINUOUS, DECIDE_AS_FLOW, JUMP_AND_DECIDE
-from .calls import finite, fire, jump
+from ..rules.jumps import MOTION_ULPS
+from .calls import finite, fire, fy, jump
 from .compiler import decides_as_in_flow, inline, instant_begin, instant_next, jit, jump_pulse, stamp_with_rules
 
 __all__ = ["mode_of", "next_code", "resolve"]
@@ -59,12 +60,23 @@ def resolve(m0, x_in, t, M, tol, max_instant, R):
     Returns the mode reached (its state in xa) and the number of passes, or -1: Python must resolve it.
     x, xp, d [n], target [automata], chain [max_instant + 1], pin_m [P], pin_x [P, n]: scratch."""
     rtol, atol, jrtol, jatol = tol
-    s, post, xa, x, xp, d, target, chain, pin_m, pin_x = R
+    s, post, xa, x, xp, d, target, chain, pin_m, pin_x, motion = R
     moved, n_moved, mstates, radix = M.tables[2], M.lengths[2], M.mstates, M.radix
     codes, code_ids, mode_codes = M.codes[0], M.codes[1], M.codes[2]
     n = x_in.shape[0]
     for i in range(n):
         x[i] = x_in[i]
+        motion[i] = 0.0
+    # each state's motion within the round-off of t in m0, the mode that flowed into the instant (rules.jumps)
+    k, ind = M.lengths[0][m0], M.tables[0]
+    if k > 0:
+        for i in range(k):
+            xp[i] = x_in[ind[m0, i]]
+        fy(m0, xp, t, M, d)
+        unit = MOTION_ULPS * np.spacing(abs(t))
+        for i in range(k):
+            if np.isfinite(d[i]):
+                motion[ind[m0, i]] = unit * abs(d[i])
     cur = m0
     state = instant_begin(mode_codes[m0], chain)
     while True:
@@ -74,7 +86,7 @@ def resolve(m0, x_in, t, M, tol, max_instant, R):
                 cur = mode_of(state[2], codes, code_ids)
             if cur < 0 or not jump(cur, x, t, M, xp):
                 return -1, 0
-            quiet = decides_as_in_flow(state, jump_pulse(x, xp, moved[cur], n_moved[cur], jrtol, jatol, d))
+            quiet = decides_as_in_flow(state, jump_pulse(x, xp, moved[cur], n_moved[cur], jrtol, jatol, motion, d))
             after = xp
         elif action == DECIDE_AS_FLOW:
             for i in range(n):

@@ -120,7 +120,8 @@ def _carve(x0, M, samples, max_instant, work):
         template[i] = x0[i]
     z = wf[o:o + n]
     o += n
-    o += n  # (unused: was the rates' scratch)
+    motion = wf[o:o + n]  # each state's motion within the round-off of an instant's time (rules.jumps)
+    o += n
     x_out = wf[o:o + n]
     o += n
     xa = wf[o:o + n]
@@ -197,7 +198,7 @@ def _carve(x0, M, samples, max_instant, work):
     B = (dbuf, ybuf, fbuf, tmpbuf, ynbuf, fnbuf, errbuf, Kbuf, Qbuf, s)
     PT = (ptau, pmg, ptr, phd)
     SC = (order, ext, iscr, fscr, q, scan)
-    R = (s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x)
+    R = (s, post, xa, rx, rxp, rd, target, chain, pin_m, pin_x, motion)
     L = (jbuf, lu, piv, fx, ctl, perm)
     return X, B, PT, SC, R, L
 

@@ -47,7 +47,7 @@ from codegen.runtime import Comparison, Hyper, decide, hyper
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
-from ..rules.jumps import jump_pulse
+from ..rules.jumps import MOTION_ULPS, jump_pulse
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
            "decide_tree", "guard_parts", "holds_strictly", "mode_source_and_meta", "shifted_tree"]
@@ -528,17 +528,30 @@ class CompiledMode:
             return self._jump(x, t, self.model.parameter_array, self.model.input_values(t), np.empty(self.n))
         return np.asarray(self.model.mode_equations(self.mode).numeric_jump(x, t), dtype=float)
 
-    def pulse(self, x: np.ndarray, x_plus: np.ndarray) -> np.ndarray:
+    def pulse(self, x: np.ndarray, x_plus: np.ndarray, motion: np.ndarray | None = None) -> np.ndarray:
         """The jump ``x⁺ − x`` with round-off removed: components within
-        ``jump_rtol·(largest moved state) + jump_atol`` are no jump and carry
-        no Dirac pulse (the state itself still takes the exact ``x⁺``): the
+        ``jump_rtol·(largest moved state) + jump_atol`` (and within ``motion``,
+        :meth:`motion` of the mode that flowed into the instant) are no jump and
+        carry no Dirac pulse (the state itself still takes the exact ``x⁺``): the
         rule :func:`switching.rules.jumps.jump_pulse`."""
         x = np.asarray(x, dtype=float)
         delta = np.empty(x.shape[0])
         tol = self.model.tolerance
+        motion = np.zeros(x.shape[0]) if motion is None else motion
         jump_pulse(x, np.asarray(x_plus, dtype=float), self.moved, len(self.moved), tol.jump_rtol, tol.jump_atol,
-                   delta)
+                   motion, delta)
         return delta
+
+    def motion(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``MOTION_ULPS·ulp(t)·|ẋ_i|`` of this mode's independent states at ``(x, t)`` (0 for the others
+        and where a rate is not finite): how far each moves within the round-off of an instant's time
+        (:mod:`switching.rules.jumps`)."""
+        motion = np.zeros(self.n)
+        if len(self.independent):
+            with np.errstate(all="ignore"):
+                rates = np.abs(self.rates(np.asarray(x, dtype=float), t)[self.independent])
+            motion[self.independent] = np.where(np.isfinite(rates), MOTION_ULPS * np.spacing(abs(t)) * rates, 0.0)
+        return motion
 
     def sides(self, x, t) -> np.ndarray:
         """The comparison triples at ``x`` (a round-off scale may be ``inf``
@@ -552,15 +565,15 @@ class CompiledMode:
                 return self.on_numpy("sides")(np.asarray(x, dtype=float), np.float64(t), model.parameter_array,
                                               model.input_values(t), np.empty(self.n_sides))
 
-    def sides_impulsive(self, x, x_plus, t, pulses: bool = True) -> list:
+    def sides_impulsive(self, x, x_plus, t, pulses: bool = True, motion: np.ndarray | None = None) -> list:
         """Comparison triples a posteriori: the sides on ``x_plus`` with the
         pulses of ``x → x_plus`` (none with ``pulses=False``: a jump that
         abstracts a continuous approach); as round-off scale the larger of
         the scales on ``x`` and on ``x_plus`` (the jump's own round-off is of
-        the size of the terms it started from)."""
+        the size of the terms it started from); ``motion`` as for :meth:`pulse`."""
         model = self.model
         finite = self.rates(x_plus, t)
-        delta = self.pulse(x, x_plus) if pulses else np.zeros(self.n)
+        delta = self.pulse(x, x_plus, motion) if pulses else np.zeros(self.n)
         xdot = [Hyper(delta[k], finite[k]) for k in range(self.n)]
         raw = self._sides_raw(x_plus, t, model.parameter_array, model.input_values(t), xdot)
         before, after = self.sides(x, t), self.sides(x_plus, t)

@@ -11,7 +11,13 @@ conducting ideal switch and diode (:mod:`bondgraph.regularize`): a signal
 of order ``1/ε`` is an impulse of that sign (the diode's current driven
 backwards by the shorted source: ``i_D → −∞``, so ``i_D < 0`` holds and the
 diode turns off), a signal of order 1 its finite limit, compared with the
-model's band at an instant.
+model's band at an instant.  Where the impulse's coefficient vanishes at the
+instant itself (a bridge's source crossing zero while the load's inductor
+keeps its current: the diodes of the other diagonal turn on into a short of
+a source that is 0 V just then) the impulse just after it decides: the sign
+of the coefficient's time derivative.  A coefficient vanishes when it lies
+within the model's band ``rtol·R(c)`` of zero, ``R(c)`` its round-off scale
+(:mod:`codegen.roundoff`), so that units decide nothing.
 
 :class:`ConflictGuards` holds, for one mode, each guard's comparisons as
 leading coefficients in ``ε`` (numerical functions of the state), derived
@@ -29,7 +35,9 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 
 from bondgraph.errors import CausalityConflictError, HybridBondGraphError
 from bondgraph.regularize import EPSILON, leading_term, regularized_equations
+from bondgraph.symbols import rate_symbol
 from codegen import vector_function
+from codegen.roundoff import roundoff_scale
 from codegen.runtime import Comparison, Hyper
 
 __all__ = ["ConflictGuards"]
@@ -89,8 +97,14 @@ class ConflictGuards:
             numerator, denominator = leading_term(expr)
         except (sp.PolynomialError, sp.GeneratorsNeeded, ValueError):
             raise self.error from None
+        t = self.model.time
+        scales = [roundoff_scale(c) for c in numerator]
+        # d/dt at fixed state: explicitly and through the inputs (whose rates the model evaluates with them)
+        inputs = tuple(self.model.graph.inputs.values())
+        slopes = [sp.diff(c, t) + sum((sp.diff(c, u) * rate_symbol(u) for u in inputs if c.has(u)), sp.Integer(0))
+                  for c in numerator]
         indices = []
-        for coefficients in (numerator, denominator):
+        for coefficients in (numerator, denominator, scales, slopes):
             start = len(self._coefficients)
             self._coefficients.extend(coefficients)
             indices.append(range(start, len(self._coefficients)))
@@ -114,28 +128,27 @@ class ConflictGuards:
         return fired
 
 
-def _limit(side, values) -> Hyper:
-    """The limit of one side as ``ε → 0⁺`` from its coefficients' values, as a :class:`Hyper`: a side
-    of order ``1/ε`` (or beyond) an impulse of the sign of its leading coefficient, one of order 1 its
-    finite value, one of higher order 0; NaN where the denominator vanishes."""
-    numerator, denominator = ([float(values[k]) for k in part] for part in side)
-
-    def first(coefficients):
-        scale = max((abs(c) for c in coefficients), default=0.0)
-        for order, c in enumerate(coefficients):
-            if c != 0.0 and abs(c) > 1e-14 * scale:
-                return order, c
-        return None, 0.0
-
-    n_order, n = first(numerator)
-    d_order, d = first(denominator)
-    if n_order is None:
-        return Hyper(0.0, 0.0)
+def _limit(side, values, rtol: float) -> tuple[Hyper, float]:
+    """The limit of one side as ``ε → 0⁺`` from its coefficients' values, as a :class:`Hyper`, with its
+    round-off scale: a side of order ``1/ε`` (or beyond) an impulse of the sign of its leading
+    coefficient — or, where that coefficient vanishes at the instant, of its time derivative's (the
+    impulse just after) — one of order 1 its finite value, one of higher order 0; NaN where the
+    denominator vanishes.  A numerator coefficient vanishes within ``rtol`` of its round-off scale."""
+    numerator, denominator, scales, slopes = ([float(values[k]) for k in part] for part in side)
+    d_order = next((order for order, c in enumerate(denominator) if c != 0.0), None)
     if d_order is None:
-        return Hyper(0.0, math.nan)
-    if n_order < d_order:
-        return Hyper(n / d, 0.0)
-    return Hyper(0.0, n / d if n_order == d_order else 0.0)
+        return Hyper(0.0, math.nan), 0.0
+    d = denominator[d_order]
+    for order, (c, scale, slope) in enumerate(zip(numerator, scales, slopes)):
+        if order > d_order:
+            break
+        if order == d_order:
+            return Hyper(0.0, c / d), abs(scale / d)
+        if abs(c) > rtol * scale:
+            return Hyper(c / d, 0.0), 0.0
+        if slope != 0.0:
+            return Hyper(slope / d, 0.0), 0.0
+    return Hyper(0.0, 0.0), 0.0
 
 
 def _decide(tree, values, rtol: float, atol: float, comparisons: list) -> bool:
@@ -145,9 +158,10 @@ def _decide(tree, values, rtol: float, atol: float, comparisons: list) -> bool:
     if kind in ("and", "or", "not"):
         results = [_decide(branch, values, rtol, atol, comparisons) for branch in tree[1]]
         return all(results) if kind == "and" else any(results) if kind == "or" else not results[0]
-    left, right = _limit(tree[1], values), _limit(tree[2], values)
+    (left, left_scale), (right, right_scale) = _limit(tree[1], values, rtol), _limit(tree[2], values, rtol)
     if math.isnan(left.finite) or math.isnan(right.finite):
         return False
-    comparison = Comparison.of(tree[3], kind, left, right, rtol, atol)
+    # the band of the comparison, as during flow: rtol times the round-off scale of its finite sides
+    comparison = Comparison.of(tree[3], kind, left, right, rtol, atol, max(left_scale, right_scale))
     comparisons.append(comparison)
     return comparison.result

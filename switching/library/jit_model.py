@@ -243,6 +243,11 @@ class AutoChoice:
         self.verdicts[mode] = ModeStiffness(True, math.nan, why)
         compiled.mark_implicit({mode: True})
 
+    def is_implicit(self, mode) -> bool:
+        """Does ``mode`` flow with the implicit method (judged stiff, or switched)?"""
+        verdict = self.verdicts.get(mode)
+        return bool(verdict is not None and verdict.stiff)
+
     def note(self, mode, what: str) -> None:
         """A flow in Python of ``mode`` switched to an implicit method (``what`` says which and why)."""
         from .spectrum import ModeStiffness

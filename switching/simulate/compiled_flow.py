@@ -88,6 +88,14 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         problem = nonfinite_at_start(model, model.compiled_mode(start[2]), start[1], start[0])
         if problem:
             raise FlowFailure(NonFiniteStateError, problem, start[0], start[1], steps, start[2])
+        if status in ("nonfinite", "collapsed") and kind == AUTO_KIND and not auto.is_implicit(mode) \
+                and np.all(np.isfinite(x)):
+            # an explicit step whose trial stages left the reals (an exponential law overflowing on a stiff
+            # flow: a conducting diode's dynamic resistance times a capacitance is nanoseconds) or whose size
+            # collapsed: the implicit method takes the mode from the last accepted state
+            auto.switch(compiled, mode, f"RK45's step {'left the reals' if status == 'nonfinite' else 'collapsed'} "
+                        f"at t = {t:.6g} s (a stiff flow)")
+            continue
         if status == "collapsed":
             raise FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
                                f"step size collapsed (stiff here? {stiff_advice(method)})", t, x, steps, mode)

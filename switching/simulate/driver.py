@@ -48,6 +48,7 @@ from ..errors import (NonFiniteStateError, SimulationError, SimulationInterrupte
 from ..library.jit_model import choose_method as _choose_method
 from ..library.jit_model import input_problem as _input_problem
 from ..library.jit_model import remember_modes as _remember_modes
+from ..model.source_periods import step_bound
 from .compiled_flow import run_kernel
 from .flow_failures import FlowFailure, nonfinite_jump_message
 from .methods import METHOD_CLASSES, METHODS
@@ -138,6 +139,10 @@ def simulate(
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
     options = checked_options(model, t_end, method, keywords)
+    if options.stepping.dt is None and max_step == np.inf:  # a step that samples every cycle of the sources
+        bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
+        if bound < np.inf:
+            options = dataclasses.replace(options, stepping=dataclasses.replace(options.stepping, max_step=bound))
     if progress is not True:
         return HybridRun(model, options).execute()
     bar = ProgressBar(t0, t_end)

@@ -184,7 +184,7 @@ class Instant:
 
 
 def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_in_flow: bool = False,
-                    pulses: bool = True, strict: bool = False) -> list:
+                    pulses: bool = True, strict: bool = False, motion: np.ndarray | None = None) -> list:
     """The first holding transition of each automaton in compiled mode ``cm``.
 
     A priori guards are decided on ``x``; a posteriori guards on ``x_plus``
@@ -195,7 +195,8 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
     ``pulses=False``: a posteriori guards see the finite values only (the
     mode was entered by transitions whose jump abstracts a continuous
     approach, :meth:`Automaton.add_transition`).  ``strict``: only guards
-    that hold strictly count (the first of each automaton's)."""
+    that hold strictly count (the first of each automaton's).  ``motion``: the
+    states' motion within the round-off of ``t`` (:meth:`CompiledMode.motion`), no jump."""
     fired = []
     done = set()
     prior = post = None
@@ -208,7 +209,7 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
         if guard["when"] == A_POSTERIORI:
             if post is None:
                 try:
-                    post = cm.sides_impulsive(x, x_plus, t, pulses)
+                    post = cm.sides_impulsive(x, x_plus, t, pulses, motion)
                 except PulseError as exc:
                     raise ImpulseError(
                         f"a guard of mode {cm.mode.describe()} at t = {t:.12g} combines pulses wrongly: {exc}"
@@ -415,6 +416,7 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
     chain_start = 0  # index in `steps` where the current mythical chain began
     pulses = True  # False while the candidate was reached only by transitions marked pulses=False
     state = instant_begin(0, chain)
+    motion = _motion(model, mode, x, t)
     while True:
         action, current = state[0], modes[state[2]]
         if action == JUMP_AND_DECIDE:
@@ -436,8 +438,8 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             x_plus = cm.jump(x, t)
             # the mode the instant began in, with no pulse (x on its constraints up to round-off): its
             # guards are decided as during flow, so a located crossing is seen to hold at its band's edge
-            quiet = decides_as_in_flow(state, not np.any(cm.pulse(x, x_plus)))
-            fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet, pulses=pulses)
+            quiet = decides_as_in_flow(state, not np.any(cm.pulse(x, x_plus, motion)))
+            fired = evaluate_guards(model, cm, x, x_plus, t, as_in_flow=quiet, pulses=pulses, motion=motion)
             if fired:
                 steps.append(Step(current, "start" if quiet else "mythical", x, x, tuple(fired)))
         elif action == JUMP_AT_TIE:  # a cycle of ties from chain[state[5]]: none of its switches is taken
@@ -493,6 +495,15 @@ def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) 
             if action != JUMP_AND_DECIDE:  # a pinnacle: a new chain
                 chain_start = len(steps)
         state = following
+
+
+def _motion(model, mode: Mode, x: np.ndarray, t: float) -> np.ndarray:
+    """The states' motion within the round-off of ``t`` in ``mode``, the mode that flowed into the instant
+    (:mod:`switching.rules.jumps`); zeros where the mode has no equations (it is conflicting)."""
+    try:
+        return model.compiled_mode(mode).motion(x, t)
+    except HybridBondGraphError:
+        return np.zeros(x.shape[0])
 
 
 def _conflict_passed(model, mode: Mode, error, x: np.ndarray, t: float) -> list:

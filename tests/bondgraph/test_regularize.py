@@ -100,3 +100,20 @@ def test_a_resistive_bridge_with_line_resistance_and_leaks_derives_every_mode():
     # at t = 0 the source is 0: the capacitor discharges through RL and, in parallel, the leaks (two in series
     # each way, through the line): 1/R = 1/RL + gmin/2 · (the two leak paths in parallel) → ≈ 1/RL
     assert float(rate.subs(q, 1.0)) == pytest.approx(-1.0 / (1e-3 * 100.0), rel=1e-6)
+
+
+def test_an_exponential_law_in_series_with_a_resistance_is_solved_with_lamberts_w():
+    """i = Is·(exp((V − R·i)/VT) − 1) ⇒ i = (VT/R)·W₀((Is·R/VT)·exp((V + R·Is)/VT)) − Is; a residual of
+    another form, or whose solution is not unique (d·c/a < 0), gets None."""
+    from bondgraph.solving import lambert_solution
+
+    i, V, Rr, Is, VT = sp.symbols("i V R I_s V_T")
+    residual = i - Is * (sp.exp((V - Rr * i) / VT) - 1)
+    solution = lambert_solution(residual, i)
+    expected = VT / Rr * sp.LambertW(Is * Rr / VT * sp.exp((V + Rr * Is) / VT)) - Is
+    assert sp.simplify(solution - expected) == 0
+    numbers = {V: 0.7, Rr: 2.0, Is: 1e-12, VT: 0.025852}
+    assert abs(float(residual.subs(i, solution.subs(numbers)).subs(numbers))) < 1e-15
+    assert lambert_solution(i**2 - V, i) is None
+    assert lambert_solution(i - Is * sp.exp(i / VT) + V, i) is None  # a·v + c·exp(d·v) not monotonic
+    assert lambert_solution(i - Is * sp.exp(i**2), i) is None

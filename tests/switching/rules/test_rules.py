@@ -270,8 +270,30 @@ def test_the_pulse_drops_round_off_within_the_band():
                 ([-0.5, math.nan], False), ([0.0, -2e3], False)]
     for (x, xp, moved, count), (delta, none) in zip(_pulse_cases(), expected, strict=True):
         d = np.empty(len(x))
-        assert jump_pulse(x, xp, moved, count, rtol, atol, d) == none
+        assert jump_pulse(x, xp, moved, count, rtol, atol, np.zeros(len(x)), d) == none
         np.testing.assert_array_equal(d, delta)
+
+
+def test_a_change_within_the_states_motion_over_the_round_off_of_t_is_no_jump():
+    """A bridge's line inductor located at its current's zero 8.2e-17 off (its flux moving 784 V·ulp(t)
+    = 6.8e-16 within one ulp of t = 4.86 ms) and set to exactly 0 carries no pulse; a change beyond the
+    motion band still does (the band is per state: the other state's motion does not cover it)."""
+    import numpy as np
+
+    from switching.rules.jumps import MOTION_ULPS, jump_pulse
+
+    t, rate = 0.004859073984259327, 784.0
+    motion = np.array([MOTION_ULPS * np.spacing(t) * rate, 0.0])
+    d = np.empty(2)
+    assert jump_pulse(np.array([-8.2e-17, 0.4596]), np.array([0.0, 0.4596]), np.array([0]), 1, 1e-12, 0.0,
+                      motion, d)
+    np.testing.assert_array_equal(d, [0.0, 0.0])
+    assert not jump_pulse(np.array([-1e-12, 0.4596]), np.array([0.0, 0.4596]), np.array([0]), 1, 1e-12, 0.0,
+                          motion, d)
+    assert d[0] == 1e-12
+    swapped = motion[::-1].copy()  # the motion of another state covers nothing here
+    assert not jump_pulse(np.array([-8.2e-17, 0.4596]), np.array([0.0, 0.4596]), np.array([0]), 1, 1e-12, 0.0,
+                          swapped, d)
 
 
 def test_the_pulse_python_and_compiled_agree_to_the_bit():
@@ -283,8 +305,9 @@ def test_the_pulse_python_and_compiled_agree_to_the_bit():
     compiled = numba.njit(jump_pulse)
     for x, xp, moved, count in _pulse_cases():
         d_python, d_compiled = np.empty(len(x)), np.empty(len(x))
-        assert jump_pulse(x, xp, moved, count, 1e-12, 1e-15, d_python) == compiled(x, xp, moved, count, 1e-12,
-                                                                                     1e-15, d_compiled)
+        motion = np.full(len(x), 1e-16)
+        assert jump_pulse(x, xp, moved, count, 1e-12, 1e-15, motion, d_python) == compiled(
+            x, xp, moved, count, 1e-12, 1e-15, motion, d_compiled)
         assert d_python.tobytes() == d_compiled.tobytes()
 
 
