@@ -30,18 +30,12 @@ from scipy.optimize import brentq
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from models.circuits import PWM, Circuit  # noqa: E402
+from models.circuits import Circuit  # noqa: E402
+from models.netlists import ideal_buck  # noqa: E402
 
 
 def buck():
-    c = Circuit("buck")
-    c.V("V1", "in", "0", 12.0)
-    c.switch("S1", "in", "sw", PWM(1e-5, 0.5))
-    c.diode("D1", "0", "sw")
-    c.L("L1", "sw", "out", 100e-6)
-    c.C("C1", "out", "0", 100e-6)
-    c.R("R1", "out", "0", 5.0)
-    return c.build()
+    return ideal_buck().build()
 
 
 def bridge():

@@ -26,9 +26,11 @@ defined and bond variables that are not.  Put ``1/ε`` in series with every
 blocking controlled 1-junction (a leak across it) and ``ε`` with every
 conducting one: in the limit ``ε → 0⁺`` every bond variable has a value —
 a floating node the potential the vanishing leaks give it, the same for
-any leak that vanishes evenly — and the rates keep their own
-(:func:`floating_limit`).  This is SPICE's ``GMIN`` taken to its limit
-exactly, not at 1e-12.
+any leak that vanishes evenly — and the rates keep their own.  That limit
+is found without ``ε`` (:func:`floating_limit`): virtual sources on the free
+directions make the configuration derivable, and the leaks choose their
+values by least dissipation, a small linear system.  This is SPICE's
+``GMIN`` taken to its limit exactly, not at 1e-12.
 """
 
 from __future__ import annotations
@@ -39,8 +41,7 @@ from .elements import Junction, One, R, Se, Sf
 from .errors import FloatingPartError
 from .graph import BondGraph
 
-__all__ = ["EPSILON", "regularized_graph", "regularized_equations", "leading_term", "limit", "limit_graph",
-           "floating_limit"]
+__all__ = ["EPSILON", "regularized_graph", "regularized_equations", "leading_term", "floating_limit"]
 
 #: the vanishing series resistance of every conducting ideal switch
 EPSILON = sp.Symbol("epsilon_conflict", positive=True)
@@ -89,46 +90,6 @@ def leading_term(expr: sp.Expr) -> tuple[list, list]:
     return coefficients[0], coefficients[1]
 
 
-def limit(expr: sp.Expr) -> sp.Expr:
-    """``expr`` (a rational function of :data:`EPSILON`) as ``ε → 0⁺``: the ratio of the lowest-order
-    coefficients of its numerator and denominator that are not identically zero.  Raises
-    ``ValueError`` where the limit is infinite or ``expr`` is no rational function of ``ε``."""
-    expr = sp.sympify(expr)
-    if not expr.has(EPSILON):
-        return expr
-    numerator, denominator = leading_term(expr)
-
-    def lowest(coefficients):
-        for order, c in enumerate(coefficients):
-            c = sp.cancel(c)
-            if c != 0:
-                return order, c
-        return None, sp.Integer(0)
-
-    n_order, n = lowest(numerator)
-    d_order, d = lowest(denominator)
-    if n_order is None:
-        return sp.Integer(0)
-    if d_order is None or n_order < d_order:
-        raise ValueError(f"{expr} grows without bound as the regularization vanishes")
-    return sp.cancel(n / d) if n_order == d_order else sp.Integer(0)
-
-
-def limit_graph(graph, config: dict) -> tuple[BondGraph, dict]:
-    """``(graph, configuration)`` in which every controlled 1-junction conducts: in series with a
-    resistance :data:`EPSILON` where ``config`` turns it on, ``1/ε`` where it turns it off (an ideal
-    switch as the limit of a vanishing and of a growing resistance); controlled 0-junctions as in
-    ``config``."""
-    copy = _copy(graph, f"{graph.name} (limit)")
-    limited = dict(config)
-    for name, element in graph.elements.items():
-        if isinstance(element, One) and element.controlled:
-            on = config.get(name, True)
-            copy.connect(name, R(f"{name}/limit_resistance", EPSILON if on else 1 / EPSILON))
-            limited[name] = True
-    return copy, limited
-
-
 def _free_variables(graph, config: dict, limit_of: int = 64) -> tuple[BondGraph, list, object]:
     """``(graph with virtual sources, their symbols, equations)``: ``graph`` with an effort source
     ``z_k`` bonded to one floating junction of each free effort direction and a flow source on one
@@ -145,7 +106,7 @@ def _free_variables(graph, config: dict, limit_of: int = 64) -> tuple[BondGraph,
             junction = next(iter(error.elements), None)
             if junction is None or junction not in copy.elements or (symbols and _stuck(error, copy)):
                 raise
-            z = sp.Symbol(f"floating_{k}")
+            z = sp.Dummy(f"floating_{k}")  # (no name of the model's can be it)
             source = (Se if error.kind == "effort" else Sf)(f"{junction}/floating_{k}", z)
             copy.connect(source, junction)
             symbols.append(z)

@@ -146,7 +146,7 @@ def loop_settings(switching) -> list:
     simple = nx.Graph()
     settings = []
     for p in switching:
-        if p.kind == "D" and p.values.get("r_on") is not None:
+        if p.values.get("r_on") is not None:
             continue
         a, b = p.nodes[:2]
         if simple.has_edge(a, b):

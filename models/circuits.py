@@ -123,6 +123,7 @@ switch needs integrator steps shorter than its shortest on or off interval
 from __future__ import annotations
 
 import difflib
+import functools
 import itertools
 import math
 import numbers
@@ -142,6 +143,7 @@ from switching import Automaton, HybridModel
 
 from ._common import Range
 from .circuit_topology import first_floating_mode
+from .circuit_words import conflict_loop
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
@@ -248,7 +250,7 @@ class Circuit(Netlist):
         self._add("D", name, (anode, cathode), r_on=r_on, v_f=v_f, on=_flag(on, "on", name))
 
     def switch(self, name: str, n1, n2, closed_when, *, open_when: str | None = None,
-               closed: bool | None = None) -> None:
+               closed: bool | None = None, r_on=None) -> None:
         """An ideal switch between ``n1`` and ``n2``, automaton ``name`` with
         states ``open`` and ``closed``.  ``closed_when`` is a condition as text
         (``"t >= t_on"``, ``"t < 1e-3 or t >= 2e-3"``; time, parameters and
@@ -258,7 +260,7 @@ class Circuit(Netlist):
         a relay without it chatters, a Zeno error).  ``closed``: its state at
         t = 0; by default ``closed_when`` at t = 0 when it depends on time and
         parameters only, else open (a condition on signals then closes it at
-        the first instant)."""
+        the first instant).  ``r_on`` [Ω]: its resistance while closed (a MOSFET's R_DS(on); none: ideal)."""
         if not isinstance(closed_when, (str, PWM)):
             raise InvalidGraphError(f"switch {name!r}: closed_when must be a condition as text or a PWM, "
                                     f"got {closed_when!r}", [str(name)])
@@ -268,7 +270,45 @@ class Circuit(Netlist):
         if isinstance(closed_when, PWM):
             closed_when = closed_when.checked(f"switch {name!r}")
         closed = None if closed is None else _flag(closed, "closed", name)
-        self._add("S", name, (n1, n2), closed_when=closed_when, open_when=open_when, closed=closed)
+        r_on = None if r_on is None else checked_argument(r_on, f"the on-resistance r_on of switch {name!r}")
+        self._add("S", name, (n1, n2), closed_when=closed_when, open_when=open_when, closed=closed, r_on=r_on)
+
+    def mosfet(self, name: str, drain, source, closed_when, *, open_when: str | None = None,
+               closed: bool | None = None, r_on=None, diode_r_on=None, diode_v_f=None) -> None:
+        """A MOSFET as power electronics uses it: a switch ``name`` from ``drain`` to ``source`` (its
+        channel, ``r_on`` [Ω] its R_DS(on)), ruled as :meth:`switch`, and its body diode ``<name>_D``
+        from ``source`` to ``drain`` (``diode_r_on`` [Ω], ``diode_v_f`` [V]), which conducts the
+        reverse current while the channel is open (a bridge leg's dead time)."""
+        self.switch(name, drain, source, closed_when, open_when=open_when, closed=closed, r_on=r_on)
+        self.diode(f"{name}_D", source, drain, r_on=diode_r_on, v_f=diode_v_f)
+
+    def igbt(self, name: str, collector, emitter, closed_when, *, open_when: str | None = None,
+             closed: bool | None = None, r_on=None, diode_r_on=None, diode_v_f=None) -> None:
+        """An IGBT with its anti-parallel diode, as :meth:`mosfet` (collector, emitter): the switch
+        ``name`` conducts from collector to emitter (``r_on`` [Ω]), the diode ``<name>_D`` back."""
+        self.mosfet(name, collector, emitter, closed_when, open_when=open_when, closed=closed, r_on=r_on,
+                    diode_r_on=diode_r_on, diode_v_f=diode_v_f)
+
+    def half_bridge(self, name: str, plus, minus, out, period, duty, dead_time=0.0, *, r_on=None,
+                    diode_r_on=None, diode_v_f=None) -> None:
+        """A half-bridge leg: MOSFETs ``<name>_H`` (``plus`` to ``out``) and ``<name>_L`` (``out`` to
+        ``minus``) with body diodes, driven complementarily at ``period`` [s] and ``duty`` with
+        ``dead_time`` [s] after each opening during which both are open (a body diode carries the load
+        current): the low side closed over ``[0, (1 − duty)·period − dead_time)`` of each period, the
+        high side over ``[(1 − duty)·period, period − dead_time)`` — the low side closed at t = 0, so
+        that an inductor's initial current has a path.  ``period``, ``duty`` and ``dead_time`` are
+        numbers here (each switch's PWM parameters take its own name)."""
+        period, duty, dead = (checked_number(v, f"the {what} of half-bridge {name!r}") for v, what in
+                              ((period, "period"), (duty, "duty"), (dead_time, "dead time")))
+        if not (period > 0 and 0 <= dead and 0 <= duty <= 1 and dead < duty * period
+                and dead < (1.0 - duty) * period):
+            raise ParameterValueError(f"half-bridge {name!r}: period {period:g} s, duty {duty:g} and dead time "
+                                      f"{dead:g} s leave a switch no closed time: give 0 ≤ dead time < "
+                                      "duty·period and dead time < (1 − duty)·period", "dead_time", dead)
+        low = PWM(period, 1.0 - duty - dead / period)
+        high = PWM(period, duty - dead / period, delay=(1.0 - duty) * period)
+        self.mosfet(f"{name}_H", plus, out, high, r_on=r_on, diode_r_on=diode_r_on, diode_v_f=diode_v_f)
+        self.mosfet(f"{name}_L", out, minus, low, r_on=r_on, diode_r_on=diode_r_on, diode_v_f=diode_v_f)
 
     def transformer(self, name: str, p1, p2, s1, s2, ratio) -> None:
         """An ideal transformer with turns ratio ``ratio`` = N_p/N_s:
@@ -420,6 +460,9 @@ class Circuit(Netlist):
         builder = _Builder(self, dict(parameters or {}), inputs or {})
         builder.gmin = gmin
         model = builder.model(name or self.name, options)
+        model.conflict_words = functools.partial(conflict_loop, tuple(self._parts.values()))
+        if builder.windows:  # an adaptive step spans at most half of the shortest PWM window
+            model.max_step_hint = min(builder.windows) / 2
         if gmin is None and not allow_floating:
             floating = first_floating_mode(list(self._parts.values()), model, floating_modes,
                                            lambda mode: _runs(model, mode))
@@ -515,6 +558,7 @@ class _Builder(NetlistBuilder):
         self.circuit = circuit
         self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
         self.gmin = None  # leak conductance across ideal diodes and switches (Circuit.build)
+        self.windows: list[float] = []  # the PWM switches' shortest on and off windows [s]
 
     # -- names and values
 
@@ -636,7 +680,12 @@ class _Builder(NetlistBuilder):
     def switch(self, part):
         name, rule = part.name, part.values["closed_when"]
         owner = f"switch {name!r}"
-        self.controlled(part, owner)
+        extra = []
+        if part.values.get("r_on") is not None:
+            r_on = self.number_or_parameter(part.values["r_on"], f"{name}_r_on", f"on-resistance r_on of {owner}",
+                                            allowed=Range(f"the on-resistance of {owner}", 0.0))
+            extra.append(R(self.internal(f"{name}_resistance"), r_on))
+        self.controlled(part, owner, extra)
         if isinstance(rule, PWM):
             period = self.number_or_parameter(rule.period, f"{name}_period", f"PWM period of {owner}",
                                               allowed=Range(f"the PWM period of {owner}", 0.0, low_open=True,
@@ -644,6 +693,15 @@ class _Builder(NetlistBuilder):
             duty = self.number_or_parameter(rule.duty, f"{name}_duty", f"PWM duty of {owner}",
                                             allowed=Range(f"the PWM duty of {owner}", 0.0, 1.0, required=True))
             delay = float(rule.delay)
+            values = {sp.Symbol(k): v for k, v in {**self.defaults, **self.given}.items()
+                      if isinstance(v, numbers.Real)}
+            try:  # the shortest on or off window, which no step may span (a whole window would pass unseen)
+                d, T = float(duty.xreplace(values)), float(period.xreplace(values))
+                window = min(d, 1.0 - d) * T
+            except (TypeError, ValueError):
+                window = 0.0
+            if window > 0.0:
+                self.windows.append(window)
             phase = f"t - {delay!r}" if delay else "t"
             carrier = f"acos(cos(2*pi*({phase})/{period} - pi*{duty}))/pi"
             self.signal(f"carrier_{name}", carrier, owner)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from .circuits import PWM, Circuit
 
-__all__ = ["ladder", "diode_chain", "bridges", "parallel_switches"]
+__all__ = ["ladder", "diode_chain", "bridges", "parallel_switches", "ideal_buck"]
 
 
 def ladder(n: int) -> Circuit:
@@ -57,4 +57,17 @@ def parallel_switches(n: int) -> Circuit:
         c.switch(f"S{k}", "a", "b", PWM(1e-4, 0.5))
     c.L("L1", "b", "c", 1e-3)
     c.R("RL", "c", "0", 10.0)
+    return c
+
+
+def ideal_buck(period: float = 1e-5, duty: float = 0.5) -> Circuit:
+    """A buck converter drawn with an ideal switch and an ideal freewheeling diode: 12 V, 100 µH, 100 µF,
+    5 Ω (each closing shorts the source through the conducting diode: DESIGN.md §6a)."""
+    c = Circuit("buck")
+    c.V("V1", "in", "0", 12.0)
+    c.switch("S1", "in", "sw", PWM(period, duty))
+    c.diode("D1", "0", "sw")
+    c.L("L1", "sw", "out", 100e-6)
+    c.C("C1", "out", "0", 100e-6)
+    c.R("R1", "out", "0", 5.0)
     return c

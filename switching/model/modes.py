@@ -117,7 +117,10 @@ class ModeEquations:
                 raise prefixed(error, f"mode {mode.describe()}: ",
                                f" (The limit of vanishing leaks gives this mode no equations: {reason}.)") from None
         except (CausalityConflictError, AlgebraicLoopError) as error:  # name the mode, which the user wrote
-            raise prefixed(error, f"mode {mode.describe()}: ") from None
+            # a model built from a netlist says a conflict in its words too (models.circuits: a loop of sources)
+            in_words = getattr(model, "conflict_words", None)
+            words = in_words(self.configuration) if in_words and isinstance(error, CausalityConflictError) else ""
+            raise prefixed(error, f"mode {mode.describe()}: ", words) from None
         self.jump = jump.substituted(self.values)
         self.restitution = model.restitution_of(mode)
         sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]

@@ -23,9 +23,12 @@ option                  unit       kind and bounds
                                    most ``max_steps``
 ``rtol``                1          number, finite, > 0
 ``atol``                state      number, finite, > 0
-``max_step``            s          number > 0 (``inf``: no limit); adaptive methods: at least
+``max_step``            s          number > 0; adaptive methods: at least
                                    10 ulps of ``max(|t0|, |t_end|)`` (their smallest step)
-                                   and ``(t_end − t0)/max_step`` at most ``max_steps``
+                                   and ``(t_end − t0)/max_step`` at most ``max_steps``; not
+                                   given (``inf``): 1/16 of the sources' shortest sinusoid
+                                   period and half a PWM switch's shortest window
+                                   (:mod:`switching.model.source_periods`), else no limit
 ``first_step``          s          ``None`` or number, finite, > 0
 ``x0``                  state      ``None`` or one finite number per state
 ``t_eval``              s          ``None`` or finite numbers in ``[t0, t_end]``; their

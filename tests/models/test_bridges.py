@@ -189,3 +189,23 @@ def test_the_all_on_bridge_divides_the_line_current_equally_and_shorts_the_capac
         current = equations.signal(f"i_{name}").finite.subs(values)
         assert sp.simplify(current - sign * line / 2) == 0
     assert sp.simplify(equations.equations.constraints[q]) == 0
+
+
+def test_a_three_phase_diode_bridge_on_a_resistor_gives_three_root_three_vm_over_pi():
+    """Six ideal diodes, a Y source of 325 V per phase (neutral grounded), 10 Ω: the output is the top of
+    the line-to-line voltages, mean 3√3·Vm/π, and the diodes commute where two phases cross —
+    ωt = π/6 + kπ/3 — six times a period (each mode leaves the other four diodes' nodes determined)."""
+    c = Circuit("three_phase")
+    Vm = 325.0
+    for k, phase in enumerate("abc"):
+        c.V(f"V{phase}", phase, "0", f"{Vm}*sin(2*pi*50*t - {2 * k}*pi/3)")
+        c.diode(f"D{phase}p", phase, "p")
+        c.diode(f"D{phase}n", "n", phase)
+    c.R("RL", "p", "n", 10.0)
+    run = c.build().simulate(0.04, "auto", t_eval=np.linspace(0.02, 0.04, 20001))
+    v = run.signal("v_RL")
+    assert np.trapezoid(v, run.t) / 0.02 == pytest.approx(3 * math.sqrt(3) * Vm / math.pi, rel=1e-7)
+    commutations = np.array([e.t for e in run.events if e.t > 1e-3])
+    k = np.round((W * commutations - math.pi / 6) / (math.pi / 3))
+    np.testing.assert_allclose(commutations, (math.pi / 6 + k * math.pi / 3) / W, rtol=0, atol=1e-12)
+    assert list(k) == list(range(12))  # every crossing of two phases in two periods, once

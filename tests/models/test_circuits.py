@@ -419,6 +419,24 @@ def test_voltage_sources_paralleled_by_a_switch_are_still_over_determined():
         c.build().simulate(1e-3, "RK45")
     assert not isinstance(info.value, FloatingPartError)
     assert "over-determine" in str(info.value) and "'V1'" in str(info.value) and "S: on" in str(info.value)
+    # and in the circuit's words: the mode, the loop's components and nodes, the fix
+    words = str(info.value).split("In circuit words: ")[1]
+    assert words.startswith("in mode S=closed, the voltage sources V1, V2 and the conducting S close a loop")
+    assert "'a'" in words and "'b'" in words and "ground" in words and "r_on" in words
+
+
+def test_a_source_shorted_by_a_closed_switch_and_a_conducting_diode_is_said_in_circuit_words():
+    from models.circuit_words import conflict_loop
+    from models.netlist import Part
+
+    parts = (Part("V", "V1", ("in", "0")), Part("S", "S1", ("in", "sw")), Part("D", "D1", ("0", "sw"), {"r_on": None}),
+             Part("L", "L1", ("sw", "out")))
+    words = conflict_loop(parts, {"S1": True, "D1": True})
+    assert "mode S1=closed, D1=conducting, the voltage source V1 and the conducting " in words
+    assert {"S1", "D1"} <= set(words.split(" close a loop")[0].split("conducting ")[-1].split(", "))
+    assert conflict_loop(parts, {"S1": True, "D1": False}) == ""  # no loop: nothing to say
+    with_r_on = parts[:2] + (Part("D", "D1", ("0", "sw"), {"r_on": 0.01}),) + parts[3:]
+    assert conflict_loop(with_r_on, {"S1": True, "D1": True}) == ""  # the diode's resistance breaks it
 
 
 def ideal_buck(scale=1.0, duty=0.4, period=1e-5):

@@ -21,7 +21,7 @@ def rectifier(law=True):
     return c.build()
 
 
-def test_a_sinusoidal_source_bounds_the_step_and_a_pwm_clock_does_not():
+def test_a_sinusoidal_source_and_a_pwm_switch_bound_the_step():
     from switching.model.source_periods import PERIOD_FRACTION, source_periods, step_bound
 
     model = rectifier()
@@ -29,12 +29,19 @@ def test_a_sinusoidal_source_bounds_the_step_and_a_pwm_clock_does_not():
     assert step_bound(model) == pytest.approx(0.02 / PERIOD_FRACTION, rel=1e-15)
     buck = Circuit("buck")
     buck.V("V1", "in", "0", 12.0)
-    buck.switch("S1", "in", "x", closed_when=PWM(1e-5, 0.5))
+    buck.switch("S1", "in", "x", closed_when=PWM(1e-5, 0.3))
     buck.diode("D1", "0", "x")
     buck.L("L1", "x", "out", 1e-4)
     buck.C("C1", "out", "0", 1e-5)
     buck.R("R1", "out", "0", 5.0)
-    assert step_bound(buck.build()) == math.inf  # its edges are instants, located exactly
+    # half its shortest window (0.3 of 10 µs): a step spanning a whole window would pass it unseen
+    assert step_bound(buck.build()) == pytest.approx(0.5 * 0.3 * 1e-5, rel=1e-12)
+    assert step_bound(rectifier(law=False)) == pytest.approx(0.02 / PERIOD_FRACTION, rel=1e-15)
+    plain = Circuit("rc")
+    plain.V("V1", "a", "0", 1.0)
+    plain.R("R1", "a", "b", 1.0)
+    plain.C("C1", "b", "0", 1.0)
+    assert step_bound(plain.build()) == math.inf
 
 
 def test_an_exponential_diode_rectifier_does_not_step_over_its_conduction_pulses():
