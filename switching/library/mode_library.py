@@ -45,10 +45,12 @@ Example — the RC circuit of :mod:`switching.model.hybrid_model`::
 from __future__ import annotations
 
 import contextlib
+import copy
 import time
 
 import sympy as sp
 
+from bondgraph.errors import HybridBondGraphError
 from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
@@ -158,6 +160,9 @@ class ModeLibrary:
         #: the model whose definition the modes are derived from
         self.model = model
         self.equations: dict[Mode, ModeEquations] = {}
+        #: modes whose derivation failed, with the error (a conflicting mode met at every PWM closing of an
+        #: ideal buck is not derived again each period: its error is raised again)
+        self.failed: dict[Mode, Exception] = {}
         self.compiled: dict[Mode, CompiledMode] = {}
         self.jit: dict = {}
         self.derivation_count = 0
@@ -193,8 +198,14 @@ class ModeLibrary:
         mode = self.model.mode(mode)
         found = self.equations.get(mode)
         if found is None:
+            if mode in self.failed:
+                raise copy.copy(self.failed[mode])
             with self._preparation():
-                found = self.equations[mode] = ModeEquations(self.model, mode)
+                try:
+                    found = self.equations[mode] = ModeEquations(self.model, mode)
+                except HybridBondGraphError as error:
+                    self.failed[mode] = error
+                    raise
             self.derivation_count += 1
         return found
 

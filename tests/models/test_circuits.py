@@ -477,6 +477,26 @@ def test_an_ideal_buck_passes_the_shorted_source_as_mythical_and_turns_the_diode
     np.testing.assert_allclose(i_L[openings], 1.0 + rise, rtol=1e-9)   # its maximum
 
 
+def test_an_ideal_bucks_conflicting_mode_is_derived_once_not_at_every_closing(monkeypatch):
+    """Each PWM closing meets the conflicting mode S1=closed, D1=on; its derivation's error is kept and
+    raised again (it was derived anew every period: half of a warm run's time)."""
+    import switching.library.mode_library as library
+
+    calls = []
+    real = library.ModeEquations
+
+    def counting(model, mode):
+        calls.append(mode.describe())
+        return real(model, mode)
+
+    monkeypatch.setattr(library, "ModeEquations", counting)
+    T = 1e-5
+    model = ideal_buck()
+    run = model.simulate(10 * T, "RK45", max_step=T / 20, rtol=1e-10)
+    closings = [e for e in run.events if any(s.kind == "mythical" for s in e.steps)]
+    assert len(closings) >= 9 and calls.count("S1=closed, D1=on") == 1
+
+
 def test_an_ideal_buck_in_other_units_has_the_same_instants_and_modes():
     runs = [ideal_buck(scale).simulate(5e-5, "RK45", max_step=5e-7, rtol=1e-10) for scale in (1.0, 1e-3, 1e3)]
     for other in runs[1:]:
