@@ -141,8 +141,3 @@ CIRCUITS = {
                         ("C", "Cx", "x", "0", 100e-9), ("C", "Cp", "p", "0", 100e-9)], ("p", "n"), 0.1, 1e-6),
 }
 
-
-def period(parts) -> float:
-    """The shortest period [s] of the circuit's sine sources."""
-    return min(1.0 / p[4].frequency for p in parts if p[0] == "V" and isinstance(p[4], Sine))
-

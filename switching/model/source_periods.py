@@ -59,7 +59,7 @@ def source_periods(model) -> list[float]:
     for element in model.graph.elements.values():
         if isinstance(element, Source):
             periods += _periods(sp.sympify(element.value), values)
-    for function in getattr(model, "_inputs", {}).values():
+    for function in model.input_signals.functions.values():
         expression = getattr(function, "expression", None)
         if expression is not None:
             parameters = {sp.Symbol(k): sp.Float(v) for k, v in getattr(function, "parameters", {}).items()}

@@ -3,7 +3,7 @@
 import pytest
 import sympy as sp
 
-from bondgraph import BondGraph, C, One, R, Se, Zero
+from bondgraph import BondGraph, One, R, Se, Zero
 from bondgraph.regularize import EPSILON, floating_limit, leading_term
 
 a, b, c, d = sp.symbols("a b c d", positive=True)
@@ -103,7 +103,7 @@ def test_a_resistive_bridge_with_line_resistance_and_leaks_derives_every_mode():
     c.R("RL", "p", "n", 100.0)
     model = c.build(gmin=1e-9)
     blocking = model.mode_equations(model.mode({f"D{k}": "off" for k in range(1, 5)}))
-    q, C, RL = sp.Symbol("q_C1"), sp.Symbol("C1"), sp.Symbol("RL")
+    q = sp.Symbol("q_C1")
     rate = blocking.f[q].subs({s: v for s, v in model.parameter_values.items()}).subs(sp.Symbol("t"), 0)
     # at t = 0 the source is 0: the capacitor discharges through RL and, in parallel, the leaks (two in series
     # each way, through the line): 1/R = 1/RL + gmin/2 · (the two leak paths in parallel) → ≈ 1/RL

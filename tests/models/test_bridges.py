@@ -60,6 +60,22 @@ def test_an_inductive_load_on_an_ideal_bridge_carries_the_integral_of_the_rectif
         assert any(step.kind == "mythical" for step in event.steps)  # all four on: passed, never entered
 
 
+def test_an_inductor_alone_across_a_bridge_ties_its_current_to_zero_while_every_diode_blocks():
+    """With every diode blocking, the inductor across the load is in series with open circuits: its
+    current is a dependent state, 0, as behind any open switch (the jump into the mode takes its flux
+    to 0; the mode is entered only where the last diode's current reaches 0, so nothing jumps).  The
+    floating potentials of p and n are the ones the vanishing leaks give them.  This mode was refused
+    when the limit was taken in ε, whose rates grew as 1/ε (the test above runs it)."""
+    model = bridge(Vm=10.0, load_inductance=1e-3)
+    blocking = model.mode_equations(model.mode({f"D{k}": "off" for k in range(1, 5)}))
+    flux = sp.Symbol("p_L1")
+    assert blocking.equations.dependent == (flux,) and sp.simplify(blocking.equations.constraints[flux]) == 0
+    assert sp.simplify(blocking.g[flux]) == 0
+    # each blocking diode takes half the source's voltage (v_D1 = v_D4 = v_s/2 > 0 while v_s > 0)
+    v = blocking.signal("v_D1").finite
+    assert sp.simplify(v - 5 * sp.sin(100 * sp.pi * sp.Symbol("t"))) == 0
+
+
 def test_the_inductive_bridge_commutes_at_the_same_instants_in_millivolts_and_kiloamperes():
     """The same circuit in mV, kA and ms-scaled inductance (L' = L·1e6 in mV/(kA/s)): the same modes and
     instants — the vanishing impulse is decided by its sign, not by its size."""

@@ -378,29 +378,6 @@ def test_a_bridge_whose_load_floats_while_every_diode_blocks_builds_and_runs_in_
     assert sp.simplify(me.f[q] + q / (C * sp.Symbol("Rload"))) == 0  # the load discharges on its own
 
 
-def test_an_inductor_alone_across_a_bridge_ties_its_current_to_zero_while_every_diode_blocks():
-    """With every diode blocking, the inductor across the load is in series with open circuits: its
-    current is a dependent state, 0, as behind any open switch (the jump into the mode takes its flux
-    to 0; the mode is entered only where the last diode's current reaches 0, so nothing jumps).  The
-    floating potentials of p and n are the ones the vanishing leaks give them.  This mode was refused
-    when the limit was taken in ε, whose rates grew as 1/ε (tests/models/test_bridges.py runs it)."""
-    c = Circuit("bridge")
-    c.V("Vs", "a", "0", "10*sin(2*pi*50*t)")
-    c.diode("D1", "a", "p")
-    c.diode("D2", "0", "p")
-    c.diode("D3", "n", "a")
-    c.diode("D4", "n", "0")
-    c.L("L1", "p", "n", 1e-3)
-    model = c.build()
-    blocking = model.mode_equations(model.mode({f"D{k}": "off" for k in range(1, 5)}))
-    flux = sp.Symbol("p_L1")
-    assert blocking.equations.dependent == (flux,) and sp.simplify(blocking.equations.constraints[flux]) == 0
-    assert sp.simplify(blocking.g[flux]) == 0
-    # each blocking diode takes half the source's voltage (v_D1 = v_D4 = v_s/2 > 0 while v_s > 0)
-    v = blocking.signal("v_D1").finite
-    assert sp.simplify(v - 5 * sp.sin(100 * sp.pi * sp.Symbol("t"))) == 0
-
-
 def test_floating_modes_lists_every_mode_that_floats():
     from models.circuits import floating_modes
 

@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from bondgraph.errors import (DuplicateNameError, FloatingPartError, HybridBondGraphError, InvalidGraphError,
-                              UnknownNameError)
+from bondgraph.errors import DuplicateNameError, HybridBondGraphError, InvalidGraphError, UnknownNameError
 from models.mechanics import Mechanism
 from switching import ZenoError, load_model
 from switching.errors import GuardSyntaxError
