@@ -826,7 +826,8 @@ def _print_orbit(model, orbit) -> None:
         print(f"  trivial multiplier (along the flow): {complex(orbit.trivial_multiplier).real:.8g}")
     print(f"  stable: {'yes' if orbit.stable else 'no'}")
     print(f"  modes: {' → '.join(orbit.mode_names)}")
-    print(f"  Newton: {orbit.iterations} iteration(s), residual {orbit.residual:.3g}, {orbit.wall_time:.2f} s")
+    print(f"  Newton: {orbit.iterations} iteration(s), residual {orbit.residual:.3g}, estimated relative error of "
+          f"x0 {orbit.error:.3g}, {orbit.wall_time:.2f} s")
 
 
 def _print_table(rows) -> None:
@@ -1177,12 +1178,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _failed_run(exc) -> bool:
-    from switching.errors import ContinuationError, DivergenceOfTimeError, OrbitError, SimulationError
+    from switching.errors import (ContinuationError, DivergenceOfTimeError, OrbitArgumentError, OrbitError,
+                                  SimulationError)
 
-    # an OrbitError itself (or a ContinuationError) is a request refused (a section that names no transition);
-    # its subclasses are searches that failed (Newton out of iterations, a changed mode sequence, grazing)
+    # an OrbitError itself, an OrbitArgumentError (or a ContinuationError) is a request refused (a section that
+    # names no transition); the others are searches that failed (Newton out of iterations, no orbit, grazing)
     return (isinstance(exc, (SimulationError, DivergenceOfTimeError, OrbitError))
-            and type(exc) not in (OrbitError, ContinuationError))
+            and not isinstance(exc, OrbitArgumentError) and type(exc) not in (OrbitError, ContinuationError))
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -67,6 +67,8 @@ from .analysis.linear import state_space as state_space
 from bondgraph.linear_system import LinearSystem as LinearSystem
 from .errors import OrbitError as OrbitError
 from .errors import OrbitConvergenceError as OrbitConvergenceError
+from .errors import OrbitArgumentError as OrbitArgumentError
+from .errors import NoOrbitError as NoOrbitError
 from .errors import ModeSequenceChangedError as ModeSequenceChangedError
 from .errors import GrazingError as GrazingError
 from .errors import ContinuationError as ContinuationError

@@ -26,7 +26,9 @@ __all__ = [
     "WorkLimitError",
     "StepLimitError",
     "OrbitError",
+    "OrbitArgumentError",
     "OrbitConvergenceError",
+    "NoOrbitError",
     "ModeSequenceChangedError",
     "GrazingError",
     "ContinuationError",
@@ -214,6 +216,18 @@ class OrbitError(HybridBondGraphError):
         self.history = tuple(history)
 
 
+class OrbitArgumentError(OrbitError, ValueError):
+    """An argument of the orbit API (:func:`switching.periodic_orbit`,
+    :meth:`PeriodicOrbit.small_signal`) that cannot be taken, refused before
+    anything runs: ``argument`` names it, ``value`` is what was given; the
+    message says what to give.  A ``ValueError`` too."""
+
+    def __init__(self, message: str, argument: str | None = None, value=None):
+        super().__init__(message)
+        self.argument = argument
+        self.value = value
+
+
 class ContinuationError(OrbitError):
     """A continuation of a periodic orbit (:func:`switching.continue_orbit`)
     that could not go on, or was asked for wrongly.  ``value`` is the
@@ -230,6 +244,14 @@ class ContinuationError(OrbitError):
 class OrbitConvergenceError(OrbitError):
     """Newton's iteration on the period map did not bring the residual under
     the tolerance within the allowed iterations (or it grew)."""
+
+
+class NoOrbitError(OrbitConvergenceError):
+    """The period map has no fixed point near the guess: Newton's steps do
+    not shrink, and the closest residual stays when the runs are made 100
+    times more accurate (it is no round-off), as beyond a fold where the orbit
+    has disappeared.  ``iterate``, ``x`` and ``residual`` are those of the
+    closest iterate; ``history`` holds every iterate's residual."""
 
 
 class ModeSequenceChangedError(OrbitError):

@@ -38,8 +38,10 @@ doubling*, a flip) or +1 (*fold*, a saddle-node; for a fixed period also a
 transcritical or pitchfork point); a complex pair contributes
 ``|μ ± 1|² > 0`` and does not.  A sign change between two consecutive
 points is located by Brent's bracketing method on ``g(p)`` (each evaluation
-an orbit, started from the linear interpolation of the two ends' ``x0``)
-until the bracket is below ``parameter_tol · max(|p|, |Δp|)``; the
+an orbit, started from the linear interpolation of the two ends' ``x0``, to
+the residual ``tol`` alone: near a fold the orbit's start is determined only
+to ``residual / |1 − μ|``, while ``g`` needs its multipliers; each such orbit
+carries its ``error``) until the bracket is below ``parameter_tol · max(|p|, |Δp|)``; the
 :class:`Bifurcation` records the value, the multiplier nearest ±1 there and
 the orbit.  When the two ends flow through different mode sequences the
 multipliers may jump across ±1 without crossing it (a border collision):
@@ -366,11 +368,11 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
     started = time.perf_counter()
     result = Continuation(parameter, [], [], (), tuple(signals))
 
-    def solve(value, guess, guess_mode, guess_period, first=False):
+    def solve(value, guess, guess_mode, guess_period, first=False, criterion="error"):
         m = family.set(value)
         T = period_of(value) if (section is None or guess_period is None) else guess_period
         orbit = periodic_orbit(m, T, section=section, crossings=crossings, x0=guess, mode=guess_mode,
-                               warmup=warmup if first else 0, **orbit_options)
+                               warmup=warmup if first else 0, criterion=criterion, **orbit_options)
         ranges = {}
         for k, s in enumerate(m.state_names):
             column = orbit.trajectory.x[:, k]
@@ -450,7 +452,7 @@ def _detect(result: Continuation, a: ContinuationPoint, b: ContinuationPoint, so
             w = (p - a.value) / (b.value - a.value)
             guess = (1 - w) * a.x0 + w * b.x0
             period_guess = (1 - w) * a.period + w * b.period
-            point = solve(p, guess, a.orbit.modes[0], period_guess)
+            point = solve(p, guess, a.orbit.modes[0], period_guess, criterion="residual")
             found[p] = point.orbit
             return _test_value(point.orbit.multipliers, shift)
 

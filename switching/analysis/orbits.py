@@ -40,7 +40,22 @@ The first run of an autonomous search goes from the guess to the section
 Residual [dimensionless]: ``max_i |F_i| / s_i`` with ``s_i`` the amplitude
 ``max_t |x_i(t)|`` of state i over the iterate's period (``atol`` if that
 is smaller), so states of different units weigh alike.  Converged when the
-residual is at most ``tol``.
+residual and the estimated relative error of the start (the larger of one
+more Newton step's size and ``residual / min |1 − μ|``) are both at most
+``tol``: the start is then within ``tol`` of the orbit's relative to each
+state's amplitude, also near a fold (:mod:`switching.analysis.orbit_newton`,
+which also says how a failed iteration is told apart: still converging, the
+runs' round-off, or no fixed point near the guess).
+
+**The period's end** (fixed period).  A clock edge at ``t0 + T`` is located
+to a few ulps of ``t``: ``cos(2π f t − π w) − cos(π w)`` at ``t = 1/f`` may
+vanish one ulp after ``t0 + T`` (a 50 kHz clock's edge at
+2.0000000000000005e-05 s).  An instant within ``EDGE_ULPS`` ulps after
+``t0 + T`` belongs to the period: each run goes that far, a period with such
+an instant ends just after it (its mode the next period's start mode, as
+the clock's own instant says), one without ends at ``t0 + T`` (the last
+sample moved back by the flow over those ulps, ``x − f·δt``, within the
+state's round-off).
 
 Failures raise :class:`~switching.errors.OrbitError` subclasses naming the
 iterate, its residual and what to try: :class:`OrbitConvergenceError` (no
@@ -65,9 +80,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import GrazingError, ModeSequenceChangedError, OrbitConvergenceError, OrbitError, SimulationError
+from ..errors import (GrazingError, ModeSequenceChangedError, NoOrbitError, OrbitConvergenceError, OrbitError,
+                      SimulationError)
+from .orbit_arguments import checked_orbit_arguments
+from .orbit_newton import FINER, is_singular, newton_step, shrinking
 
-__all__ = ["PeriodicOrbit", "periodic_orbit"]
+__all__ = ["PeriodicOrbit", "periodic_orbit", "EDGE_ULPS"]
+
+#: an instant within this many ulps of ``t`` after ``t0 + T`` belongs to the period (module docstring)
+EDGE_ULPS = 64
 
 
 @dataclass
@@ -88,7 +109,11 @@ class PeriodicOrbit:
     ``(automaton, source, target)`` or ``None``; ``wall_time`` [s];
     ``grazing_ratio``: the largest ``max_j |∂τ_k/∂x0_j| s_j / T`` over the
     orbit's instants ``k`` (how far the orbit is from grazing a guard: large
-    near a tangential touch, 0 with clock events only).
+    near a tangential touch, 0 with clock events only); ``error``: the
+    estimated relative error of ``x0`` (at most ``tol``), the larger of
+    ``step_error`` (one more Newton step's size) and ``residual_error``
+    (``residual / min |1 − μ|``); ``x0_error`` (n,): each state's, in its
+    units (:mod:`switching.analysis.orbit_newton`).
 
     :meth:`small_signal` and :meth:`to_control`: the discrete small-signal
     model of the period map (:mod:`switching.analysis.linear`)."""
@@ -107,6 +132,15 @@ class PeriodicOrbit:
     t0: float = 0.0
     wall_time: float = 0.0
     grazing_ratio: float = 0.0
+    #: the estimated relative error of ``x0`` (:mod:`switching.analysis.orbit_newton`): the larger of
+    #: ``step_error`` and ``residual_error``
+    error: float = 0.0
+    #: the size of one more Newton step, ``max_i |δx_i| / s_i``
+    step_error: float = 0.0
+    #: ``residual / min |1 − μ|`` (μ the eigenvalues of the period map's Jacobian)
+    residual_error: float = 0.0
+    #: ``|δx|`` (n,): the estimated error of each state of ``x0``, in its units
+    x0_error: np.ndarray | None = None
     #: ``(shooter, mode)``: the runs' settings and the mode the orbit's runs start in (for :meth:`small_signal`)
     shooting: tuple | None = field(default=None, repr=False, compare=False)
 
@@ -142,29 +176,23 @@ def _describe(modes) -> str:
 
 
 class _Shooter:
-    def __init__(self, model, period, section, crossings, t0, method, rtol, atol, tol, max_iterations,
-                 max_period, grazing_limit, options):
+    def __init__(self, model, checked: dict, options: dict):
         self.model = model
         self.states = [s.name for s in model.states]
         self.n = len(self.states)
         self.names = [f"x0:{s}" for s in self.states]
         #: model parameters whose sensitivities the runs also carry (columns after the initial states)
         self.parameters: list = []
-        self.period = period
-        self.section = section
-        self.crossings = crossings
-        self.t0 = t0
-        self.method = method
-        self.rtol, self.atol, self.tol = rtol, atol, tol
-        self.max_iterations = max_iterations
-        self.grazing_limit = grazing_limit
+        for name in ("period", "section", "crossings", "t0", "method", "rtol", "atol", "tol", "max_iterations",
+                     "grazing_limit", "criterion"):
+            setattr(self, name, checked[name])
         self.options = options
-        if section is not None:
-            if max_period is None and period is None:
-                raise OrbitError("an autonomous orbit needs a horizon to look for its return to the section: pass "
-                                 "max_period= (seconds) or a guess period= of the period")
-            self.horizon = float(max_period) if max_period is not None else 4.0 * float(period)
+        if self.section is not None:
+            max_period = checked["max_period"]
+            self.horizon = max_period if max_period is not None else 4.0 * self.period
         self.residuals: list = []
+        #: every iterate's ``(x, mode, NewtonStep)``
+        self.trail: list = []
 
     # ---------------------------------------------------------------- one run
 
@@ -259,23 +287,12 @@ class _Shooter:
         """``(F, J, M, T, trajectory, modes, scale, end_mode, x_end)`` at ``x``."""
         if self.section is None:
             T = float(self.period)
-            tr = self.run(x, mode, self.t0 + T, iterate)
+            tr = self.period_run(x, mode, iterate)
             x_end = np.array(tr.x[-1], dtype=float)
             derivative = self.sensitivity_matrix(tr, -1)
             last, end_mode = None, tr.modes[-1]
         else:
-            while True:
-                tr = self.run(x, mode, self.t0 + self.horizon, iterate)
-                last = self.section_event(tr)
-                if last is not None:
-                    break
-                if self.horizon > 1e3 * self.first_horizon:
-                    raise OrbitConvergenceError(
-                        f"periodic_orbit: iterate {iterate} (x0 = {self.show(x)}) does not reach the section "
-                        f"{self.section_text()} (crossing {self.crossings}) within {self.horizon:.6g} s. Check the "
-                        "section's automaton and transition names, or pass a larger max_period=",
-                        iterate, x, float("nan"), self.residuals)
-                self.horizon *= 2.0
+            tr, last = self.section_run(x, mode, iterate)
             event = tr.events[last]
             row = tr.event_index[last]
             T = event.t - self.t0
@@ -298,6 +315,68 @@ class _Shooter:
         scale = np.maximum(np.max(np.abs(tr.x), axis=0), self.atol)
         modes = self.sequence(tr, last)
         return F, J, M, T, tr, modes, scale, end_mode, x_end
+
+    def section_run(self, x, mode, iterate):
+        """``(trajectory, k)``: a run from ``x`` that reaches the section, ``k`` the index of its section event;
+        the horizon doubles (up to 1e3 times the first) while it does not."""
+        searched = None
+        while True:
+            try:
+                tr = self.run(x, mode, self.t0 + self.horizon, iterate)
+            except OrbitConvergenceError as error:
+                if searched is None:
+                    raise
+                raise self.missed_section(x, iterate, searched, f"the run to {self.horizon:.6g} s then failed: "
+                                          f"{error.__cause__}") from error
+            last = self.section_event(tr)
+            if last is not None:
+                return tr, last
+            searched = self.horizon
+            if self.at_rest(tr):
+                raise self.missed_section(x, iterate, searched, "the run comes to rest there, at x = "
+                                          f"{self.show(tr.x[-1])} in mode {tr.modes[-1].describe()}, so it never will")
+            if self.horizon > 1e3 * self.first_horizon:
+                raise self.missed_section(x, iterate, searched, "")
+            self.horizon *= 2.0
+
+    def at_rest(self, tr) -> bool:
+        """The run ends at rest: no instant in its second half, over which no state moves by more than ten
+        times its integration tolerance (``atol + rtol·|x|``)."""
+        t0, t1 = float(tr.t[0]), float(tr.t[-1])
+        middle = 0.5 * (t0 + t1)
+        if any(event.t > middle for event in tr.events):
+            return False
+        half = tr.x[tr.t >= middle]
+        band = 10.0 * (self.atol + self.rtol * np.max(np.abs(half), axis=0))
+        return bool(len(half) > 1 and np.all(np.ptp(half, axis=0) <= band))
+
+    def missed_section(self, x, iterate, searched: float, why: str) -> OrbitConvergenceError:
+        """The error of a run that never takes the section's transition."""
+        why = f": {why}" if why else ""
+        return OrbitConvergenceError(
+            f"periodic_orbit: iterate {iterate} (x0 = {self.show(x)}) never crosses the section "
+            f"{self.section_text()} (crossing {self.crossings}) within {searched:.6g} s{why}. Check the section's "
+            "automaton and transition (the orbit must take it once a period), the parameters (does the orbit "
+            "exist?) and the guess x0=, or pass a larger max_period=", iterate, x, float("nan"), self.residuals)
+
+    def period_run(self, x, mode, iterate):
+        """The run over one fixed period from ``x`` (module docstring: the period's end): to
+        ``t0 + T + EDGE_ULPS`` ulps, ended just after the last instant beyond ``t0 + T``, or at ``t0 + T``."""
+        end = self.t0 + float(self.period)
+        late = end + EDGE_ULPS * float(np.spacing(abs(end)))
+        tr = self.run(x, mode, late, iterate)
+        beyond = [k for k, event in enumerate(tr.events) if event.t > end]
+        if beyond:
+            row = tr.event_index[beyond[-1]]
+            events = list(tr.events[:beyond[-1] + 1])
+            tr = tr.take(np.arange(row + 1))
+            tr.events = events
+            return tr
+        tr = tr.take(np.arange(len(tr.t)))  # (its own arrays)
+        rates = np.asarray(self.model.compiled_mode(tr.modes[-1]).rates(tr.x[-1], tr.t[-1]), dtype=float)
+        tr.x[-1] = tr.x[-1] - rates * (tr.t[-1] - end)
+        tr.t[-1] = end
+        return tr
 
     def linearization(self, x, mode, parameters) -> tuple:
         """``(DP, ∂P/∂p)``: the period map's (autonomous: the return map's)
@@ -326,7 +405,7 @@ class _Shooter:
         previous = None
         for iterate in range(self.max_iterations + 1):
             F, J, M, T, tr, modes, scale, end_mode, _ = self.evaluate(x, mode, iterate)
-            residual = float(np.max(np.abs(F) / scale))
+            residual = float(np.max(np.abs(F) / scale)) if self.n else 0.0
             self.residuals.append(residual)
             if not np.isfinite(residual):
                 raise OrbitConvergenceError(
@@ -343,27 +422,83 @@ class _Shooter:
                     "(warmup= periods of plain simulation, or another x0=), or check that the orbit you look for "
                     "has one mode sequence", iterate, x, residual, self.residuals, before=previous, after=modes)
             previous = modes
-            if residual <= self.tol:
-                return self.result(tr, T, x, modes, M, iterate, started, mode)
+            newton = newton_step(F, J, scale, residual)
+            self.trail.append((x, mode, newton))
+            if residual <= self.tol and (self.criterion == "residual" or newton.error <= self.tol):
+                return self.result(tr, T, x, modes, M, iterate, started, mode, newton)
+            if is_singular(newton):
+                self.refuse_singular(x, iterate, residual, newton, scale)
             if iterate == self.max_iterations:
                 break
-            step, *_ = np.linalg.lstsq(J, -F, rcond=None)
-            x = x + step
+            x = x + newton.step
             if self.section is None:
                 mode = end_mode  # a periodic orbit starts in the mode it ends in
-        history = ", ".join(f"{r:.3g}" for r in self.residuals)
-        stalled = len(self.residuals) > 2 and self.residuals[-1] < 1e3 * self.rtol
-        advice = (f"the residual stalls near the integration tolerance rtol = {self.rtol:g}: lower rtol/atol or "
-                  f"raise tol (now {self.tol:g})" if stalled else
-                  "start from a guess closer to the orbit (x0=, or warmup= periods of plain simulation first), or "
-                  "allow more max_iterations=")
-        raise OrbitConvergenceError(
-            f"periodic_orbit: Newton did not converge in {self.max_iterations} iteration(s): iterate "
-            f"{len(self.residuals) - 1} (x0 = {self.show(x)}) has residual {self.residuals[-1]:.3g} > tol = "
-            f"{self.tol:g} (residuals: {history}). Try: {advice}", len(self.residuals) - 1, x, self.residuals[-1],
-            self.residuals)
+        raise self.failure()
 
-    def result(self, tr, T, x, modes, M, iterations, started, mode) -> PeriodicOrbit:
+    def refuse_singular(self, x, iterate, residual, newton, scale):
+        """The :class:`OrbitConvergenceError` of a singular ``M − I`` (:mod:`switching.analysis.orbit_newton`)."""
+        weights = newton.direction * scale / np.max(np.abs(newton.direction * scale))
+        along = ", ".join(f"{s}: {w:+.3g}" for s, w in zip(self.states, weights) if abs(w) >= 1e-3)
+        jacobian = "M − I" if self.section is None else "DP − I (the return map's)"
+        raise OrbitConvergenceError(
+            f"periodic_orbit: at iterate {iterate} (x0 = {self.show(x)}, residual {residual:.3g}) {jacobian} is "
+            f"singular: a multiplier is 1 up to round-off (|1 − μ| = {newton.gap:.3g}), so the period map has "
+            f"slope 1 along ({along}) (relative to the states' amplitudes) and Newton cannot tell how far to "
+            "move along it (every step would be the same): the guess lies on a piece of the map "
+            "that does not restore that direction (a switch that stays on, or off, for the whole period; a "
+            "state nothing pulls back). Start from a guess whose period flows through the orbit's modes (x0=, or "
+            "warmup= periods of plain simulation first)", iterate, x, residual, self.residuals)
+
+    def failure(self) -> OrbitError:
+        """The error of an iteration that did not converge (:mod:`switching.analysis.orbit_newton`)."""
+        history = ", ".join(f"{r:.3g}" for r in self.residuals)
+        sizes = [newton.size for _, _, newton in self.trail]
+        k = int(np.argmin(self.residuals))
+        x, mode, newton = self.trail[k]
+        x_last = self.trail[-1][0]
+        head = (f"periodic_orbit: Newton did not converge in {self.max_iterations} iteration(s): iterate "
+                f"{len(self.residuals) - 1} (x0 = {self.show(x_last)}) has residual {self.residuals[-1]:.3g} and "
+                f"estimated error {self.trail[-1][2].error:.3g} (tol = {self.tol:g}; residuals: {history})")
+        more = ("start from a guess closer to the orbit (x0=, or warmup= periods of plain simulation first), or "
+                "allow more max_iterations=")
+        if len(sizes) < 4 or shrinking(sizes):
+            return OrbitConvergenceError(f"{head}. Try: {more}", len(self.residuals) - 1, x_last,
+                                         self.residuals[-1], self.residuals)
+        finer = self.finer_residual(x, mode, k)
+        if finer is None:
+            return OrbitConvergenceError(f"{head}; Newton's steps do not shrink. Try: {more}", len(self.residuals) - 1,
+                                         x_last, self.residuals[-1], self.residuals)
+        if finer <= 0.1 * self.residuals[k]:
+            return OrbitConvergenceError(
+                f"{head}; Newton's steps do not shrink and the closest iterate's residual is the runs' round-off "
+                f"({self.residuals[k]:.3g}, {finer:.3g} with rtol and atol {FINER:g} times smaller): the start is "
+                f"determined only to about {newton.residual_error:.3g} (residual / min|1 − μ|, min|1 − μ| = "
+                f"{newton.gap:.3g}). Try: lower rtol/atol, or raise tol (now {self.tol:g})", k, x,
+                self.residuals[k], self.residuals)
+        return NoOrbitError(
+            f"periodic_orbit: no orbit: the map has no fixed point near x0; closest residual {self.residuals[k]:.3g} "
+            f"at iterate {k} (x0 = {self.show(x)}; {finer:.3g} with runs {FINER:g} times more accurate, so no "
+            f"round-off), and Newton's steps do not shrink in {self.max_iterations} iterations (relative sizes "
+            + ", ".join(f"{z:.2g}" for z in sizes) + "), as beyond a fold where the orbit has disappeared "
+            f"(min|1 − μ| there {newton.gap:.3g}). Check the parameters (the orbit may exist only on one side of "
+            "a value), or start from another guess (x0=, warmup=)", k, x, self.residuals[k], self.residuals)
+
+    def finer_residual(self, x, mode, iterate):
+        """The residual of ``x`` with ``rtol`` and ``atol`` ``FINER`` times smaller (``None`` when they cannot
+        be lowered or the run fails)."""
+        rtol = max(self.rtol / FINER, 1e-13)
+        if rtol >= self.rtol:
+            return None
+        shooter = copy.copy(self)
+        shooter.rtol, shooter.atol = rtol, self.atol * rtol / self.rtol
+        shooter.residuals = list(self.residuals)
+        try:
+            F, *_, scale, _, _ = shooter.evaluate(np.asarray(x, dtype=float), mode, iterate)
+        except OrbitError:
+            return None
+        return float(np.max(np.abs(F) / scale))
+
+    def result(self, tr, T, x, modes, M, iterations, started, mode, newton) -> PeriodicOrbit:
         values, vectors = np.linalg.eig(M)
         trivial = None
         keep = np.ones(len(values), dtype=bool)
@@ -387,13 +522,14 @@ class _Shooter:
                              stable=bool(np.all(np.abs(multipliers) < 1.0)), iterations=iterations,
                              residuals=list(self.residuals), section=self.section, t0=self.t0,
                              wall_time=time.perf_counter() - started, grazing_ratio=self.grazing_ratio,
-                             shooting=(self, mode))
+                             error=newton.error, step_error=newton.size, residual_error=newton.residual_error,
+                             x0_error=np.abs(newton.step), shooting=(self, mode))
 
 
 def periodic_orbit(model, period: float | None = None, *, section=None, crossings: int = 1, x0=None, mode=None,
                    t0: float = 0.0, method: str = "RK45", rtol: float = 1e-10, atol: float = 1e-12,
                    tol: float = 1e-8, max_iterations: int = 20, max_period: float | None = None, warmup: int = 0,
-                   grazing_limit: float = 1e3, **options) -> PeriodicOrbit:
+                   grazing_limit: float = 1e3, criterion: str = "error", **options) -> PeriodicOrbit:
     """A periodic orbit of ``model`` by Newton shooting on its period map
     (the mathematics: the module docstring).
 
@@ -406,42 +542,30 @@ def periodic_orbit(model, period: float | None = None, *, section=None, crossing
     ``x0`` (n,): the initial guess (default: the model's initial state),
     ``mode`` the start mode (default: the model's).  ``method``, ``rtol``,
     ``atol`` and ``options`` go to every run (``model.simulate``; the
-    sensitivities are integrated with the same ``rtol``/``atol``).
-    ``tol``: the scaled residual to reach; ``max_iterations`` Newton steps
+    sensitivities are integrated with the same ``rtol``/``atol``; a compiled
+    ``method`` or ``"auto"`` runs as its Python equivalent, which integrates
+    sensitivities: ``"RK45-jit"`` as ``"RK45"``).
+    ``tol``: the scaled residual and the estimated relative error of the
+    start to reach (module docstring; ``criterion="residual"``: the
+    residual alone, as before the error estimate — for locating a
+    bifurcation, where the orbit near a fold is ill-determined but its
+    multipliers are what is asked; the orbit still carries its ``error``);
+    ``max_iterations`` Newton steps
     at most; ``warmup``: periods of plain iteration ``x ← φ(x)`` before
     Newton (to settle into the orbit's mode sequence); ``grazing_limit``:
     see :class:`~switching.errors.GrazingError`.
 
-    Returns a :class:`PeriodicOrbit`; raises
-    :class:`~switching.errors.OrbitConvergenceError`,
+    Every argument is checked first
+    (:mod:`switching.analysis.orbit_arguments`:
+    :class:`~switching.errors.OrbitArgumentError`).  Returns a
+    :class:`PeriodicOrbit` (its ``error``: the estimated relative error of
+    ``x0``); raises :class:`~switching.errors.OrbitConvergenceError`
+    (:class:`~switching.errors.NoOrbitError` where the map has no fixed point
+    near the guess),
     :class:`~switching.errors.ModeSequenceChangedError` or
     :class:`~switching.errors.GrazingError`.
     """
-    if isinstance(section, str):
-        automaton, _, rest = section.partition(":")
-        source, _, target = rest.replace("→", "->").partition("->")
-        section = (automaton.strip(), source.strip(), target.strip())
-        if not all(section):
-            raise OrbitError(f"periodic_orbit: section {section!r} must read 'automaton: source -> target'")
-    if section is None:
-        if period is None or not np.isfinite(period) or period <= 0:
-            raise OrbitError(f"periodic_orbit: give a positive period=T [s] (got {period!r}) for a fixed-period "
-                             "orbit, or section=(automaton, source, target) for an autonomous one")
-    else:
-        section = tuple(section)
-        automata = {a.name: a for a in model.automata}
-        if section[0] not in automata:
-            raise OrbitError(f"periodic_orbit: section automaton {section[0]!r} is not one of the model's "
-                             f"({', '.join(automata)})")
-        transitions = [(t.source, t.target) for t in automata[section[0]].transitions]
-        if tuple(section[1:]) not in transitions:
-            raise OrbitError(f"periodic_orbit: automaton {section[0]!r} has no transition {section[1]} → "
-                             f"{section[2]}; its transitions: "
-                             + ", ".join(f"{s} → {t}" for s, t in transitions))
-    if int(crossings) < 1:
-        raise OrbitError(f"periodic_orbit: crossings must be at least 1 (got {crossings})")
-    if x0 is None:
-        x0 = model.initial_state()
-    shooter = _Shooter(model, period, section, int(crossings), float(t0), method, float(rtol), float(atol),
-                       float(tol), int(max_iterations), max_period, float(grazing_limit), options)
-    return shooter.solve(x0, mode, int(warmup))
+    checked = checked_orbit_arguments(model, period, section, crossings, x0, t0, method, rtol, atol, tol,
+                                      max_iterations, max_period, warmup, grazing_limit, criterion)
+    shooter = _Shooter(model, checked, options)
+    return shooter.solve(checked["x0"], mode, checked["warmup"])
