@@ -23,14 +23,16 @@ A multiplier merely near 1 (near a fold) is no reason to stop: the error
 estimate ``residual / |1 − μ|`` says how well the start is determined.
 
 **No convergence** in ``max_iterations`` steps is told apart by the steps'
-sizes: still shrinking (the last three each below 0.8 of the one before: more
-iterations would do), or not.  When they do not shrink, the closest iterate
-(smallest residual) is run again with ``rtol`` and ``atol`` 100 times smaller:
-a residual that falls by 10 or more was the runs' round-off (the orbit's start
-is then limited by the integration's accuracy, ``residual / min|1 − μ|``);
-one that stays is the map's own: it has no fixed point near the guess, as
-beyond a fold (``F(x) ≈ a (x − x_f)² + ε`` with ``ε > 0``: Newton's steps
-wander at the scale ``sqrt(ε/a)`` while the residual stays near ``ε``), and
+sizes: still shrinking (the last three each below 0.8 of the one before, the
+last below 0.8 of all earlier ones: more iterations would do), or not.  When
+they do not shrink, the closest iterate (smallest residual) decides.  A
+residual at most ``rtol`` is within the runs' accuracy; a larger one is run
+again with ``rtol`` and ``atol`` 100 times smaller: if it falls by 10 or more
+it was the runs' round-off too (in both cases the orbit's start is limited by
+the integration's accuracy, ``residual / min|1 − μ|``); one that stays is the
+map's own: it has no fixed point near the guess, as beyond a fold
+(``F(x) ≈ a (x − x_f)² + ε`` with ``ε > 0``: Newton's steps wander at the
+scale ``sqrt(ε/a)`` while the residual stays near ``ε``), and
 :class:`~switching.errors.NoOrbitError` says so.
 """
 

@@ -464,14 +464,16 @@ class _Shooter:
         if len(sizes) < 4 or shrinking(sizes):
             return OrbitConvergenceError(f"{head}. Try: {more}", len(self.residuals) - 1, x_last,
                                          self.residuals[-1], self.residuals)
-        finer = self.finer_residual(x, mode, k)
-        if finer is None:
+        finer = None if self.residuals[k] <= self.rtol else self.finer_residual(x, mode, k)
+        if finer is None and self.residuals[k] > self.rtol:
             return OrbitConvergenceError(f"{head}; Newton's steps do not shrink. Try: {more}", len(self.residuals) - 1,
                                          x_last, self.residuals[-1], self.residuals)
-        if finer <= 0.1 * self.residuals[k]:
+        if finer is None or finer <= 0.1 * self.residuals[k]:
+            since = ("within rtol" if finer is None else
+                     f"{finer:.3g} with rtol and atol {FINER:g} times smaller")
             return OrbitConvergenceError(
                 f"{head}; Newton's steps do not shrink and the closest iterate's residual is the runs' round-off "
-                f"({self.residuals[k]:.3g}, {finer:.3g} with rtol and atol {FINER:g} times smaller): the start is "
+                f"({self.residuals[k]:.3g}, {since}): the start is "
                 f"determined only to about {newton.residual_error:.3g} (residual / min|1 − μ|, min|1 − μ| = "
                 f"{newton.gap:.3g}). Try: lower rtol/atol, or raise tol (now {self.tol:g})", k, x,
                 self.residuals[k], self.residuals)
