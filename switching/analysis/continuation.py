@@ -69,7 +69,6 @@ period-1 orbit, ends it (``stopped``).  It is returned in
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -77,7 +76,8 @@ import numpy as np
 
 from bondgraph.errors import HybridBondGraphError
 
-from ..errors import ContinuationError
+from ..errors import ContinuationError, OrbitArgumentError
+from .orbit_arguments import checked_continuation_arguments
 from .orbits import PeriodicOrbit, periodic_orbit
 
 __all__ = ["Bifurcation", "Continuation", "ContinuationPoint", "continue_orbit"]
@@ -353,17 +353,16 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
     ``switch_branch``: at each located period doubling, look for the orbit
     of twice the period and follow it (module docstring); the branches
     found are in ``.branches``.
+
+    Its own arguments are checked first (a :class:`~switching.errors.ContinuationError`
+    naming the argument, the value and what to give); those of
+    :func:`~switching.analysis.orbits.periodic_orbit` raise its
+    :class:`~switching.errors.OrbitArgumentError` at the first point.
     """
-    if on_error not in ("raise", "stop"):
-        raise ContinuationError(f"continue_orbit: on_error={on_error!r}; use 'raise' or 'stop'")
-    values = [float(v) for v in np.atleast_1d(np.asarray(values, dtype=float))]
-    if not values or not all(math.isfinite(v) for v in values):
-        raise ContinuationError(f"continue_orbit: give one or more finite values of {parameter!r} (got {values!r})")
-    if section is None and period is None:
-        raise ContinuationError("continue_orbit: give period=T [s] (a number or a callable of the parameter value) "
-                                "for a fixed-period orbit, or section=(automaton, source, target)")
+    values, signals, warmup = checked_continuation_arguments(parameter, values, period, section, on_error,
+                                                             parameter_tol, signals, locate, switch_branch, fixed,
+                                                             orbit_options.pop("warmup", 0))
     period_of = period if callable(period) else (lambda _value: period)
-    warmup = int(orbit_options.pop("warmup", 0))
     family = _Family(model, parameter, fixed)
     started = time.perf_counter()
     result = Continuation(parameter, [], [], (), tuple(signals))
@@ -402,6 +401,8 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
                         guess_period = max(last.period + ratio * (last.period - before.period), 0.5 * last.period)
             try:
                 point = solve(value, guess, guess_mode, guess_period, first=(k == 0))
+            except OrbitArgumentError:  # a request refused (section=5, max_iterations=-1): not a point's failure
+                raise
             except HybridBondGraphError as error:  # no orbit (OrbitError), or a run that failed on the way
                 previous = (f"; the last orbit found is at {parameter} = {result.points[-1].value:.10g}"
                             if result.points else "")

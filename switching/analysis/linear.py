@@ -39,6 +39,7 @@ import numpy as np
 from bondgraph.linear_system import LinearSystem
 
 from ..errors import OrbitError
+from .orbit_arguments import checked_names
 from .sensitivity import INITIAL_PREFIX, derivatives, parse_names
 
 __all__ = ["state_space", "orbit_small_signal"]
@@ -89,16 +90,19 @@ def orbit_small_signal(orbit, inputs=(), outputs=None) -> LinearSystem:
     model = shooter.model
     inputs = _parameter_names(model, inputs)
     A, B = shooter.linearization(orbit.x0, mode, inputs)
-    outputs = list(model.state_names) if outputs is None else ([outputs] if isinstance(outputs, str)
-                                                               else list(outputs))
+    outputs = list(model.state_names) if outputs is None else checked_names("small_signal", "outputs", outputs,
+                                                                            unique=False)
     C, D = _output_jacobians(model, orbit.modes[0], orbit.x0, orbit.t0, inputs, outputs)
     return LinearSystem(A, B, C, D, tuple(model.state_names), tuple(inputs), tuple(outputs), dt=float(orbit.period),
                         name=f"{model.name}_orbit")
 
 
 def _parameter_names(model, inputs) -> list:
-    """``inputs`` as a list of model parameter names (checked: :func:`parse_names` lists the parameters)."""
-    inputs = [inputs] if isinstance(inputs, str) else [str(p) for p in inputs]
+    """``inputs`` as a list of model parameter names, each once (checked: :func:`parse_names` lists the
+    parameters; a name given twice is an :class:`~switching.errors.OrbitArgumentError`)."""
+    if isinstance(inputs, (list, tuple)):  # a parameter's symbol stands for its name
+        inputs = [getattr(p, "name", p) for p in inputs]
+    inputs = checked_names("small_signal", "inputs", inputs)
     initial = [p for p in inputs if p.startswith(INITIAL_PREFIX)]
     if initial:
         raise OrbitError(f"small-signal inputs must be model parameters; {', '.join(initial)} name initial states, "

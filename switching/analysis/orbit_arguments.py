@@ -41,7 +41,7 @@ from ..errors import ContinuationError, OptionError, OrbitArgumentError
 from ..simulate.methods import method_class
 
 __all__ = ["is_number", "checked_number", "checked_section", "checked_x0", "python_method", "checked_orbit_arguments",
-           "checked_values", "checked_names"]
+           "checked_values", "checked_names", "checked_continuation_arguments"]
 
 
 def is_number(value) -> bool:
@@ -201,3 +201,35 @@ def checked_names(where: str, name: str, names, *, unique: bool = True, error=Or
                        "each name once")
             raise (error(message, name, names) if error is OrbitArgumentError else error(message))
     return listed
+
+
+def checked_continuation_arguments(parameter, values, period, section, on_error, parameter_tol, signals, locate,
+                                   switch_branch, fixed, warmup) -> tuple:
+    """``continue_orbit``'s own arguments checked (a :class:`ContinuationError` naming the argument, the value
+    and what to give): ``(values, signals, warmup)``."""
+    where = "continue_orbit"
+    if not isinstance(parameter, str) or not parameter:
+        raise ContinuationError(f"{where}: parameter={_shown(parameter)}: give the name of the parameter (or build "
+                                "argument) to follow, as text")
+    if not isinstance(on_error, str) or on_error not in ("raise", "stop"):
+        raise ContinuationError(f"{where}: on_error={_shown(on_error)}; use 'raise' or 'stop'")
+    values = checked_values(values, parameter, where)
+    if section is None and period is None:
+        raise ContinuationError(f"{where}: give period=T [s] (a number or a callable of the parameter value) for a "
+                                "fixed-period orbit, or section=(automaton, source, target)")
+    if period is not None and not callable(period):
+        checked_number(where, "period", period, low=0.0, error=ContinuationError,
+                       expected="the period in seconds, a positive number, or a callable of the parameter value")
+    checked_number(where, "parameter_tol", parameter_tol, low=4 * np.finfo(float).eps, strict=False,
+                   error=ContinuationError, expected="the bracket's relative width at which a crossing is located, "
+                   "a number from 8.9e-16 (4 eps) up (default 1e-9)")
+    for name, flag in (("locate", locate), ("switch_branch", switch_branch)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise ContinuationError(f"{where}: {name}={_shown(flag)}; give True or False")
+    if fixed is not None and not isinstance(fixed, dict):
+        raise ContinuationError(f"{where}: fixed={_shown(fixed)}; give a dict of the build function's other "
+                                "arguments, name → value")
+    signals = checked_names(where, "signals", signals, error=ContinuationError) if signals else []
+    warmup = checked_number(where, "warmup", warmup, low=0.0, strict=False, integer=True, error=ContinuationError,
+                            expected="an integer of at least 0 (periods of plain iteration before the first point)")
+    return values, tuple(signals), warmup
