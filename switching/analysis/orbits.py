@@ -110,9 +110,10 @@ class PeriodicOrbit:
     ``grazing_ratio``: the largest ``max_j |∂τ_k/∂x0_j| s_j / T`` over the
     orbit's instants ``k`` (how far the orbit is from grazing a guard: large
     near a tangential touch, 0 with clock events only); ``error``: the
-    estimated relative error of ``x0`` (at most ``tol``), the larger of
-    ``step_error`` (one more Newton step's size) and ``residual_error``
-    (``residual / min |1 − μ|``); ``x0_error`` (n,): each state's, in its
+    estimated relative error of the orbit (at most ``tol``), the largest of
+    ``step_error`` (one more Newton step's size), ``residual_error``
+    (``residual / min |1 − μ|``) and ``period_error`` (an autonomous
+    period's, ``|τ_x·δx| / T``); ``x0_error`` (n,): each state's, in its
     units (:mod:`switching.analysis.orbit_newton`).
 
     :meth:`small_signal` and :meth:`to_control`: the discrete small-signal
@@ -132,11 +133,13 @@ class PeriodicOrbit:
     t0: float = 0.0
     wall_time: float = 0.0
     grazing_ratio: float = 0.0
-    #: the estimated relative error of ``x0`` (:mod:`switching.analysis.orbit_newton`): the larger of
-    #: ``step_error`` and ``residual_error``
+    #: the estimated relative error of the orbit (:mod:`switching.analysis.orbit_newton`): the largest of
+    #: ``step_error``, ``residual_error`` and ``period_error``
     error: float = 0.0
     #: the size of one more Newton step, ``max_i |δx_i| / s_i``
     step_error: float = 0.0
+    #: an autonomous orbit's period's: ``|τ_x·δx| / T`` (0 for a fixed period)
+    period_error: float = 0.0
     #: ``residual / min |1 − μ|`` (μ the eigenvalues of the period map's Jacobian)
     residual_error: float = 0.0
     #: ``|δx|`` (n,): the estimated error of each state of ``x0``, in its units
@@ -302,6 +305,7 @@ class _Shooter:
             S = self.sensitivity_matrix(tr, row)
             f_plus = np.asarray(self.model.compiled_mode(event.mode_after).rates(x_end, event.t), dtype=float)
             tau = np.array([tr.event_time_sensitivity(last, p) for p in self.columns])
+            self.tau_x = tau[:self.n]
             derivative = S + np.outer(f_plus, tau)  # the return map's, DP and ∂P/∂p
             M = S[:, :self.n]
             end_mode = event.mode_after
@@ -422,7 +426,7 @@ class _Shooter:
                     "(warmup= periods of plain simulation, or another x0=), or check that the orbit you look for "
                     "has one mode sequence", iterate, x, residual, self.residuals, before=previous, after=modes)
             previous = modes
-            newton = newton_step(F, J, scale, residual)
+            newton = newton_step(F, J, scale, residual, None if self.section is None else self.tau_x, T)
             self.trail.append((x, mode, newton))
             if residual <= self.tol and (self.criterion == "residual" or newton.error <= self.tol):
                 return self.result(tr, T, x, modes, M, iterate, started, mode, newton)
@@ -525,6 +529,7 @@ class _Shooter:
                              residuals=list(self.residuals), section=self.section, t0=self.t0,
                              wall_time=time.perf_counter() - started, grazing_ratio=self.grazing_ratio,
                              error=newton.error, step_error=newton.size, residual_error=newton.residual_error,
+                             period_error=newton.period_error,
                              x0_error=np.abs(newton.step), shooting=(self, mode))
 
 

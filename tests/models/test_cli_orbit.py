@@ -55,6 +55,8 @@ def test_orbit_of_the_boost_converter_with_a_fixed_period(tmp_path):
     got = [complex(m.replace(" ", "")) for m in value_after(out.stdout, "multipliers:").split(", ")]
     assert sorted(got, key=lambda z: z.imag) == pytest.approx(sorted(exact, key=lambda z: z.imag), abs=1e-7)
     assert "stable: yes" in out.stdout and plot.stat().st_size > 5_000
+    # the orbit's estimated error, within the default tol = 1e-8
+    assert float(value_after(out.stdout, "Newton:").split("estimated relative error of x0 ")[1].split(",")[0]) <= 1e-8
 
 
 def test_continuation_of_the_boost_converter_prints_and_writes_its_table(tmp_path):

@@ -18,6 +18,11 @@ tests/models/test_model_vibrating_table.py for the closed forms): the period-1 o
 ``A = A_min (1 + 1e-8)`` (``|1 − μ| ≈ 4e-4``) a residual of 1e-8 leaves the start off by about
 ``1e-8 / 4e-4``: the old residual test returned ``y0`` 9.5e-6 off.  At ``A = A_min (1 − 1e-9)`` there
 is no orbit (the map's smallest residual is about 1e-9, no round-off): it must be refused.
+
+**The period of an autonomous orbit.**  The rimless wheel's gait (models/rimless_wheel.py,
+tests/models/test_model_rimless_wheel.py for the closed forms): two stances of the closed-form
+time ``t_s(ω⁺*)``.  The period moves with the start, ``δT = τ_x·δx``: a start within 4.6e-9 left the
+period 1.4e-8 off; the error estimate covers it.
 """
 
 from __future__ import annotations
@@ -26,9 +31,10 @@ import math
 
 import numpy as np
 import pytest
-from test_model_vibrating_table import G, OMEGA, apex, gamma_min, state  # the closed forms (tests/models)
+from test_model_rimless_wheel import fixed_point, stance_time  # the closed forms (tests/models)
+from test_model_vibrating_table import G, OMEGA, apex, gamma_min, state
 
-from models import current_mode_converter, vibrating_table
+from models import current_mode_converter, rimless_wheel, vibrating_table
 from switching import NoOrbitError, periodic_orbit
 from switching.analysis.orbits import EDGE_ULPS
 from switching_models import phase  # the exact affine phase: a matrix exponential
@@ -123,3 +129,9 @@ def test_a_residual_at_round_off_is_not_called_a_missing_orbit():
         shoot(tol=1e-16)
     assert type(info.value).__name__ == "OrbitConvergenceError"
     assert "round-off" in str(info.value) and "lower rtol/atol" in str(info.value)
+
+
+def test_an_autonomous_period_is_within_tol_too():
+    gait = periodic_orbit(rimless_wheel.build(), section="stance: even -> odd", period=2.0, rtol=1e-10, atol=1e-12)
+    assert gait.period == pytest.approx(2 * stance_time(fixed_point()[1]), rel=1e-8)  # was 1.4e-8 off
+    assert gait.period_error <= gait.error <= 1e-8
