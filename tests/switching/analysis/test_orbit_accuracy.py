@@ -9,7 +9,12 @@ changed mode sequence.  Exact orbit: from a clock edge in continuous conduction 
 ``m1 = Vin/L`` while ``q_C`` decays as ``e^{−t/(R C)}`` until ``i_L = i_ref`` at
 ``t_on = (i_ref − i_L0)/m1``, then the affine off phase ``ẋ = A x + b`` (``A = [[0, −1/C], [1/L,
 −1/(R C)]]``, ``b = (Vin, 0)``) for ``T − t_on`` (its matrix exponential); the fixed point of that map
-by Newton (Jacobian by central differences; the map is smooth there).
+by Newton (Jacobian by central differences; the map is smooth there).  A buck converter drawn with
+the same kind of clock (``Circuit``: the switch closes in the pulse ``cos(2π f t − π w) − cos(π w) > 0``
+and opens where ``cos(2π f t − π D) − cos(π D) < 0``, at ``D T``; an ideal freewheeling diode) met the
+same edge at 50, 70 and 100 kHz.  In continuous conduction its two phases are affine, ``ṗ_L = v_sw −
+q_C/C``, ``q̇_C = p_L/L − q_C/(R C)`` with ``v_sw = Vin`` for ``D T`` and 0 for ``(1 − D) T``: the orbit
+``x* = (I − E_off E_on)⁻¹ (E_off c_on + c_off)`` from the phases' matrix exponentials.
 
 **The error of the start near a fold.**  The ball on the vibrating table (models/vibrating_table.py,
 tests/models/test_model_vibrating_table.py for the closed forms): the period-1 orbit exists for
@@ -35,6 +40,7 @@ from test_model_rimless_wheel import fixed_point, stance_time  # the closed form
 from test_model_vibrating_table import G, OMEGA, apex, gamma_min, state
 
 from models import current_mode_converter, rimless_wheel, vibrating_table
+from models.circuits import Circuit
 from switching import NoOrbitError, periodic_orbit
 from switching.analysis.orbits import EDGE_ULPS
 from switching_models import phase  # the exact affine phase: a matrix exponential
@@ -86,6 +92,44 @@ def test_without_an_instant_after_it_the_period_ends_at_t0_plus_T():
     orbit = periodic_orbit(model, period=T, x0=cmc_orbit(T) * (1 + 1e-3), max_step=0.02 * T)
     np.testing.assert_allclose(orbit.x0, cmc_orbit(T), rtol=1e-8)
     assert orbit.trajectory.t[-1] == T
+
+
+BUCK = dict(Vin=12.0, L=1e-3, C=1e-4, R=10.0, D=0.4, w=0.05)
+
+
+def clocked_buck(f_sw):
+    """The buck converter switched by a clock (module docstring)."""
+    pulse, duty = "cos(2*pi*f_sw*t - pi*w) - cos(pi*w)", "cos(2*pi*f_sw*t - pi*D) - cos(pi*D)"
+    c = Circuit("buck")
+    c.V("Vin", "in", "0", BUCK["Vin"])
+    c.switch("S", "in", "sw", closed_when=f"{pulse} > 0", open_when=f"{duty} < 0")
+    c.diode("D1", "0", "sw")
+    c.L("L", "sw", "out", BUCK["L"])
+    c.C("C", "out", "0", BUCK["C"])
+    c.R("Rl", "out", "0", BUCK["R"])
+    return c.build(parameters={"f_sw": f_sw, "D": BUCK["D"], "w": BUCK["w"]})
+
+
+def buck_orbit(T):
+    """``x* = (p_L, q_C)`` of the buck in continuous conduction (module docstring)."""
+    L, C, R, D = BUCK["L"], BUCK["C"], BUCK["R"], BUCK["D"]
+    A = np.array([[0.0, -1.0 / C], [1.0 / L, -1.0 / (R * C)]])
+    E_on, c_on = phase(A, np.array([BUCK["Vin"], 0.0]), D * T)
+    E_off, c_off = phase(A, np.zeros(2), (1 - D) * T)
+    return np.linalg.solve(np.eye(2) - E_off @ E_on, E_off @ c_on + c_off)
+
+
+@pytest.mark.parametrize("f_sw", [50e3, 70e3, 100e3])
+def test_a_clocked_buck_takes_its_edge_at_the_period_end(f_sw):
+    T = 1.0 / f_sw
+    exact = buck_orbit(T)
+    model = clocked_buck(f_sw)
+    orbit = periodic_orbit(model, period=T, x0=exact * (1 + 1e-3), mode="S=closed, D1=off", max_step=0.05 * T)
+    np.testing.assert_allclose(orbit.x0, exact, rtol=1e-8)
+    assert orbit.error <= 1e-8 and orbit.trajectory.signal("i_L").min() > 0  # continuous conduction
+    assert orbit.mode_names == ["S=closed, D1=off", "S=open, D1=on", "S=closed, D1=off"]
+    edge = orbit.trajectory.events[-1]
+    assert T <= edge.t <= T + EDGE_ULPS * np.spacing(T) and orbit.trajectory.t[-1] == edge.t
 
 
 def table_orbit(relative, guess_error=0.01):
