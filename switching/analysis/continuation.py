@@ -76,7 +76,7 @@ import numpy as np
 
 from bondgraph.errors import HybridBondGraphError
 
-from ..errors import ContinuationError, OrbitArgumentError
+from ..errors import ContinuationError, OptionError, OrbitArgumentError, UnknownOptionError
 from .orbit_arguments import checked_continuation_arguments
 from .orbits import PeriodicOrbit, periodic_orbit
 
@@ -401,8 +401,8 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
                         guess_period = max(last.period + ratio * (last.period - before.period), 0.5 * last.period)
             try:
                 point = solve(value, guess, guess_mode, guess_period, first=(k == 0))
-            except OrbitArgumentError:  # a request refused (section=5, max_iterations=-1): not a point's failure
-                raise
+            except (OrbitArgumentError, OptionError, UnknownOptionError):  # a request refused (section=5,
+                raise  # max_iterations=-1, max_step=-1): not a point's failure
             except HybridBondGraphError as error:  # no orbit (OrbitError), or a run that failed on the way
                 previous = (f"; the last orbit found is at {parameter} = {result.points[-1].value:.10g}"
                             if result.points else "")

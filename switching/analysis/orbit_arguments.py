@@ -17,6 +17,7 @@ argument           unit   kind and bounds
 ``crossings``      —      integer ≥ 1
 ``t0``             s      number, finite
 ``x0``             state  ``None`` or one finite number per state
+``mode``           —      ``None`` or a mode of the model (a label, a mapping)
 ``method``         —      a method of ``simulate``; a compiled one (``-jit``) or
                           ``"auto"`` is run by its Python equivalent, which
                           integrates the sensitivities
@@ -37,11 +38,13 @@ import numbers
 
 import numpy as np
 
+from bondgraph.errors import HybridBondGraphError
+
 from ..errors import ContinuationError, OptionError, OrbitArgumentError
 from ..simulate.methods import method_class
 
 __all__ = ["is_number", "checked_number", "checked_section", "checked_x0", "python_method", "checked_orbit_arguments",
-           "checked_values", "checked_names", "checked_continuation_arguments"]
+           "checked_values", "checked_names", "checked_continuation_arguments", "checked_mode"]
 
 
 def is_number(value) -> bool:
@@ -118,6 +121,21 @@ def checked_x0(x0, model, where: str = "periodic_orbit") -> np.ndarray:
     return values.astype(float)
 
 
+def checked_mode(mode, model, where: str = "periodic_orbit") -> None:
+    """``mode`` (``None``, or any form :meth:`HybridModel.mode` takes) names a mode of ``model``; an unknown
+    automaton or state raises the model's own error, naming it."""
+    if mode is None:
+        return
+    try:
+        model.mode(mode)
+    except HybridBondGraphError:
+        raise
+    except (TypeError, ValueError, AttributeError, KeyError):
+        raise OrbitArgumentError(f"{where}: mode={_shown(mode)} is not a mode; give None (the model's initial mode), "
+                                 "a label such as 'on|off' or 'relay=on', or a mapping {automaton: state}",
+                                 "mode", mode) from None
+
+
 def python_method(method, where: str = "periodic_orbit") -> str:
     """The method the shooting runs use: ``method`` itself, or for a compiled one (``-jit``) and ``"auto"``
     its Python equivalent (the runs carry sensitivities, which only the Python methods integrate)."""
@@ -131,7 +149,7 @@ def python_method(method, where: str = "periodic_orbit") -> str:
 
 
 def checked_orbit_arguments(model, period, section, crossings, x0, t0, method, rtol, atol, tol, max_iterations,
-                            max_period, warmup, grazing_limit, criterion="error") -> dict:
+                            max_period, warmup, grazing_limit, criterion="error", mode=None) -> dict:
     """Every argument of :func:`~switching.analysis.orbits.periodic_orbit` checked (module docstring), as the
     values the shooting takes."""
     where = "periodic_orbit"
@@ -152,6 +170,7 @@ def checked_orbit_arguments(model, period, section, crossings, x0, t0, method, r
         raise OrbitArgumentError(f"{where}: criterion={_shown(criterion)}; give 'error' (the residual and the "
                                  "estimated error of the start within tol, the default) or 'residual' (the "
                                  "residual alone)", "criterion", criterion)
+    checked_mode(mode, model, where)
     positive = "a positive number (e.g. 1e-10)"
     return dict(
         period=period, section=section, max_period=max_period, criterion=criterion, x0=checked_x0(x0, model, where),

@@ -80,8 +80,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import (GrazingError, ModeSequenceChangedError, NoOrbitError, OrbitConvergenceError, OrbitError,
-                      SimulationError)
+from ..errors import (GrazingError, ModeSequenceChangedError, NoOrbitError, OptionError, OrbitConvergenceError,
+                      OrbitError, SimulationError, UnknownOptionError)
 from .orbit_arguments import checked_orbit_arguments
 from .orbit_newton import FINER, is_singular, newton_step, shrinking
 
@@ -204,6 +204,8 @@ class _Shooter:
             return self.model.simulate(t_end, self.method, t0=self.t0, x0=x, mode=mode, rtol=self.rtol,
                                        atol=self.atol, sensitivities=self.columns, sensitivity_rtol=self.rtol,
                                        sensitivity_atol=self.atol, **self.options)
+        except (OptionError, UnknownOptionError):  # an option of the runs refused: the request, not the guess
+            raise
         except SimulationError as error:
             if "touches its threshold without crossing" in str(error):
                 raise GrazingError(
@@ -573,6 +575,6 @@ def periodic_orbit(model, period: float | None = None, *, section=None, crossing
     :class:`~switching.errors.GrazingError`.
     """
     checked = checked_orbit_arguments(model, period, section, crossings, x0, t0, method, rtol, atol, tol,
-                                      max_iterations, max_period, warmup, grazing_limit, criterion)
+                                      max_iterations, max_period, warmup, grazing_limit, criterion, mode)
     shooter = _Shooter(model, checked, options)
     return shooter.solve(checked["x0"], mode, checked["warmup"])

@@ -19,8 +19,8 @@ import pytest
 
 import models
 from models import current_mode_converter
-from switching import (ContinuationError, OrbitArgumentError, OrbitConvergenceError, OrbitError, continue_orbit,
-                       periodic_orbit)
+from switching import (ContinuationError, OptionError, OrbitArgumentError, OrbitConvergenceError, OrbitError,
+                       UnknownOptionError, continue_orbit, periodic_orbit)
 
 V, R, C, R_LOAD, V_HI, V_LO = 10.0, 1.0, 1e-3, 20.0, 8.0, 6.0
 V_INF = V * R_LOAD / (R + R_LOAD)
@@ -79,6 +79,7 @@ def test_a_section_never_crossed_says_so():
     (dict(section=SECTION, period=0.01, method="RK99"), "method", "choose one of"),
     (dict(section=SECTION, period=0.01, warmup=-2), "warmup", "at least 0"),
     (dict(section=SECTION, period=0.01, criterion="step"), "criterion", "'error'"),
+    (dict(section=SECTION, period=0.01, mode=5), "mode", "a label such as 'on|off'"),
 ])
 def test_bad_orbit_arguments_name_the_argument_the_value_and_what_to_give(relay_model, arguments, argument, words):
     with pytest.raises(OrbitArgumentError) as info:
@@ -106,6 +107,14 @@ def test_an_orbit_argument_given_to_a_continuation_is_refused_as_such(relay_mode
     # not "no orbit at v_hi = 7.5": the request itself is wrong
     with pytest.raises(OrbitArgumentError, match="max_iterations=-1"):
         continue_orbit(relay_model, "v_hi", [7.5, 8.0], section=SECTION, period=0.01, max_iterations=-1)
+    with pytest.raises(OptionError, match="max_step must be a positive number"):
+        continue_orbit(relay_model, "v_hi", [7.5, 8.0], section=SECTION, period=0.01, max_step=-1.0)
+
+
+def test_an_option_of_the_runs_is_refused_by_simulate_not_blamed_on_the_guess(relay_model):
+    with pytest.raises(UnknownOptionError, match="did you mean 'max_step'") as info:
+        periodic_orbit(relay_model, section=SECTION, period=0.01, max_stpe=1e-3)
+    assert "initial guess" not in str(info.value)
 
 
 def test_small_signal_inputs_each_once(relay_model):
