@@ -77,7 +77,7 @@ import numpy as np
 from bondgraph.errors import HybridBondGraphError
 
 from ..errors import ContinuationError, OptionError, OrbitArgumentError, UnknownOptionError
-from .orbit_arguments import checked_continuation_arguments
+from .orbit_arguments import checked_continuation_arguments, checked_x0
 from .orbits import PeriodicOrbit, periodic_orbit
 
 __all__ = ["Bifurcation", "Continuation", "ContinuationPoint", "continue_orbit"]
@@ -387,7 +387,7 @@ def continue_orbit(model, parameter: str, values, *, period=None, section=None, 
             if k == 0:
                 m = family.set(value)
                 result.state_names = tuple(m.state_names)
-                guess = m.initial_state() if x0 is None else np.asarray(x0, dtype=float)
+                guess = checked_x0(x0, m, "continue_orbit")
                 guess_mode, guess_period = mode, None
             else:
                 last = result.points[-1]

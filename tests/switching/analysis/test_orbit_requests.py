@@ -107,6 +107,8 @@ def test_an_orbit_argument_given_to_a_continuation_is_refused_as_such(relay_mode
     # not "no orbit at v_hi = 7.5": the request itself is wrong
     with pytest.raises(OrbitArgumentError, match="max_iterations=-1"):
         continue_orbit(relay_model, "v_hi", [7.5, 8.0], section=SECTION, period=0.01, max_iterations=-1)
+    with pytest.raises(OrbitArgumentError, match="continue_orbit: x0='abc' is not a state"):
+        continue_orbit(relay_model, "v_hi", [7.5, 8.0], section=SECTION, period=0.01, x0="abc")
     with pytest.raises(OptionError, match="max_step must be a positive number"):
         continue_orbit(relay_model, "v_hi", [7.5, 8.0], section=SECTION, period=0.01, max_step=-1.0)
 
