@@ -42,8 +42,8 @@ from models import spice_reference as S  # noqa: E402
 from models.circuits import Circuit  # noqa: E402
 from models.netlists import ideal_buck  # noqa: E402
 
-#: the tight options per circuit (the inductive one needs its stiff blocking phase resolved)
-TIGHT = {"half-wave, line R and L": dict(max_step=1e-6)}
+#: the tight options
+TIGHT = dict(rtol=1e-9, atol=1e-12)
 
 
 def same_laws() -> None:
@@ -54,10 +54,10 @@ def same_laws() -> None:
         times, voltages = S.run_ngspice(name, parts, t_end, step, nodes)
         spice_seconds = time.perf_counter() - start
         model = S.circuit(name, parts).build()
-        model.simulate(t_end, "auto", **TIGHT.get(name, {}))  # (warm: modes derived, kernels compiled)
+        model.simulate(t_end, "auto", **TIGHT)  # (warm: modes derived, kernels compiled)
         reference = voltages[nodes[0]] - (voltages[nodes[1]] if len(nodes) > 1 else 0.0)
         row = [f"{name:26}", f"{spice_seconds:8.2f}"]
-        for options in ({}, TIGHT.get(name, dict(rtol=1e-9, atol=1e-12))):
+        for options in ({}, TIGHT):
             start = time.perf_counter()
             run = model.simulate(t_end, "auto", t_eval=times, **options)
             seconds = time.perf_counter() - start

@@ -17,6 +17,15 @@ of triangular solves.  The error norm is scipy's (root mean square of
 1.  A step cannot be shorter than ten spacings of floating-point numbers at
 ``t`` (else the step size collapsed), nor longer than ``max_step``.
 
+An accepted step's Jacobian is checked at its end, where the next step needs
+it anyway: the stages damp the step's motion ``Δ = y₁ − y`` by ``(I −
+γh·J)``, and where ``‖(I − γh·J(y))·Δ‖`` exceeds both 1 (in the tolerance's
+units) and ``DAMPING_RATIO`` times ``‖(I − γh·J(y₁))·Δ‖``, the step left the
+region its linearization describes (a stiff state leaving its slow manifold:
+an exponential diode turning on, in series with an inductor, where ``J``
+falls by orders of magnitude within one step) and the error estimate, made
+with the same ``J``, cannot see it: the step is taken again, shorter.
+
 The records (see :mod:`.calls`): ``A = (y, f, y_new, f_new, Q)`` with the
 continuous extension's ``q₁, q₂`` in ``Q[:, 0:2]``; ``W = (tmp, err, K)``
 with the stages ``k₁…k₆`` in ``K[0:6]`` and a stage's rates in ``K[6]``;
@@ -61,6 +70,9 @@ from .compiler import dispatch, inline, rodas_control, stamp_with_rules
 __all__ = ["implicit_workspaces", "jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
 
 _SQRT_EPS = math.sqrt(np.finfo(np.float64).eps)
+#: a step is taken again, shorter, when the stages damped its motion more than this many times what the
+#: Jacobian at its end would (see rosenbrock_step)
+DAMPING_RATIO = 4.0
 
 
 def implicit_workspaces(L, implicit):
@@ -345,6 +357,20 @@ def _stages(m, k, t, h, rtol, atol, A, W, L, M):
     return math.sqrt(total / ke)
 
 
+@inline
+def _damped_motion(jbuf, ke, gh, y, y_new, rtol, atol):
+    """``‖(I − γh·J)·Δ‖`` (root mean square, each state over ``atol + rtol·max(|y|, |y₁|)``) of the step's
+    motion ``Δ = y₁ − y`` with the Jacobian ``J`` in ``jbuf``: how much the implicit stages damp that motion."""
+    total = 0.0
+    for i in range(ke):
+        acc = y_new[i] - y[i]
+        for j in range(ke):
+            acc -= gh * jbuf[i * ke + j] * (y_new[j] - y[j])
+        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+        total += (acc / sc) ** 2
+    return math.sqrt(total / max(ke, 1))
+
+
 @dispatch
 def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     """One accepted RODAS4P step from ``(t, y)``, trying ``h_abs`` first (see the module docstring): ``y₁``
@@ -358,7 +384,9 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     min_step = 10 * abs(np.nextafter(t, np.inf) - t)
     h_abs = min(h_abs, max_step)
     h_abs = max(h_abs, min_step)
-    jacobian(m, k, t, y, f, M, L, tmp, f_new)
+    if ctl[4] == 0.0:
+        jacobian(m, k, t, y, f, M, L, tmp, f_new)
+    ctl[4] = 0.0
     rejected = False
     left_reals = False  # the last trial left the reals: a collapse then reports NaN (a law left its domain)
     h = 0.0
@@ -382,9 +410,18 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
         left_reals = False
         h_next, h_acc, err_acc = rodas_control(error, h_abs, ctl[0], ctl[1], rejected)
         if error <= 1.0:
+            fun(m, t_new, y_new, k, M, f_new)
+            start = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, atol)
+            jacobian(m, k, t_new, y_new, f_new, M, L, tmp, err)
+            end = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, atol)
+            if start > 1.0 and start > DAMPING_RATIO * end:  # (NaN compares False: the step stands)
+                jacobian(m, k, t, y, f, M, L, tmp, f_new)
+                rejected = True
+                h_abs *= max(0.1, min(0.5, DAMPING_RATIO * end / start))
+                continue
+            ctl[4] = 1.0  # J and f_t at (t_new, y_new): the next step's
             ctl[0] = h_acc
             ctl[1] = err_acc
-            fun(m, t_new, y_new, k, M, f_new)
             for c in range(ke):
                 q1 = 0.0
                 q2 = 0.0

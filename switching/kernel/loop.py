@@ -88,7 +88,7 @@ def _layout(n, n_automata, width, n_sides, samples, max_instant):
     ne = max(n, 1)
     w = max(width, 1)
     slots = S_STEP + samples + 2 + w * (samples + 3)
-    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 4
+    floats = 72 * n + 18 * ne + 3 * max(n_sides, 1) + slots * (1 + w) + w + 2 * ne * ne + 2 * ne + 5
     ints = n_automata + max_instant + 1 + 64 + slots + samples + 4 + 2 * w + 1 + 6 * ne
     bools = slots * (1 + w) + w
     return floats, ints, bools
@@ -170,7 +170,7 @@ def _carve(x0, M, samples, max_instant, work):
     o += ne * ne
     fx = wf[o:o + ne]
     o += ne
-    ctl = wf[o:o + 4]
+    ctl = wf[o:o + 5]
     o = 0
     target = wi[o:o + radix.shape[0]]
     o += radix.shape[0]
@@ -358,6 +358,7 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
         L[4][0] = 0.0  # RODAS4P's controller: no accepted step yet; its Jacobian's buffer and order not made
         L[4][1] = 0.0
         L[4][3] = 0.0
+        L[4][4] = 0.0
     ke = y.shape[0]
     h_abs, pos, n_saved = _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC)
     stiff_run = 0
