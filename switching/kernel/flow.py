@@ -21,8 +21,8 @@ import math
 import numpy as np
 
 from .calls import argmax_abs, finite, fun
-from .compiler import (dispatch, euler_step, fixed_stiffness, hermite_cubic, inline, jit, rk4_combine, rodas_dense,
-                       stamp_with_rules)
+from .compiler import (dispatch, euler_step, fixed_stiffness, hermite_cubic, hermite_terms, inline, jit, nearer_end,
+                       rk4_combine, rodas_dense, stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
            "initial_step", "interp"]
@@ -77,7 +77,10 @@ def _stiff_verdict(power4, limit, at_once, streak, h, component, info):
 @dispatch
 def interp(kind, t_old, h, A, tau, out):
     """The step's interpolant: linear (Euler, kind 0), cubic Hermite (RK4, kind 1), scipy's RK45 dense output
-    (kind 2), RODAS4P's continuous extension (kind 3: ``Q[:, 0]``, ``Q[:, 1]`` its coefficients ``q₁``, ``q₂``)."""
+    (kind 2), RODAS4P's continuous extension (kind 3: ``Q[:, 0]``, ``Q[:, 1]`` its coefficients ``q₁``, ``q₂``);
+    a value beyond the step's end values by no more than the round-off of its terms (Hermite's weighed at
+    ``θ``; the adaptive methods' coefficients at their size) is the nearer end's
+    (:func:`switching.rules.steppers.nearer_end`)."""
     y_old, f_old, y_new, f_new, Q = A
     if kind == 0:
         dt = tau - t_old
@@ -86,20 +89,25 @@ def interp(kind, t_old, h, A, tau, out):
     elif kind == 1:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
-            out[i] = hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta)
+            out[i] = nearer_end(hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta), y_old[i],
+                                y_new[i], hermite_terms(y_old[i], f_old[i], y_new[i], f_new[i], h, theta))
     elif kind == 3:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
-            out[i] = rodas_dense(y_old[i], y_new[i], Q[i, 0], Q[i, 1], theta)
+            # (its coefficients q₁, q₂ carry the round-off of the stages, which are of the ends' size)
+            terms = abs(y_old[i]) + abs(y_new[i]) + abs(Q[i, 0]) + abs(Q[i, 1])
+            out[i] = nearer_end(rodas_dense(y_old[i], y_new[i], Q[i, 0], Q[i, 1], theta), y_old[i], y_new[i], terms)
     else:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
             acc = 0.0
+            terms = 0.0
             pw = 1.0
             for j in range(Q.shape[1]):
                 pw *= theta
                 acc += Q[i, j] * pw
-            out[i] = y_old[i] + h * acc
+                terms += abs(Q[i, j])
+            out[i] = nearer_end(y_old[i] + h * acc, y_old[i], y_new[i], abs(y_old[i]) + abs(h) * terms)
 
 
 @jit

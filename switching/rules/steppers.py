@@ -15,6 +15,23 @@ for Euler the step itself (``euler_step(y, f, τ − t)``), for RK4 the cubic
 Hermite polynomial through the ends' values and slopes (:func:`hermite_cubic`,
 third order: the order of the dense output, enough to locate events on it).
 
+A continuous extension is a sum of terms (the ends' values, and slopes or
+stage combinations times powers of ``θ``), and its value carries their
+round-off: where a state starts a step exactly on a guard's threshold (a
+current set to 0 at an instant) and moves away, the extension may dip beyond
+the step's end values by a few units of round-off of its terms — RODAS4P's
+``y₁ + q₁`` is ``h·f₀`` computed as a difference of two numbers of ``y₁``'s
+size — and a guard on that state holds inside the step though it holds at
+neither end: a diode of a bridge turned off and on again at every step, a
+divergence of time of round-off.  :func:`nearer_end`: a value beyond the
+nearer end by no more than ``DENSE_ULPS·ε·Σ|terms|`` is that end's value.
+The Hermite interpolant's terms are weighed at the ``θ`` evaluated
+(:func:`hermite_terms`: a ball's bounce within one fixed RK4 step is a hump
+above both ends, near ``θ = 0`` where the terms are small, and it stays);
+an adaptive method's coefficients (RK45's ``Q``, RODAS4P's ``q₁``, ``q₂``)
+carry the round-off of the stages they were formed from, which are of the
+ends' size, so theirs count whole.
+
 The caller evaluates ``f`` (the Python path with Python objects, the kernel
 through its function pointers) and calls these rules between evaluations.
 Each is written component-wise, so it applies as it is to floats (the kernel
@@ -25,9 +42,14 @@ IEEE results either way.
 
 from __future__ import annotations
 
-__all__ = ["RULES", "euler_step", "hermite_cubic", "rk4_combine"]
+__all__ = ["RULES", "DENSE_ULPS", "euler_step", "hermite_cubic", "hermite_terms", "nearer_end", "rk4_combine"]
 
-RULES = ("euler_step", "hermite_cubic", "rk4_combine")
+RULES = ("euler_step", "hermite_cubic", "hermite_terms", "nearer_end", "rk4_combine")
+
+#: a continuous extension's value within this many units of round-off of its terms beyond the step's end
+#: values is the nearer end's value (:func:`nearer_end`)
+DENSE_ULPS = 8.0
+_EPSILON = 2.220446049250313e-16
 
 
 def euler_step(y, f, h):
@@ -57,3 +79,30 @@ def hermite_cubic(y0, f0, y1, f1, h, theta):
     h01 = -2 * theta3 + 3 * theta2
     h11 = theta3 - theta2
     return h00 * y0 + h10 * h * f0 + h01 * y1 + h11 * h * f1
+
+
+def hermite_terms(y0, f0, y1, f1, h, theta):
+    """``Σ|terms|`` of :func:`hermite_cubic` at ``θ``: ``|h₀₀·y0| + |h₁₀·h·f0| + |h₀₁·y1| + |h₁₁·h·f1|``."""
+    theta2 = theta * theta
+    theta3 = theta2 * theta
+    h00 = 2 * theta3 - 3 * theta2 + 1
+    h10 = theta3 - 2 * theta2 + theta
+    h01 = -2 * theta3 + 3 * theta2
+    h11 = theta3 - theta2
+    return abs(h00 * y0) + abs(h10 * h * f0) + abs(h01 * y1) + abs(h11 * h * f1)
+
+
+def nearer_end(v, y0, y1, terms):
+    """``v``, a continuous extension's value between the step's end values
+    ``y0`` and ``y1``, with a value beyond the nearer of them by no more than
+    ``DENSE_ULPS·ε·terms`` (``terms``: the sum of the magnitudes of the terms
+    that formed ``v``) replaced by that end's value (module docstring).  The
+    choices are products with 0 or 1, so the result is ``v``, ``y0`` or
+    ``y1`` exactly (for finite ends)."""
+    first_lower = y0 <= y1
+    lo = y0 * first_lower + y1 * (1 - first_lower)
+    hi = y1 * first_lower + y0 * (1 - first_lower)
+    slack = DENSE_ULPS * _EPSILON * terms
+    below = (v < lo) & (v >= lo - slack)
+    above = (v > hi) & (v <= hi + slack)
+    return lo * below + hi * above + v * ((1 - below) - above)

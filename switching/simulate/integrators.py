@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from ..rules.steppers import euler_step, hermite_cubic, rk4_combine
+from ..rules.steppers import euler_step, hermite_cubic, hermite_terms, nearer_end, rk4_combine
 from ..rules.stiffness import AT_ONCE, fixed_stiffness
 
 __all__ = ["Euler", "RK4", "Adaptive", "ORDERS", "STABILITY_LIMITS", "StepFailed", "StiffnessDetected"]
@@ -231,14 +231,29 @@ class RK4(_Stepper):
         theta = (tau - self.t_old) / h
         if self._old_lists is not None:
             y_old, f_old = self._old_lists
-            return np.array([hermite_cubic(a, b, c, d, h, theta)
+            return np.array([nearer_end(hermite_cubic(a, b, c, d, h, theta), a, c, hermite_terms(a, b, c, d, h, theta))
                              for a, b, c, d in zip(y_old, f_old, self._y_list, self._f_list)])
         y_old, f_old = self._arrays
-        return hermite_cubic(y_old, f_old, self.y, self.f, h, theta)
+        return nearer_end(hermite_cubic(y_old, f_old, self.y, self.f, h, theta), y_old, self.y,
+                          hermite_terms(y_old, f_old, self.y, self.f, h, theta))
 
 
 # the stage evaluated at t + h for Hairer's test (RK23 has none: see Adaptive._hairer)
 _HAIRER_STAGE = {"RK45": 5, "DOP853": 11, "RK23": None}
+
+
+def _dense_terms(dense, y_old, y) -> np.ndarray:
+    """``Σ|terms|`` of scipy's dense output ``dense`` of a step from ``y_old`` to ``y``, for
+    :func:`~switching.rules.steppers.nearer_end`: ``|y_old| + |h|·Σ_j |Q_ij|`` where it is ``y_old +
+    h·Q·p(θ)`` (RK45, RK23; the kernel's RK45 alike), ``|y_old| + Σ_j |Q_ij|`` where it is ``y_old + Q·p``
+    (Radau), else ``|y_old| + |y|`` (a step's ends).  Unweighted by ``θ``: the coefficients ``Q`` carry the
+    round-off of the stages they were formed from."""
+    Q = getattr(dense, "Q", None)
+    kind = type(dense).__name__
+    if kind not in ("RkDenseOutput", "RadauDenseOutput") or not isinstance(Q, np.ndarray) or Q.ndim != 2:
+        return np.abs(y_old) + np.abs(y)
+    scale = abs(dense.h) if kind == "RkDenseOutput" else 1.0
+    return np.abs(y_old) + scale * np.abs(Q).sum(axis=1)
 
 
 class Adaptive(_Stepper):
@@ -268,7 +283,7 @@ class Adaptive(_Stepper):
         if self.solver.status == "failed":
             self.message = message or "step failed"
             raise StepFailed(self.message)
-        self.t_old = self.t
+        self.t_old, self.y_old = self.t, self.y
         self.t, self.y = self.solver.t, self.solver.y.copy()
         self._dense = None
         self.n_steps += 1
@@ -305,7 +320,8 @@ class Adaptive(_Stepper):
     def interpolate(self, tau):
         if self._dense is None:
             self._dense = self.solver.dense_output()
-        return self._dense(tau)
+            self._terms = _dense_terms(self._dense, self.y_old, self.y)
+        return nearer_end(self._dense(tau), self.y_old, self.y, self._terms)
 
     @property
     def step_size(self):

@@ -234,9 +234,10 @@ def test_the_steppers_python_and_compiled_agree_to_the_bit():
     numba = pytest.importorskip("numba")
     import numpy as np
 
-    from switching.rules.steppers import euler_step, hermite_cubic, rk4_combine
+    from switching.rules.steppers import euler_step, hermite_cubic, hermite_terms, rk4_combine
 
     euler, combine, hermite = numba.njit(euler_step), numba.njit(rk4_combine), numba.njit(hermite_cubic)
+    terms = numba.njit(hermite_terms)
     rng = np.random.default_rng(6)
     for values in rng.normal(size=(200, 5)).tolist():
         h = abs(values[0]) * 1e-2
@@ -244,6 +245,42 @@ def test_the_steppers_python_and_compiled_agree_to_the_bit():
         assert combine(*values, h) == rk4_combine(*values, h)
         theta = abs(values[4]) % 1.0
         assert hermite(*values[:4], h, theta) == hermite_cubic(*values[:4], h, theta)
+        assert terms(*values[:4], h, theta) == hermite_terms(*values[:4], h, theta)
+
+
+def test_a_dense_value_beyond_the_steps_ends_within_its_terms_round_off_is_the_nearer_end():
+    """RODAS4P's extension of a step from exactly 0 to 2.47e-23 dips to −1.9e-39 inside it (``y₁ + q₁``, a
+    difference of two numbers of ``y₁``'s size): that is the end value 0, exactly; a dip beyond the round-off
+    of the terms, and any value between the ends, is kept; arrays give the same values as floats."""
+    import numpy as np
+
+    from switching.rules.steppers import DENSE_ULPS, nearer_end
+
+    terms = 5e-23
+    assert nearer_end(-1.9e-39, 0.0, 2.47e-23, terms) == 0.0
+    assert nearer_end(2.47e-23 + 1e-39, 0.0, 2.47e-23, terms) == 2.47e-23
+    assert nearer_end(-1.9e-39, 2.47e-23, 0.0, terms) == 0.0  # (either end may be the lower)
+    beyond = -2 * DENSE_ULPS * 2.220446049250313e-16 * terms
+    assert nearer_end(beyond, 0.0, 2.47e-23, terms) == beyond
+    assert nearer_end(1.2e-23, 0.0, 2.47e-23, terms) == 1.2e-23
+    assert math.isnan(nearer_end(math.nan, 0.0, 1.0, 1.0))
+    values = [-1.9e-39, 2.47e-23 + 1e-39, beyond, 1.2e-23]
+    whole = nearer_end(np.array(values), np.zeros(4), np.full(4, 2.47e-23), np.full(4, terms))
+    assert whole.tolist() == [nearer_end(v, 0.0, 2.47e-23, terms) for v in values]
+
+
+def test_the_nearer_end_python_and_compiled_agree_to_the_bit():
+    numba = pytest.importorskip("numba")
+    import numpy as np
+
+    from switching.rules.steppers import nearer_end
+
+    compiled = numba.njit(nearer_end)
+    rng = np.random.default_rng(7)
+    for y0, y1, scale, theta in rng.normal(size=(300, 4)).tolist():
+        terms = abs(y0) + abs(y1)
+        v = y0 + (y1 - y0) * theta * 1.5 + scale * 1e-16 * terms  # beyond the ends, by a little or a lot
+        assert compiled(v, y0, y1, terms) == nearer_end(v, y0, y1, terms)
 
 
 # ---------------------------------------------------------------- the pulse at a jump
