@@ -45,7 +45,7 @@ __all__ = ["tie_groups", "witness_modes", "group_settings", "spanning_settings",
            "forest_setting", "floating_witnesses", "first_floating_mode", "OFF", "ON"]
 
 #: the components whose terminals' potentials are tied in every mode (their letters in :class:`Part`)
-TYING = ("R", "C", "L", "V", "T", "G")
+TYING = ("R", "C", "L", "V", "T", "G", "K")
 #: the components that conduct or block by their automaton
 SWITCHING = ("D", "S")
 

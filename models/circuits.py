@@ -201,8 +201,9 @@ class Circuit(Netlist):
     """A netlist: components between named nodes; ground is node ``"0"``.
 
     Add components with :meth:`R`, :meth:`C`, :meth:`L`, :meth:`V`,
-    :meth:`I`, :meth:`diode`, :meth:`switch`, :meth:`transformer` and
-    :meth:`gyrator`; :meth:`build` returns the
+    :meth:`I`, :meth:`diode`, :meth:`switch` (and :meth:`mosfet`,
+    :meth:`igbt`, :meth:`half_bridge`), :meth:`transformer`,
+    :meth:`coupled_inductors` and :meth:`gyrator`; :meth:`build` returns the
     :class:`~switching.HybridModel`.  Component names are identifiers and
     unique; node names are letters, digits and ``_`` (``"1"``, ``"out"``).
     See the module documentation for the conventions.
@@ -319,6 +320,22 @@ class Circuit(Netlist):
         self._add("T", name, (p1, p2, s1, s2),
                   value=checked_argument(ratio, f"the turns ratio of transformer {name!r}", ("number", "name", "sympy")))
 
+    def coupled_inductors(self, name: str, p1, p2, s1, s2, L1, L2, k) -> None:
+        """Two magnetically coupled windings (SPICE's ``L1``, ``L2`` and ``K``): the primary from ``p1``
+        to ``p2``, the secondary from ``s1`` to ``s2``, both currents into the dotted terminals ``p1``,
+        ``s1``: ``v₁ = L1·di₁/dt + M·di₂/dt``, ``v₂ = M·di₁/dt + L2·di₂/dt`` with ``M = k·√(L1·L2)``
+        [H], ``0 < k ≤ 1``.  Built as its T-equivalent: a leakage inductance ``(1 − k²)·L1`` in series with
+        the primary, a magnetizing inductance ``k²·L1`` across an ideal transformer of ratio ``k·√(L1/L2)``
+        (``k = 1``: no leakage, a transformer with its magnetizing inductance: a flyback's).  Both currents
+        start at 0.  Parameters ``<name>_L1``, ``<name>_L2``, ``<name>_k`` (or the names given); signals
+        ``v_<name>_p``, ``i_<name>_p``, ``v_<name>_s``, ``i_<name>_s`` (the windings' voltages and
+        currents) and ``i_<name>_m`` (the magnetizing current, referred to the primary: ``i₁ + i₂·√(L2/L1)/k``)."""
+        values = {key: checked_argument(value, f"{what} of coupled inductors {name!r}", ("number", "name", "sympy"))
+                  for key, value, what in (("L1", L1, "the primary's inductance L1"),
+                                           ("L2", L2, "the secondary's inductance L2"),
+                                           ("k", k, "the coupling coefficient k"))}
+        self._add("K", name, (p1, p2, s1, s2), **values)
+
     def gyrator(self, name: str, p1, p2, s1, s2, r) -> None:
         """An ideal gyrator with ratio ``r`` [Ω]: ``v_p = r·i_s`` and
         ``v_s = r·i_p`` (a DC machine's electrical and mechanical ports in an
@@ -409,10 +426,10 @@ class Circuit(Netlist):
                                     "contradicted); put a resistor in the loop or merge the capacitors",
                                     loop)
         # cutsets of inductors and current sources: their currents are not independent
-        others = [(a, b) for a, b, p in edges if p.kind not in ("L", "I")]
+        others = [(a, b) for a, b, p in edges if p.kind not in ("L", "I", "K")]
         groups = _components(nodes, others)
         if len(set(groups.values())) > 1:
-            cut = sorted({p.name for a, b, p in edges if p.kind in ("L", "I") and groups[a] != groups[b]})
+            cut = sorted({p.name for a, b, p in edges if p.kind in ("L", "I", "K") and groups[a] != groups[b]})
             raise InvalidGraphError(f"{', '.join(cut)} form a cutset of inductors and current sources: "
                                     "their currents are tied (a state would be dependent, a source "
                                     "contradicted); add a resistor across one of them or merge the inductors",
@@ -744,6 +761,50 @@ class _Builder(NetlistBuilder):
             self.signal(f"v_{name}_{side}", f"e_{bond.name}", owner)
             self.signal(f"i_{name}_{side}", f"f_{bond.name}", owner)
 
+    def coupled(self, part):
+        """The T-equivalent of coupled inductors (:meth:`Circuit.coupled_inductors`): ``p1 → 1_primary → p2``
+        with the leakage ``I`` on the 1-junction and a bond to the core's 0-junction, which holds the
+        magnetizing ``I`` and the transformer to the secondary's 1-junction (``s1 → 1_secondary → s2``)."""
+        name = part.name
+        owner = f"coupled inductors {name!r}"
+        inductance = {key: self.number_or_parameter(
+            part.values[key], f"{name}_{key}", f"{what} of {owner}", rename=f"rename {owner}",
+            allowed=Range(f"the {what} of {owner}", 0.0, low_open=True))
+            for key, what in (("L1", "primary's inductance"), ("L2", "secondary's inductance"))}
+        k = self.number_or_parameter(part.values["k"], f"{name}_k", f"coupling coefficient of {owner}",
+                                     rename=f"rename {owner}",
+                                     allowed=Range(f"the coupling coefficient of {owner}", 0.0, 1.0, low_open=True,
+                                                   required=True))
+        L1, L2 = inductance["L1"], inductance["L2"]
+        p1, p2, s1, s2 = part.nodes
+        primary = self.graph.add(One(self.internal(f"{name}_primary")))
+        core = self.graph.add(Zero(self.internal(f"{name}_core")))
+        secondary = self.graph.add(One(self.internal(f"{name}_secondary")))
+        if p1 != GROUND:
+            self.note(p1, self.graph.connect(self.node(p1), primary))
+        if p2 != GROUND:
+            self.note(p2, self.graph.connect(primary, self.node(p2)))
+        into_core = self.graph.connect(primary, core, name=self.bond_name(f"{name}_core"))
+        across = f"e_{into_core.name}"
+        if part.values["k"] != 1:  # (k = 1: no leakage)
+            leakage = self.graph.add(I(self.internal(f"{name}_leakage"), (1 - k ** 2) * L1))
+            bond = self.graph.connect(primary, leakage, name=self.bond_name(f"{name}_leakage"))
+            across = f"e_{bond.name} + {across}"
+        magnetizing = self.graph.add(I(self.internal(f"{name}_magnetizing"), k ** 2 * L1))
+        bond_m = self.graph.connect(core, magnetizing, name=self.bond_name(f"{name}_magnetizing"))
+        element = self.graph.add(TF(self.internal(f"{name}_transformer"), k * sp.sqrt(L1 / L2)))
+        self.graph.connect(core, element, name=self.bond_name(f"{name}_p"))
+        bond_s = self.graph.connect(element, secondary, name=self.bond_name(f"{name}_s"))
+        if s1 != GROUND:
+            self.note(s1, self.graph.connect(secondary, self.node(s1)))
+        if s2 != GROUND:
+            self.note(s2, self.graph.connect(self.node(s2), secondary))
+        self.signal(f"v_{name}_p", across, owner)
+        self.signal(f"i_{name}_p", f"f_{into_core.name}", owner)
+        self.signal(f"v_{name}_s", f"e_{bond_s.name}", owner)
+        self.signal(f"i_{name}_s", f"-f_{bond_s.name}", owner)
+        self.signal(f"i_{name}_m", f"f_{bond_m.name}", owner)
+
     def leaks(self):
         """A resistor ``<name>_gmin`` of resistance ``1/gmin`` across every
         ideal diode and switch (:meth:`Circuit.build`'s ``gmin``)."""
@@ -777,7 +838,7 @@ class _Builder(NetlistBuilder):
         for part in self.circuit._parts.values():
             {"R": self.passive, "C": self.passive, "L": self.passive, "V": self.voltage_source,
              "I": self.current_source, "D": self.diode, "S": self.switch,
-             "T": self.two_port, "G": self.two_port}[part.kind](part)
+             "T": self.two_port, "G": self.two_port, "K": self.coupled}[part.kind](part)
         if self.gmin is not None:
             self.leaks()
         node_signals = {}
