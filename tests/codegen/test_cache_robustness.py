@@ -128,7 +128,10 @@ def read_only_prelude(directory) -> str:
 
 
 def run_python(script: str, cache_dir, **env) -> subprocess.CompletedProcess:
+    """``script`` run by a new interpreter with ``HBG_CACHE_DIR=cache_dir`` and numba's files beside their
+    modules (a ``NUMBA_CACHE_DIR`` of the environment, a common setting, would put them elsewhere)."""
     environment = {**os.environ, "HBG_CACHE_DIR": str(cache_dir), "PYTHONPATH": str(ROOT), **env}
+    environment.pop("NUMBA_CACHE_DIR", None)
     return subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=environment, capture_output=True, text=True,
                           timeout=TIMEOUT)
 
@@ -309,6 +312,15 @@ TINY = textwrap.dedent(
 TINY_DIALECT = Dialect(imports=(("numba", "njit", None),))  # (a generated module may hold only what it is allowed)
 
 
+@pytest.fixture
+def numba_beside_modules(monkeypatch):
+    """numba's index and data files in ``__pycache__`` beside their modules, as without ``NUMBA_CACHE_DIR``
+    (numba read the variable at its import: its setting is undone too)."""
+    numba_config = pytest.importorskip("numba.core.config")
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(numba_config, "CACHE_DIR", "")
+
+
 def _tiny(directory):
     from codegen.jit import load_module
 
@@ -323,7 +335,7 @@ def _reload(name, directory):
     return load_module(name, TINY, directory, TINY_DIALECT)
 
 
-def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tmp_path):
+def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tmp_path, numba_beside_modules):
     pytest.importorskip("numba")
     from codegen import jit
 
@@ -355,7 +367,7 @@ def test_unreadable_numba_index_and_data_files_are_deleted_and_compiled_again(tm
         assert not module.thrice.stats.cache_misses and module.thrice.stats.cache_hits  # loaded
 
 
-def test_an_unwritable_cache_directory_warns_and_the_module_still_works(tmp_path, monkeypatch):
+def test_an_unwritable_cache_directory_warns_and_the_module_still_works(tmp_path, monkeypatch, numba_beside_modules):
     pytest.importorskip("numba")
     from codegen import jit
 
@@ -378,7 +390,8 @@ def test_an_unwritable_cache_directory_warns_and_the_module_still_works(tmp_path
         make_writable(read_only)
 
 
-def test_a_cache_directory_that_cannot_exist_warns_and_off_uses_a_private_directory(tmp_path, monkeypatch):
+def test_a_cache_directory_that_cannot_exist_warns_and_off_uses_a_private_directory(tmp_path, monkeypatch,
+                                                                                   numba_beside_modules):
     """A path below a regular file cannot be created even by root."""
     pytest.importorskip("numba")
     from codegen import jit
