@@ -21,8 +21,8 @@ import math
 import numpy as np
 
 from .calls import argmax_abs, finite, fun
-from .compiler import (dispatch, euler_step, fixed_stiffness, hermite_cubic, hermite_terms, inline, jit, nearer_end,
-                       rk4_combine, rodas_dense, stamp_with_rules)
+from .compiler import (dispatch, euler_step, fixed_size, fixed_stiffness, hermite_cubic, hermite_terms, inline, jit,
+                       nearer_end, rk4_combine, rodas_dense, stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
            "initial_step", "interp"]
@@ -155,8 +155,8 @@ def fixed_step(kind, m, k, t, t_end, dt, streak, history, check, A, W, M, info):
     y, f, y_new, f_new, Q = A
     tmp, err, K = W
     ke = y.shape[0]
-    h = min(dt, t_end - t)
-    t_new = t + h if t + h < t_end else t_end
+    h = fixed_size(dt, t, t_end)
+    t_new = t + h if t + h < t_end and h == dt else t_end
     if kind == 0:
         if history == 2 and check:
             num = 0.0

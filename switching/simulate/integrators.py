@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from ..rules.steppers import euler_step, hermite_cubic, hermite_terms, nearer_end, rk4_combine
+from ..rules.steppers import euler_step, fixed_size, hermite_cubic, hermite_terms, nearer_end, rk4_combine
 from ..rules.stiffness import AT_ONCE, fixed_stiffness
 
 __all__ = ["Euler", "RK4", "Adaptive", "ORDERS", "STABILITY_LIMITS", "StepFailed", "StiffnessDetected"]
@@ -138,7 +138,7 @@ class Euler(_Stepper):
 
     def step(self):
         t = self.t
-        h = min(self.dt, self.t_bound - t)
+        h = fixed_size(self.dt, t, self.t_bound)
         history = self._history
         if self._fun_list is not None:
             y = self._y_list
@@ -159,7 +159,7 @@ class Euler(_Stepper):
             history.append(f)
             self.t_old, self._old_lists, self._old_arrays = t, None, (y, f)
             self.y = euler_step(y, f, h)
-        self.t = t + h if t + h < self.t_bound else self.t_bound
+        self.t = t + h if t + h < self.t_bound and h == self.dt else self.t_bound
         self.n_steps += 1
         return self.t, self.y
 
@@ -188,7 +188,7 @@ class RK4(_Stepper):
 
     def step(self):
         t = self.t
-        h = min(self.dt, self.t_bound - t)
+        h = fixed_size(self.dt, t, self.t_bound)
         half = h / 2
         th = t + half
         fun = self._fun_list
@@ -204,7 +204,7 @@ class RK4(_Stepper):
             y_new = [rk4_combine(a, b1, b2, b3, b4, h) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)]
             self.t_old, self.h, self._old_lists = t, h, (y, k1)
             self._y_list = y_new
-            self.t = t + h if t + h < self.t_bound else self.t_bound
+            self.t = t + h if t + h < self.t_bound and h == self.dt else self.t_bound
             self._f_list = fun(self.t, y_new)
             self.y = np.array(y_new)
             self.n_steps += 1
@@ -221,7 +221,7 @@ class RK4(_Stepper):
         self.t_old, self.h, self._old_lists = t, h, None
         self._arrays = (y, k1)
         s = self.y = rk4_combine(y, k1, k2, k3, k4, h)
-        self.t = t + h if t + h < self.t_bound else self.t_bound
+        self.t = t + h if t + h < self.t_bound and h == self.dt else self.t_bound
         self.f = fun(self.t, s)
         self.n_steps += 1
         return self.t, s
