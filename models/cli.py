@@ -313,6 +313,26 @@ def _distinct_outputs(outputs) -> None:
         seen[key] = option
 
 
+def _check_outputs(outputs) -> None:
+    """Usage errors, before anything runs, for the output options ``outputs`` (``(option, path, kind)``,
+    ``kind`` ``"plot"``, ``"npz"`` or ``"data"``; a ``None`` path is an option not given): an empty path, a
+    directory (``out/``, before ``numpy.savez`` or matplotlib add an extension and write a hidden file in
+    it), a file that cannot be written (:func:`_check_output`), and two options writing the same file
+    (compared on the files written: ``--plot r`` writes ``r.png``)."""
+    written = []
+    for option, path, kind in outputs:
+        if path is None:
+            continue
+        if not path.strip():
+            raise _UsageError(f"{option}: the file name is empty; give a file name or leave {option} out")
+        if path.endswith(("/", os.sep)) or os.path.isdir(path):
+            raise _UsageError(f"{option} {path}: is a directory, give a file name")
+        written.append((option, {"plot": _plot_target, "npz": _npz_target}.get(kind, str)(path), kind))
+    _distinct_outputs([(option, target) for option, target, _ in written])
+    for option, target, kind in written:
+        _check_output(option, target, plot=kind == "plot")
+
+
 def _check_output(option: str, path: str, plot: bool = False) -> None:
     """Usage errors, before anything runs, for an output file that cannot be
     written: an unsupported plot format, a missing or read-only directory."""
@@ -442,12 +462,9 @@ def _cmd_run(args) -> int:
     t_end, method, options = _run_options(args, module, "auto")
     if args.samples < 0 or args.samples == 1:
         raise _UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
-    _distinct_outputs((("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)))
+    _check_outputs((("--csv", args.csv, "data"), ("--npz", args.npz, "npz"), ("--plot", args.plot, "plot")))
     if args.with_instants and not args.keep_instants:
         raise _UsageError("--with-instants needs the instants: drop --no-keep-instants")
-    for option, path in (("--csv", args.csv), ("--npz", _npz_target(args.npz)), ("--plot", args.plot)):
-        if path:
-            _check_output(option, path, plot=option == "--plot")
     model = module.build(**parameters)
     x0 = _initial_state(model, states, module.DEFAULTS)
     if x0 is not None:
@@ -586,7 +603,7 @@ def _cmd_codegen(args) -> int:
 
 def _cmd_save(args) -> int:
     """``hbg save``: write a model (with its --set values) and its default run to a model file."""
-    _check_output("-o/--output", args.output)
+    _check_outputs((("-o/--output", args.output, "data"),))
     module, model = _build(args)
     run = dict(module.RUN)
     run["signals"] = list(module.SIGNALS)
@@ -604,7 +621,7 @@ def _cmd_draw(args) -> int:
     matplotlib.use("Agg")
     from bondgraph.drawing import draw_bond_graph, pyplot
 
-    _check_output("-o/--output", args.output, plot=True)
+    _check_outputs((("-o/--output", args.output, "plot"),))
     _, model = _build(args)
     mode = model.mode(args.mode) if args.mode else model.initial_mode
     described = mode.describe()
@@ -728,10 +745,7 @@ def _cmd_sweep(args) -> int:
     if args.plot and len(varying) not in (1, 2):
         raise _UsageError(f"--plot shows one or two parameters that vary over the grid; {len(varying)} vary"
                           + (f" ({', '.join(varying)})" if varying else ""))
-    _check_output("--csv", args.csv)
-    if args.plot:
-        _check_output("--plot", args.plot, plot=True)
-    _distinct_outputs((("--csv", args.csv), ("--plot", args.plot)))
+    _check_outputs((("--csv", args.csv, "data"), ("--plot", args.plot, "plot")))
     require_pandas()  # a missing pandas is said before the sweep, not after
     model = module.build(**base)  # checks --set, and names the states and signals metrics may use
     _check_run(model, t_end, method, options)  # a --dt no run could take: refused once, not by every run
@@ -877,11 +891,7 @@ def _cmd_orbit(args) -> int:
     if args.warmup < 0:
         raise _UsageError(f"--warmup must be 0 or more, got {args.warmup}")
     signal = args.signal
-    outputs = (("--csv", args.csv), ("--plot", args.plot))
-    _distinct_outputs(outputs)
-    for option, path in outputs:
-        if path:
-            _check_output(option, path, plot=option == "--plot")
+    _check_outputs((("--csv", args.csv, "data"), ("--plot", args.plot, "plot")))
     model = module.build(**parameters)
     x0 = _initial_state(model, states, module.DEFAULTS)
     if signal is not None and signal not in model.state_names and signal not in model.signal_names:
@@ -1193,13 +1203,51 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"hbg: warning: {category.__name__}: {message}", file=file or sys.stderr)
 
 
+class _ClosedPipeGuard:
+    """``sys.stdout`` while a command runs: a reader that closes the pipe (``hbg run … | head``) ends the
+    printing quietly — what is printed after goes nowhere — and the command goes on to write its files."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.closed_pipe = False
+
+    def write(self, text: str) -> int:
+        if not self.closed_pipe:
+            try:
+                return self.stream.write(text)
+            except BrokenPipeError:
+                self._close()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.closed_pipe:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._close()
+
+    def _close(self) -> None:
+        self.closed_pipe = True
+        try:  # (Python flushes stdout at exit: onto /dev/null, not into the closed pipe)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 def main(argv=None) -> int:
     """Run ``hbg`` with ``argv`` (default: the command line); return the exit status."""
     shown = warnings.showwarning
     warnings.showwarning = _show_warning
+    stdout = sys.stdout
+    sys.stdout = _ClosedPipeGuard(stdout)
     try:
         return _main(argv)
     finally:
+        sys.stdout.flush()
+        sys.stdout = stdout
         warnings.showwarning = shown
 
 

@@ -323,7 +323,7 @@ def _connected(client, workers: int | None, runs: int, retries: int):
     if isinstance(client, str):
         try:
             connection = distributed.Client(client, timeout="10s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:  # (ValueError: no address, e.g. no port)
             raise ParameterValueError(
                 f"simulate_many: cannot reach a Dask scheduler at {client!r} ({exc}); start one "
                 "(`dask scheduler`, then `dask worker ADDRESS` on each machine) or check the address",

@@ -1,0 +1,58 @@
+"""The command line's output files (issue 44, item 3): checked on the files actually written, refused
+before the run when they cannot be, and written even when the reader of stdout goes away."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from models import cli
+
+
+@pytest.mark.parametrize("command", [["run", "bouncing-ball", "--t-end", "0.5"],
+                                     ["orbit", "boost-converter", "--period", "1e-4"]])
+def test_a_plot_whose_file_is_another_outputs_is_refused_before_the_run(command, tmp_path, capsys):
+    """``--csv r.png --plot r``: matplotlib writes ``r.png``, which replaced the CSV (exit 0)."""
+    csv = tmp_path / "r.png"
+    assert cli.main([*command, "--csv", str(csv), "--plot", str(tmp_path / "r")]) == cli.EXIT_USAGE
+    assert "both name" in capsys.readouterr().err and not csv.exists()
+
+
+def test_a_sweep_plot_whose_file_is_the_csv_is_refused(tmp_path, capsys):
+    code = cli.main(["sweep", "bouncing-ball", "--grid", "e=0.5,0.6", "--csv", str(tmp_path / "s.png"),
+                     "--plot", str(tmp_path / "s"), "--workers", "1"])
+    assert code == cli.EXIT_USAGE and "both name" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option", ["--csv", "--npz", "--plot"])
+def test_an_empty_path_or_a_directory_is_refused_before_the_run(option, tmp_path, capsys):
+    """``--csv ""`` wrote nothing and exited 0; ``--npz out/`` wrote a hidden ``out/.npz``."""
+    run = ["run", "bouncing-ball", "--t-end", "0.5"]
+    assert cli.main([*run, option, ""]) == cli.EXIT_USAGE
+    assert "empty" in capsys.readouterr().err
+    assert cli.main([*run, option, str(tmp_path) + os.sep]) == cli.EXIT_USAGE
+    assert "is a directory" in capsys.readouterr().err
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_scheduler_address_that_is_no_address_is_the_toolkits_error(tmp_path, capsys):
+    """``--scheduler "not a url"`` printed "internal error … this is a bug"."""
+    code = cli.main(["sweep", "bouncing-ball", "--grid", "e=0.5,0.6", "--csv", str(tmp_path / "s.csv"),
+                     "--scheduler", "not a url"])
+    err = capsys.readouterr().err
+    assert code == cli.EXIT_USAGE and "cannot reach a Dask scheduler at 'not a url'" in err and "bug" not in err
+
+
+def test_a_reader_that_closes_the_pipe_leaves_the_files_written_and_the_exit_status_zero(tmp_path):
+    """``hbg run … --plot d.png | head -1`` printed "[Errno 32] Broken pipe", exited 2 and wrote no PNG."""
+    plot = tmp_path / "d.png"
+    process = subprocess.Popen([sys.executable, "-m", "models.cli", "run", "bouncing-ball", "--t-end", "0.5",
+                                "--plot", str(plot)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               env={**os.environ, "MPLBACKEND": "Agg"}, cwd=tmp_path)
+    first = process.stdout.readline()
+    process.stdout.close()  # (as head does after its line)
+    err = process.stderr.read().decode()
+    assert process.wait(timeout=300) == 0, err
+    assert first.startswith(b"trajectory of") and "Broken pipe" not in err
+    assert plot.stat().st_size > 10_000
