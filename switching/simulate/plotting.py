@@ -20,8 +20,8 @@ import numpy as np
 from bondgraph.drawing import draw_bond_graph, pyplot
 from bondgraph.errors import HybridBondGraphError
 
-__all__ = ["DEFAULT_PANELS", "FLAT", "MAX_POINTS", "default_signals", "draw_bond_graph", "mode_colors", "mode_graph",
-           "phase_portrait", "plot_trajectory"]
+__all__ = ["DEFAULT_PANELS", "FLAT", "MAX_POINTS", "MAX_SPANS", "default_signals", "draw_bond_graph", "mode_colors",
+           "mode_graph", "phase_portrait", "plain", "plot_trajectory", "time_unit"]
 
 
 def mode_colors(modes, model=None) -> dict:
@@ -56,6 +56,8 @@ def mode_colors(modes, model=None) -> dict:
 DEFAULT_PANELS = 6
 #: a panel of more samples in its window is drawn as a min–max envelope per time bin (half this many bins)
 MAX_POINTS = 6000
+#: the most mode intervals shaded one by one; beyond, the shading is decimated per column (_shading)
+MAX_SPANS = 400
 #: a signal whose range is below this fraction of its magnitude is drawn as constant (round-off is not a signal)
 FLAT = 1e-9
 
@@ -110,17 +112,62 @@ def _draw_signal(ax, t, values, label, color):
 
 
 def _intervals(trajectory):
-    """(t_start, t_end, mode) of each flow interval (a new one after every instant)."""
-    breaks = set(trajectory.event_index)
-    spans = []
-    start = 0
-    for k in range(1, len(trajectory.t) + 1):
-        if k == len(trajectory.t) or k in breaks or trajectory.modes[k] != trajectory.modes[start]:
-            t0, t1 = trajectory.t[start], trajectory.t[k - 1]
-            if t1 > t0:
-                spans.append((t0, t1, trajectory.modes[start]))
-            start = k
-    return spans
+    """(t_start, t_end, mode) of each flow interval (a new one after every instant or change of mode)."""
+    t = np.asarray(trajectory.t)
+    n = len(t)
+    if n == 0:
+        return []
+    places: dict = {}
+    numbers = np.fromiter((places.setdefault(m, len(places)) for m in trajectory.modes), dtype=np.int64, count=n)
+    changes = np.flatnonzero(numbers[1:] != numbers[:-1]) + 1
+    breaks = np.asarray([k for k in trajectory.event_index if 0 < k < n], dtype=np.int64)
+    bounds = np.union1d(changes, breaks)
+    starts = np.concatenate([[0], bounds])
+    ends = np.concatenate([bounds, [n]]) - 1
+    keep = t[ends] > t[starts]
+    return [(t[a], t[b], trajectory.modes[a]) for a, b in zip(starts[keep], ends[keep])]
+
+
+def _shading(spans, low, high, bins):
+    """The mode intervals to shade: ``spans`` as they are when there are at most ``MAX_SPANS``, else per
+    column of ``bins`` equal time bins over ``[low, high]`` the mode at the column's centre, equal
+    neighbours merged (a 100 kHz converter's 10⁵ periods would be 2·10⁵ patches: minutes and gigabytes)."""
+    if len(spans) <= MAX_SPANS:
+        return spans
+    starts = np.array([a for a, _, _ in spans])
+    ends = np.array([b for _, b, _ in spans])
+    edges = np.linspace(low, high, bins + 1)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    index = np.clip(np.searchsorted(starts, centres, side="right") - 1, 0, len(spans) - 1)
+    shaded = []
+    for k, i in enumerate(index):
+        if not starts[i] <= centres[k] <= ends[i]:
+            continue  # (the centre falls on an instant between two spans)
+        mode = spans[i][2]
+        if shaded and shaded[-1][2] == mode and shaded[-1][1] == edges[k]:
+            shaded[-1] = (shaded[-1][0], edges[k + 1], mode)
+        else:
+            shaded.append((edges[k], edges[k + 1], mode))
+    return shaded
+
+
+#: the time axis's units: (factor, name) for a window at least as long as the key [s]
+_TIME_UNITS = ((1.0, (1.0, "s")), (1e-3, (1e3, "ms")), (1e-6, (1e6, "µs")), (0.0, (1e9, "ns")))
+
+
+def time_unit(span: float) -> tuple[float, str]:
+    """``(factor, unit)`` to show a time window of ``span`` [s] in: s, ms, µs or ns, whichever keeps its
+    ticks between 1 and 1000 units."""
+    for least, unit in _TIME_UNITS:
+        if span >= least:
+            return unit
+    return _TIME_UNITS[-1][1]
+
+
+def plain(text: str) -> str:
+    """``text`` as matplotlib shows it literally: a ``$`` would start mathtext (a unit ``"$/kWh"``, or
+    ``"$\\frac{a}$"`` that mathtext cannot parse, failed the whole plot)."""
+    return str(text).replace("$", r"\$")
 
 
 #: how an instant is marked: (line style, legend entry) by what it passed
@@ -163,8 +210,10 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     plt = pyplot()
     panels = [list(entry) if isinstance(entry, (list, tuple)) else [entry]
               for entry in (signals or default_signals(trajectory))]
-    if axes is None:
-        fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8), squeeze=False)
+    own = axes is None  # (a figure of its own: legends outside the panels, in its constrained layout)
+    if own:
+        fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(9, 1.9 * len(panels) + 0.8), squeeze=False,
+                                 layout="constrained")
         axes = axes[:, 0]
     else:
         axes = np.atleast_1d(axes)
@@ -180,6 +229,8 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
         inside = np.ones(len(t), dtype=bool)
     spans = [(max(a, low), min(b, high), m) for a, b, m in _intervals(trajectory) if b >= low and a <= high]
     colors = mode_colors([m for *_, m in spans] or trajectory.modes, trajectory.model)
+    spans = _shading(spans, low, high, MAX_POINTS // 2)
+    factor, time_name = time_unit(high - low)
     instants = [i for i in trajectory.events if low <= i.t <= high]
     cycle = plt.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
     unit, label = _units(trajectory)
@@ -190,8 +241,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
             constant = _draw_signal(ax, t[inside], np.asarray(trajectory.signal(name))[inside], name, color)
             if constant is not None:
                 flat[name] = constant
-        for t0, t1, mode in spans:
-            ax.axvspan(t0, t1, color=colors[mode], alpha=0.18, lw=0)
+        _shade(ax, spans, colors)
         if len(instants) <= max_instants:
             for instant in instants:
                 ax.axvline(instant.t, color="0.35", ls=_INSTANT_STYLES[_instant_kind(instant)][0], lw=0.8)
@@ -199,32 +249,66 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
             value = next(iter(flat.values()))
             pad = 0.5 * abs(value) if value else 1.0
             ax.set_ylim(value - pad, value + pad)
-        shown = [f"{label(name)} (constant: {flat[name]:.6g})" if name in flat else label(name) for name in names]
+        shown = [plain(f"{label(name)} (constant: {flat[name]:.6g})" if name in flat else label(name))
+                 for name in names]
         if len(names) == 1:
             ax.set_ylabel(shown[0], fontsize=8 if len(shown[0]) > 18 else None)
         else:
-            ax.legend(shown, fontsize=7, loc="upper right")
+            ax.legend(shown, fontsize=7, **(dict(loc="upper left", bbox_to_anchor=(1.01, 1.0)) if own
+                                            else dict(loc="upper right")))
             common = {unit(name) for name in names}
             if len(common) == 1 and None not in common:  # one unit for the panel: on its axis
-                ax.set_ylabel(f"[{common.pop()}]")
+                ax.set_ylabel(plain(f"[{common.pop()}]"))
         ax.grid(alpha=0.25)
         ax.set_xlim(low, high)
-    axes[-1].set_xlabel("t [s]")
+        ax.xaxis.set_major_formatter(_time_formatter(factor))
+    axes[-1].set_xlabel(f"t [{time_name}]")
+    _mode_legend(fig, axes[0], colors, instants, max_instants, own, len(panels[0]) > 1)
+    name = trajectory.model.name if trajectory.model is not None else getattr(trajectory, "model_name", "run")
+    count = len(trajectory.events)
+    axes[0].set_title(plain(title or f"{name}: {count} instant{'' if count == 1 else 's'}"))
+    if not own:
+        fig.tight_layout()
+    return fig
+
+
+def _shade(ax, spans, colors):
+    """The mode intervals ``spans`` shaded over the panel's height: one collection of rectangles per mode
+    (thousands of ``axvspan`` patches took seconds to make and to draw)."""
+    from matplotlib.collections import PolyCollection
+
+    by_mode: dict = {}
+    for t0, t1, mode in spans:
+        by_mode.setdefault(mode, []).append(((t0, 0.0), (t0, 1.0), (t1, 1.0), (t1, 0.0)))
+    for mode, rectangles in by_mode.items():
+        ax.add_collection(PolyCollection(rectangles, transform=ax.get_xaxis_transform(), facecolor=colors[mode],
+                                         alpha=0.18, lw=0, zorder=0), autolim=False)
+
+
+def _time_formatter(factor: float):
+    """Tick labels of times [s] in the unit ``factor`` makes of them (no offset: a 10 µs window reads
+    0 … 10, not 1e-5 + …)."""
+    from matplotlib.ticker import FuncFormatter
+
+    return FuncFormatter(lambda value, position: f"{value * factor:.6g}")
+
+
+def _mode_legend(fig, ax, colors, instants, max_instants, own, panel_legend):
+    """The modes' colours and the instants' line styles (only those drawn): beside the panels in a figure
+    of its own, else in the first panel."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = [Patch(color=c, alpha=0.35, label=m.describe()) for m, c in colors.items()]
+    handles = [Patch(color=c, alpha=0.35, label=plain(m.describe())) for m, c in colors.items()]
     drawn = {_instant_kind(i) for i in instants} if len(instants) <= max_instants else set()
     handles += [Line2D([], [], color="0.35", ls=style, lw=0.8, label=label)
                 for kind, (style, label) in _INSTANT_STYLES.items() if kind in drawn]  # only what occurred
-    if len(panels[0]) > 1:  # (that panel has its signals' legend)
-        axes[0].add_artist(axes[0].get_legend())
-    axes[0].legend(handles=handles, fontsize=7, loc="best")
-    name = trajectory.model.name if trajectory.model is not None else getattr(trajectory, "model_name", "run")
-    count = len(trajectory.events)
-    axes[0].set_title(title or f"{name}: {count} instant{'' if count == 1 else 's'}")
-    fig.tight_layout()
-    return fig
+    if own:
+        fig.legend(handles=handles, fontsize=7, loc="outside right upper")
+        return
+    if panel_legend:  # (that panel has its signals' legend)
+        ax.add_artist(ax.get_legend())
+    ax.legend(handles=handles, fontsize=7, loc="best")
 
 
 def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):

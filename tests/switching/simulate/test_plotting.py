@@ -6,8 +6,7 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
-from matplotlib.patches import Polygon  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
 
 from models import bouncing_ball, falling_rod  # noqa: E402
 from switching.simulate.plotting import draw_bond_graph, mode_graph, phase_portrait, plot_trajectory  # noqa: E402
@@ -22,8 +21,7 @@ def test_trajectory_plot_has_one_axis_per_signal_and_shades_each_flow(ball_run, 
     fig = plot_trajectory(ball_run, ["y", "v"])
     assert len(fig.axes) == 2
     # 5 flight intervals between 4 bounces: five shaded spans per axis (pinnacles have no duration)
-    spans = [p for p in fig.axes[0].patches if isinstance(p, (Rectangle, Polygon))]
-    assert len(spans) == 5
+    assert shaded_spans(fig.axes[0]) == 5
     # one vertical line per instant, solid (each bounce is a pinnacle)
     vlines = [ln for ln in fig.axes[0].lines if len(set(ln.get_xdata())) == 1]
     assert len(vlines) == 4 and all(ln.get_linestyle() == "-" for ln in vlines)
@@ -54,8 +52,16 @@ def test_mode_graph_and_bond_graph_drawing(ball_run):
     assert labels["element:cx"] == r"$\mathbf{0}_{\mathrm{cx}}^{\mathrm{on}}$"  # 0-junction cx, switched on
 
 
+def shaded_spans(ax) -> int:
+    """The mode intervals shaded on ``ax``: the rectangles of its collections drawn over the panel's height."""
+    return sum(len(c.get_paths()) for c in ax.collections if isinstance(c, PolyCollection)
+               and c.get_transform() == ax.get_xaxis_transform())
+
+
 def legend_entries(fig):
-    return [text.get_text() for text in fig.axes[0].get_legend().get_texts()]
+    """The modes' legend: beside the panels in a figure of its own."""
+    (legend,) = fig.legends
+    return [text.get_text() for text in legend.get_texts()]
 
 
 def test_the_legend_lists_only_the_instants_that_occurred(ball_run):
@@ -125,3 +131,48 @@ def test_a_long_switching_run_is_drawn_as_an_envelope_not_aliased_lines():
     assert envelopes and not [line for line in fig.axes[0].lines if len(line.get_xdata()) > plotting.MAX_POINTS]
     low, high = plotting._envelope(np.asarray(run.t), run.signal("i_L"), plotting.MAX_POINTS // 2)[1:]
     assert low.min() == pytest.approx(run.signal("i_L").min()) and high.max() == pytest.approx(run.signal("i_L").max())
+
+
+def test_a_run_of_thousands_of_mode_intervals_is_shaded_per_column_in_one_collection_per_mode():
+    """The ideal buck over 2000 periods (4000 intervals): at most one rectangle per column of the shading's
+    bins, in one collection per mode (12 000 ``axvspan`` patches took 12 s to make and 6 s to draw)."""
+    from models.netlists import ideal_buck
+    from switching.simulate import plotting
+
+    run = ideal_buck().build().simulate(0.02, "auto")
+    assert len(plotting._intervals(run)) > plotting.MAX_SPANS
+    fig = plot_trajectory(run, ["v_out"])
+    shading = [c for c in fig.axes[0].collections if isinstance(c, PolyCollection)
+               and c.get_transform() == fig.axes[0].get_xaxis_transform()]
+    assert len(shading) <= 3 and 0 < shaded_spans(fig.axes[0]) <= plotting.MAX_POINTS // 2
+    assert fig.axes[0].get_xlabel() == "t [ms]"
+
+
+@pytest.mark.parametrize("t_end, unit, last", [(1e-5, "µs", "10"), (2e-3, "ms", "2"), (2.5, "s", "2.5")])
+def test_the_time_axis_is_in_engineering_units_without_an_offset(t_end, unit, last):
+    run = bouncing_ball.build().simulate(t_end, "RK45")
+    fig = plot_trajectory(run, ["y"])
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    assert ax.get_xlabel() == f"t [{unit}]"
+    labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+    assert labels[0] == "0" and labels[-1] == last and not ax.xaxis.get_offset_text().get_text()
+
+
+def test_units_and_names_with_a_dollar_are_drawn_as_text():
+    """A unit ``$\\frac{a}$`` made the whole plot fail (mathtext), and ``--plot`` said nothing after its colon."""
+    import sympy as sp
+
+    from bondgraph import I, One, Se
+    from bondgraph import BondGraph
+    from switching import HybridModel
+
+    g = BondGraph("fall")
+    v = g.add(One("v"))
+    g.connect(Se("push", sp.Symbol("F")), v)
+    g.connect(v, I("mass", "m", state="p"))
+    model = HybridModel(g, [], {"F": 1.0, "m": 2.0}, signals={"v": "p/m"}, name="fall",
+                        units={"p": "$\\frac{a}$", "v": "$/s"})
+    fig = plot_trajectory(model.simulate(1.0, "RK45"), ["p", "v"])
+    fig.canvas.draw()
+    assert [ax.get_ylabel() for ax in fig.axes] == ["p [\\$\\frac{a}\\$]", "v [\\$/s]"]
