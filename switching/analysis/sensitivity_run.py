@@ -13,6 +13,7 @@ import numpy as np
 from ..errors import SimulationError
 from .sensitivity import DEFAULT_ATOL, DEFAULT_RTOL, Parameters, Sensitivities, derivatives, gradients, parse_names
 from ..simulate.driver import HybridRun, option_defaults
+from ..simulate.methods import METHOD_CLASSES
 from ..simulate.run_options import checked_options
 
 __all__ = ["sensitivity_method", "simulate_with_sensitivities"]
@@ -25,9 +26,10 @@ def sensitivity_method(method, options) -> str:
     if method == "auto":
         return "RK45"
     if isinstance(method, str) and method.endswith("-jit"):
+        python = METHOD_CLASSES[method].python.name if method in METHOD_CLASSES else method[:-4]
+        same = "the same steps in Python" if python == method[:-4] else "its Python counterpart"
         raise SimulationError(
-            f"sensitivities are not supported on the compiled method {method!r} yet; use {method[:-4]!r} "
-            "(the same steps in Python)")
+            f"sensitivities are not supported on the compiled method {method!r} yet; use {python!r} ({same})")
     if options.get("keep_instants") is False:
         raise SimulationError("sensitivities need the run's instants: drop keep_instants=False")
     return method

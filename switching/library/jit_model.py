@@ -133,8 +133,12 @@ def input_problem(model, method: str) -> str | None:
         return None
     return (f"method {method!r} runs inputs given as expressions of t (switching.ExpressionInput, as a model file "
             f"holds them); input(s) {', '.join(repr(n) for n in others)} of model {model.name!r} are Python functions, "
-            f"which compiled code cannot call: use {method.removesuffix('-jit')!r}, or give them as "
-            "ExpressionInput('… t …', {parameters})")
+            f"which compiled code cannot call: use {_PYTHON_METHOD.get(method, method.removesuffix('-jit'))!r}, "
+            "or give them as ExpressionInput('… t …', {parameters})")
+
+
+#: a compiled method whose Python counterpart is not its name without "-jit" (there is no Python 'rodas')
+_PYTHON_METHOD = {"rodas-jit": "Radau"}
 
 
 def input_substitution(model) -> tuple[dict, tuple, np.ndarray]:

@@ -11,7 +11,7 @@ from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
 from ..library.jit_jacobian import jacobian_function
 from ..library.jit_model import AUTO_KIND, KINDS
 from ..library.jit_model import STATUS as KERNEL_STATUS
-from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
+from .flow_failures import FlowFailure, nonfinite_message, overflow_message, step_limit, stiff_advice, stiffness_message
 from .integrators import StiffnessDetected
 from .methods import METHOD_CLASSES
 from .preflight import nonfinite_at_start
@@ -96,6 +96,9 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             auto.switch(compiled, mode, f"RK45's step {'left the reals' if status == 'nonfinite' else 'collapsed'} "
                         f"at t = {t:.6g} s (a stiff flow)")
             continue
+        overflow = overflow_message(model, method, mode, t, x) if status in ("nonfinite", "collapsed") else None
+        if overflow:
+            raise FlowFailure(NonFiniteStateError, overflow, t, x, steps, mode)
         if status == "collapsed":
             raise FlowFailure(StepSizeError, f"{method} failed at t = {t:.12g} in mode {mode.describe()}: the "
                                f"step size collapsed (stiff here? {stiff_advice(method)})", t, x, steps, mode)

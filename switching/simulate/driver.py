@@ -160,6 +160,10 @@ class Status(enum.Enum):
     ZENO = "zeno"  # events piled up in shrinking time and on_zeno="stop" ended the run at their accumulation
 
 
+#: a Zeno sequence accumulating within this fraction of the run after its start is a bad initial state
+_AT_THE_START = 1e-12
+
+
 class HybridRun:
     """One run of :func:`simulate`: flows in a mode (compiled or in Python),
     the instants between them, the record, the checks that stop a run.
@@ -197,6 +201,7 @@ class HybridRun:
         self.t = float(t0)
         self.n_steps = 0
         self.python_instants = 0
+        self.progress_failed_at = None  # the time a progress callback that raised was called with
         self.implicit_python: set = set()  # auto: modes whose Python flow proved stiff (they flow with Radau)
         self.accumulation = None
         self.compiled, self.flow_method = self._compiled_path()
@@ -252,11 +257,23 @@ class HybridRun:
         self.accumulation = self.zeno.add(self.t)
         if self.accumulation is None:
             return False
-        message = (
-            f"Zeno behaviour: events pile up in shrinking time near t = {self.t:.12g} (mode {self.mode.describe()}); "
-            f"they accumulate at t ≈ {self.accumulation:.10g} s. Add a rule that ends the sequence (e.g. a resting "
-            "threshold), or pass on_zeno='stop' to end the run there."
-        )
+        t0 = self.options.start.t0
+        if self.accumulation - t0 <= _AT_THE_START * (self.t_end - t0):
+            # a sequence that accumulates as the run starts is a state that starts beyond what a transition
+            # allows (a position below a stop: each rebound leaves it there), not a physical Zeno sequence
+            state = ", ".join(f"{s.name} = {v:.6g}" for s, v in zip(self.model.states, self.x))
+            message = (
+                f"events pile up at the start of the run (t0 = {t0:g} s, {self.recorder.n_events} instants by t = "
+                f"{self.t:.3g} s, mode {self.mode.describe()}; state {state}): the initial state is where a "
+                "transition fires again after each of its own jumps — a position beyond a stop or a limit, say. "
+                "Check the initial state (x0, the initial values of the model) against the model's limits"
+            )
+        else:
+            message = (
+                f"Zeno behaviour: events pile up in shrinking time near t = {self.t:.12g} (mode "
+                f"{self.mode.describe()}); they accumulate at t ≈ {self.accumulation:.10g} s. Add a rule that ends "
+                "the sequence (e.g. a resting threshold), or pass on_zeno='stop' to end the run there."
+            )
         if self.options.events.on_zeno == "raise":
             raise self.fail(ZenoError, message, accumulation_time=self.accumulation)
         return True
@@ -283,8 +300,20 @@ class HybridRun:
 
     def _flow_settings(self) -> _FlowSettings:
         o = self.options
-        return _FlowSettings(o.stepping, o.events.event_samples, self.output == "steps", o.output.progress,
-                             self.rtol_g, self.atol_g, o.limits.max_steps)
+        progress = o.output.progress
+        return _FlowSettings(o.stepping, o.events.event_samples, self.output == "steps",
+                             None if progress is None else self._watched(progress), self.rtol_g, self.atol_g,
+                             o.limits.max_steps)
+
+    def _watched(self, progress):
+        """``progress``, noting the time it was called with when it raises (the error then names that time)."""
+        def call(t):
+            try:
+                progress(t)
+            except Exception:
+                self.progress_failed_at = t
+                raise
+        return call
 
     def _start(self) -> bool:
         """Record the start and resolve the initial instant (in Python, unless the kernel does); returns
@@ -390,10 +419,16 @@ class HybridRun:
             if complex_value is not None:  # the run ends where the law failed (the error's t and x)
                 self.t, self.x = complex_value.pop("t"), np.asarray(complex_value["x"], dtype=float)
                 raise self.fail(ComplexValueError, complex_value.pop("message"), **complex_value) from exc
+            if self.recorder.t and self.recorder.t[-1] > self.t:  # the latest state recorded, inside a flow
+                self.t, self.x, self.mode = self.recorder.t[-1], self.recorder.x[-1], self.recorder.modes[-1]
+            where = f"at t = {self.t:.12g} s"
+            if self.progress_failed_at is not None:
+                where = (f"in its progress callback, called with t = {self.progress_failed_at:.12g} s (the run is "
+                         f"kept up to t = {self.t:.12g} s)")
             raise self.fail(SimulationError,
-                            f"the run failed at t = {self.t:.12g} s in mode {self.mode.describe()} with "
-                            f"{type(exc).__name__}: {exc} (the trajectory up to there is attached; the original "
-                            "error and its traceback are its cause)") from exc
+                            f"the run failed {where} in mode {self.mode.describe()} with {type(exc).__name__}: "
+                            f"{exc} (the trajectory up to there is attached; the original error and its traceback "
+                            "are its cause)") from exc
         return self._finish(status, all_rows)
 
     def _finish(self, status: Status, all_rows: bool = False) -> Trajectory:

@@ -12,8 +12,12 @@ import numpy as np
 from ..errors import StepLimitError
 from .methods import METHOD_CLASSES, method_names
 
-__all__ = ["FlowFailure", "nonfinite_jump_message", "nonfinite_message", "step_limit", "stiff_advice",
-           "stiffness_message"]
+__all__ = ["FlowFailure", "OVERFLOW_NEAR", "nonfinite_jump_message", "nonfinite_message", "overflow_message",
+           "step_limit", "stiff_advice", "stiffness_message"]
+
+#: a state this large (about the square root of the largest double) leaves the reals by overflow within a few
+#: steps of a flow that keeps growing: products of two such numbers are already infinite
+OVERFLOW_NEAR = 1e150
 
 
 class FlowFailure(Exception):
@@ -72,6 +76,19 @@ def nonfinite_jump_message(model, instant) -> str:
     return (f"the jump at t = {instant.t:.12g} from mode {instant.mode_before.describe()} into "
             f"{instant.mode_after.describe()} gives a non-finite state ({', '.join(bad)}); check the parameters "
             "of the jump (restitution coefficients, masses and other storage parameters must be finite and nonzero).")
+
+
+def overflow_message(model, method, mode, t, x) -> str | None:
+    """The message of a flow that failed (non-finite rates, a collapsed step) with a last accepted state near
+    overflow, or ``None`` when no state is that large: the flow grew without bound, no law left its domain."""
+    x = np.asarray(x, dtype=float)
+    big = np.flatnonzero(~(np.abs(x) < OVERFLOW_NEAR))
+    if big.size == 0:
+        return None
+    names = ", ".join(f"{model.states[k].name} = {x[k]:.3g}" for k in big)
+    return (f"{method}: the state grew without bound and overflowed near t = {t:.12g} s in mode {mode.describe()} "
+            f"({names}, beyond {OVERFLOW_NEAR:g}): the flow is unstable there (a negative resistance, a positive "
+            "feedback, a parameter of the wrong sign?). Check the parameters, or end the run before it blows up")
 
 
 def nonfinite_message(model, mode, t, x) -> str:

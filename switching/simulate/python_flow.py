@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import NonFiniteStateError, StepSizeError, StiffnessError
 from ..library.jacobian import flow_jacobian
 from .events import GuardScan, locate_event
-from .flow_failures import FlowFailure, nonfinite_message, step_limit, stiff_advice, stiffness_message
+from .flow_failures import FlowFailure, nonfinite_message, overflow_message, step_limit, stiff_advice, stiffness_message
 from .flow_rates import flow_functions, sides_function
 from .integrators import StepFailed, StiffnessDetected
 
@@ -50,6 +50,9 @@ def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, l
                 functools.partial(StiffnessError, h=exc.h, h_lambda=exc.h_lambda, limit=exc.limit),
                 stiffness_message(model, cm, mode, exc), t, x, steps) from None
         except StepFailed as exc:
+            overflow = overflow_message(model, method.name, mode, t, x)
+            if overflow:
+                raise FlowFailure(NonFiniteStateError, overflow, t, x, steps) from None
             raise FlowFailure(
                 StepSizeError,
                 f"{method.name} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "

@@ -5,7 +5,12 @@ from __future__ import annotations
 
 import pytest
 
-from switching_models import rc_relay
+from bondgraph import BondGraph, C, R, Zero
+from models.mechanics import Mechanism
+from switching import Automaton, HybridModel
+from switching.errors import NonFiniteStateError, SimulationError, ZenoError
+
+from switching_models import rc_relay, relay_graph
 
 
 @pytest.mark.parametrize("method", ["euler", "rk4", "euler-jit", "rk4-jit"])
@@ -13,3 +18,70 @@ def test_a_run_of_n_fixed_steps_fits_max_steps_n(method):
     # 10 000 steps of 1e-4 from 0 sum to 0.9999999999999062: the remainder is round-off, not a 10 001st step
     trajectory = rc_relay().simulate(1.0, method, dt=1e-4, max_steps=10_000)
     assert trajectory.t[-1] == 1.0
+
+
+# ----------------------------------------------------------------- messages that point the right way (item 9)
+
+
+def negative_resistance(resistance=-1e-3):
+    """``q' = −q/(R·C)`` with ``R < 0``: ``q = e^{t/|R·C|}``, which overflows near t = 0.71 s."""
+    g = BondGraph("negative")
+    n = g.add(Zero("n"))
+    g.connect(n, C("C", "C"))
+    g.connect(n, R("R", "R"))
+    return HybridModel(g, [], dict(C=1.0, R=resistance), {"q_C": 1.0})
+
+
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit", "rodas-jit", "auto"])
+def test_an_overflowing_flow_is_reported_as_unbounded_growth(method):
+    with pytest.raises(NonFiniteStateError, match="grew without bound and overflowed") as info:
+        negative_resistance().simulate(2.0, method)
+    assert "left its domain" not in str(info.value) and "q_C = " in str(info.value)
+    # the growth is e^{1000 t}: the kept run ends where q passed 1e150, t = ln(1e150)/1000 ≈ 0.345 s, or later
+    assert 0.345 < info.value.t < 0.71
+
+
+def test_a_start_below_a_stop_is_named_as_the_initial_state_not_zeno():
+    drop = Mechanism("drop")
+    drop.mass("m1", "a", 2.0, x0=-1.0)  # below the floor at 0
+    drop.force("gravity", "a", -2 * 9.81)
+    drop.stop("floor", "a", lower=0.0, e=0.5)
+    with pytest.raises(ZenoError, match=r"(?s)events pile up at the start of the run.*x_a = -1.*Check the initial"):
+        drop.build().simulate(1.0, "RK45")
+
+
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit", "rk4"])
+def test_a_progress_callback_that_raises_names_its_own_time_and_the_kept_end(method):
+    seen = []
+
+    def progress(t):
+        seen.append(t)
+        if t > 0.5:
+            raise RuntimeError("enough")
+
+    options = {"dt": 1e-3} if method == "rk4" else {}
+    with pytest.raises(SimulationError) as info:
+        rc_relay().simulate(2.0, method, progress=progress, **options)
+    error = info.value
+    kept = error.trajectory.t[-1]
+    assert f"called with t = {seen[-1]:.12g} s" in str(error) and f"kept up to t = {kept:.12g} s" in str(error)
+    assert error.t == kept > 0.0 and isinstance(error.__cause__, RuntimeError)
+
+
+def test_advice_names_a_method_simulate_accepts():
+    from switching.analysis.sensitivity_run import sensitivity_method
+    from switching.simulate.methods import method_names
+
+    with pytest.raises(SimulationError, match="use 'Radau'") as info:
+        sensitivity_method("rodas-jit", {})
+    assert "'rodas'" not in str(info.value) and "Radau" in method_names()
+    relay = Automaton("relay", {"charge": {"a": True, "b": False}, "discharge": {"a": False, "b": True}}, "charge")
+    relay.add_transition("charge", "discharge", "q_C/C >= 0.8")
+    relay.add_transition("discharge", "charge", "q_C/C <= 0.3")
+    g = relay_graph()
+    u = g.input("u")
+    model = HybridModel(g, [relay], dict(R1=1.0, R2=0.5, C=1.0, V=1.0), signals={"w": u * 2},
+                        inputs={"u": lambda t: 1.0})
+    with pytest.raises(SimulationError, match="use 'Radau'") as info:  # a Python function as an input
+        model.simulate(1.0, "rodas-jit")
+    assert "'rodas'" not in str(info.value)
