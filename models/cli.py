@@ -5,9 +5,10 @@
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
                   [--no-stiffness-check] [--max-steps N]
-    hbg modes MODEL [--mode LABEL] [--latex] [--state-space]  f, g, h and guards (or A, B, C, D) of the visited modes (or one)
+    hbg modes MODEL [--mode LABEL] [--latex] [--state-space] [--t-end T]
+                                              f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
-    hbg codegen MODEL -o DIR                  export the generated per-mode functions
+    hbg codegen MODEL -o DIR [--t-end T]      export the generated per-mode functions
     hbg draw MODEL [--mode LABEL] -o FILE.png|FILE.svg   the bond graph of a mode, drawn as textbooks do
     hbg save MODEL [--set name=value ...] -o FILE.toml   the model as a model file
     hbg sweep MODEL --grid name=start:stop:count --grid name=v1,v2 [--set ...] [--method M] [--t-end T]
@@ -536,17 +537,57 @@ def _cmd_run(args) -> int:
     return status
 
 
-def _visited_modes(module, model):
-    t_end = module.RUN["t_end"]
-    options = {k: v for k, v in module.RUN.items() if k not in ("t_end",)}
-    trajectory = model.simulate(t_end, **options)
+#: wall seconds the default run may take to find the modes ``modes`` and ``codegen`` show (without --t-end)
+EXPLORATION_SECONDS = 10.0
+
+
+class _ExplorationSpent(Exception):
+    """The default run of ``modes``/``codegen`` reached its wall-time budget at simulated time ``t``."""
+
+    def __init__(self, t: float):
+        super().__init__(f"stopped at t = {t:g} s")
+        self.t = t
+
+
+def _visited_modes(module, model, t_end=None):
+    """The modes the model's default run passes (its flows and every mode its instants passed): to
+    ``t_end`` [s] when given, else to the run's own end or for at most :data:`EXPLORATION_SECONDS` of
+    computing, whichever comes first (a 100 kHz converter's second of simulated time took minutes).  Says on
+    stderr which run it used."""
+    from switching.errors import SimulationError
+
+    end = module.RUN["t_end"] if t_end is None else t_end
+    options = {k: v for k, v in module.RUN.items() if k != "t_end"}
+    started = time.perf_counter()
+
+    def budget(t):
+        if t_end is None and time.perf_counter() - started > EXPLORATION_SECONDS:
+            raise _ExplorationSpent(t)
+
+    try:
+        trajectory = model.simulate(end, progress=budget, **options)
+        told = f"to t = {end:g} s" + (" (--t-end)" if t_end is not None else " (its end)")
+    except SimulationError as exc:
+        if not isinstance(exc.__cause__, _ExplorationSpent) or getattr(exc, "trajectory", None) is None:
+            raise
+        trajectory = exc.trajectory
+        told = (f"to t = {exc.__cause__.t:g} s of its {end:g} s, stopped after {EXPLORATION_SECONDS:g} s of "
+                "computing (give --t-end to choose the run)")
     modes = list(dict.fromkeys(trajectory.modes + [s.mode for e in trajectory.events for s in e.steps]))
+    print(f"hbg: the {len(modes)} mode(s) the default run passes {told}", file=sys.stderr)
     return modes
+
+
+def _exploration_end(args):
+    """``--t-end`` of ``modes``/``codegen``, checked (``None`` when not given)."""
+    if args.t_end is not None:
+        _positive("--t-end", args.t_end)
+    return args.t_end
 
 
 def _cmd_modes(args) -> int:
     module, model = _build(args)
-    modes = [model.mode(args.mode)] if args.mode else _visited_modes(module, model)
+    modes = [model.mode(args.mode)] if args.mode else _visited_modes(module, model, _exploration_end(args))
     for mode in modes:
         me = model.mode_equations(mode)
         if getattr(args, "state_space", False):
@@ -593,7 +634,7 @@ def _inside(directory: str, filename: str, option: str) -> str:
 
 def _cmd_codegen(args) -> int:
     module, model = _build(args)
-    _visited_modes(module, model)
+    _visited_modes(module, model, _exploration_end(args))
     os.makedirs(args.output, exist_ok=True)
     path = _inside(args.output, f"{_file_stem(model.name)}_modes.py", "-o/--output")
     labels = model.export_module(path)
@@ -1008,6 +1049,12 @@ _RUN_SET_HELP = ("override a parameter, or set the initial value of a state by i
                  "repeatable")
 
 
+def _add_exploration(p) -> None:
+    p.add_argument("--t-end", type=float, dest="t_end", metavar="T",
+                   help="the modes are those the model's default run passes up to T s (default: its end, or what "
+                        f"it reaches in {EXPLORATION_SECONDS:g} s of computing)")
+
+
 def _add_steps(p) -> None:
     """The step options of ``run`` and ``sweep``: ``--dt`` (fixed-step methods) or the tolerances."""
     group = p.add_mutually_exclusive_group()
@@ -1140,6 +1187,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--latex", action="store_true", help="print the equations as LaTeX")
     p.add_argument("--state-space", action="store_true",
                    help="print the A, B, C, D matrices of each (linear) mode instead (inputs: the sources' values)")
+    _add_exploration(p)
     p.set_defaults(run=_cmd_modes)
 
     p = sub.add_parser("verify", help="static divergence-of-time check")
@@ -1153,6 +1201,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help=_SET_HELP)
     p.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="the folder the module is written to (created if missing)")
+    _add_exploration(p)
     p.set_defaults(run=_cmd_codegen)
 
     p = sub.add_parser("save", help="write a model to a model file (TOML)")

@@ -56,3 +56,23 @@ def test_a_reader_that_closes_the_pipe_leaves_the_files_written_and_the_exit_sta
     assert process.wait(timeout=300) == 0, err
     assert first.startswith(b"trajectory of") and "Broken pipe" not in err
     assert plot.stat().st_size > 10_000
+
+
+def test_modes_and_codegen_say_which_run_found_their_modes_and_take_t_end(tmp_path, capsys):
+    """``hbg modes buck.toml`` ran the whole default run (1 s of a 100 kHz converter: 8 minutes) and said
+    nothing of it."""
+    assert cli.main(["modes", "bouncing-ball", "--t-end", "0.1"]) == 0
+    out, err = capsys.readouterr()
+    assert "the 1 mode(s) the default run passes to t = 0.1 s (--t-end)" in err
+    assert out.count("equations of") == 1  # (the ball is in flight until t = 0.45 s)
+    assert cli.main(["codegen", "bouncing-ball", "--t-end", "0.1", "-o", str(tmp_path)]) == 0
+    assert "(--t-end)" in capsys.readouterr().err and list(tmp_path.glob("*_modes.py"))
+    assert cli.main(["modes", "bouncing-ball", "--t-end", "-1"]) == cli.EXIT_USAGE
+
+
+def test_without_t_end_the_modes_come_from_a_run_bounded_in_computing_time(monkeypatch, capsys):
+    monkeypatch.setattr(cli, "EXPLORATION_SECONDS", 0.0)
+    assert cli.main(["modes", "boost-converter"]) == 0
+    out, err = capsys.readouterr()
+    assert "stopped after 0 s of computing (give --t-end to choose the run)" in err
+    assert "equations of" in out
