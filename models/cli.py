@@ -210,7 +210,9 @@ def _run_options(args, module, default_method: str = "RK45") -> tuple[float, str
     run = dict(module.RUN)
     t_end = args.t_end if args.t_end is not None else run.pop("t_end")
     run.pop("t_end", None)
-    method = args.method or run.pop("method", default_method)
+    from switching.simulate.methods import canonical_method
+
+    method = canonical_method(args.method or run.pop("method", default_method))
     run.pop("method", None)
     from switching import METHODS
     from switching.simulate.methods import METHOD_CLASSES

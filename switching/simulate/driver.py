@@ -51,7 +51,7 @@ from ..library.jit_model import remember_modes as _remember_modes
 from ..model.source_periods import step_bound
 from .compiled_flow import run_kernel
 from .flow_failures import FlowFailure, nonfinite_jump_message
-from .methods import METHOD_CLASSES, METHODS
+from .methods import METHOD_CLASSES, METHODS, canonical_method
 from .option_groups import RunOptions
 from .energy_watch import warn_if_created
 from .preflight import nonfinite_at_start
@@ -134,6 +134,7 @@ def simulate(
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.simulate.run_options`)."""
+    method = canonical_method(method)  # (a method's name in any case)
     keywords = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, mode=mode, output=output, t_eval=t_eval,
                     samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,

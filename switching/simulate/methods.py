@@ -3,8 +3,8 @@
 :func:`switching.simulate.driver.simulate` looks its ``method`` up in
 :data:`METHOD_CLASSES` (name → class); :data:`METHODS`, the names a model
 file or the command line may give, is read from that table, and so are the
-names an unknown method's error lists.  A class says what the driver needs
-to know of its method:
+names an unknown method's error lists (a name in any case: :func:`canonical_method`).  A class says
+what the driver needs to know of its method:
 
 * ``fixed_step``: steps of the given length ``dt`` [s]; else the step is
   adaptive, its local error held below ``atol + rtol·|y|`` (``rtol`` [1],
@@ -30,7 +30,7 @@ from ..errors import OptionTypeError, OptionValueError
 from .integrators import RK4, Adaptive, Euler
 
 __all__ = ["METHOD_CLASSES", "METHODS", "FIXED_STEP", "ADAPTIVE", "COMPILED", "Method", "FixedStepMethod",
-           "ScipyMethod", "CompiledMethod", "method_class", "method_names", "register"]
+           "ScipyMethod", "CompiledMethod", "canonical_method", "method_class", "method_names", "register"]
 
 #: every method of a run by its name, in the order the error messages list them
 METHOD_CLASSES: dict[str, type[Method]] = {}
@@ -133,6 +133,15 @@ def method_names(choosers: bool = True) -> tuple:
     """The names of the methods in the table (those that choose another method, ``auto``, last or left out)."""
     names = tuple(name for name, cls in METHOD_CLASSES.items() if not cls.chooses)
     return names + tuple(name for name, cls in METHOD_CLASSES.items() if cls.chooses) if choosers else names
+
+
+def canonical_method(method):
+    """The registered name ``method`` names, whatever its case (``"rk45"`` → ``"RK45"``, ``"Rodas-JIT"`` →
+    ``"rodas-jit"``); anything else as it is (its error is :func:`method_class`'s)."""
+    if not isinstance(method, str) or method in METHOD_CLASSES:
+        return method
+    folded = [name for name in METHOD_CLASSES if name.casefold() == method.strip().casefold()]
+    return folded[0] if len(folded) == 1 else method
 
 
 def method_class(method) -> type[Method]:

@@ -76,3 +76,24 @@ def test_without_t_end_the_modes_come_from_a_run_bounded_in_computing_time(monke
     out, err = capsys.readouterr()
     assert "stopped after 0 s of computing (give --t-end to choose the run)" in err
     assert "equations of" in out
+
+
+@pytest.mark.parametrize("given, canonical", [("rk45", "RK45"), ("RODAS-JIT", "rodas-jit"), ("Auto", "auto"),
+                                              (" radau", "Radau")])
+def test_method_names_are_taken_in_any_case(given, canonical, capsys):
+    """``rk45`` was refused ("unknown method 'rk45'")."""
+    from models import bouncing_ball
+    from switching.simulate.methods import canonical_method
+
+    assert canonical_method(given) == canonical
+    run = bouncing_ball.build().simulate(0.5, given)
+    assert run.stats["method"].startswith(canonical) or canonical == "auto"
+    assert cli.main(["run", "bouncing-ball", "--t-end", "0.5", "--method", given]) == 0
+
+
+def test_an_unknown_method_is_still_refused_with_the_names():
+    from models import bouncing_ball
+    from switching.errors import OptionValueError
+
+    with pytest.raises(OptionValueError, match="unknown method 'rk46'; choose one of"):
+        bouncing_ball.build().simulate(0.5, "rk46")
