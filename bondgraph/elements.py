@@ -37,7 +37,7 @@ import sympy as sp
 
 from . import budget
 from .errors import DerivationError, InvalidGraphError
-from .inverse import branch_on_the_line, computes_accurately, monotonic_sense, numeric_inverse
+from .inverse import branch_on_the_line, computes_accurately, monotonic_sense, numeric_inverse, within_range
 from .solving import SolveFailure, solve
 from .symbols import as_expr, check_name
 
@@ -182,13 +182,13 @@ def _inverse(expr: sp.Expr, var: sp.Symbol, element: str, what: str) -> tuple:
         solutions, failure = [], exc
     branch = branch_on_the_line(expr, var, y, solutions) if solutions else None
     if branch is not None and computes_accurately(expr, var, y, branch):
-        return y, branch, None
+        return y, within_range(expr, var, y, branch), None
     try:
         monotonic, unchecked = monotonic_sense(expr, var), False
     except budget.OverBudget:
         monotonic, unchecked = None, True
     if branch is not None and monotonic is None:  # (inaccurate in places, but the only inverse there is)
-        return y, branch, None
+        return y, within_range(expr, var, y, branch), None
     if monotonic is not None:
         return y, numeric_inverse(expr, var, element, what, *monotonic)(y, *_others(expr, var)), None
     if len(solutions) == 1:  # sympy's one solution, unchecked on part of the line: as before

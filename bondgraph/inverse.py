@@ -44,7 +44,7 @@ import sympy as sp
 from . import budget
 
 __all__ = ["ACCURACY_SAMPLES", "InverseLaw", "SAMPLES", "SLOPE_SAMPLES", "branch_on_the_line", "computes_accurately",
-           "monotonic_sense", "numeric_inverse"]
+           "monotonic_sense", "numeric_inverse", "within_range"]
 
 #: where a branch of a closed-form inverse must give back the law's argument (the operating point 0 among them)
 SAMPLES = (0, -sp.Rational(1, 1000), sp.Rational(1, 1000), -sp.Rational(1, 10), sp.Rational(1, 10),
@@ -370,3 +370,27 @@ def _sense_and_start(slope, value) -> tuple[int, float] | None:
         if _real(_at_sample(value, start)) is not None and _sign(_at_sample(slope, start)) is not None:
             return signs.pop(), start
     return None
+
+
+def within_range(law: sp.Expr, variable: sp.Symbol, y: sp.Symbol, branch: sp.Expr) -> sp.Expr:
+    """``branch`` (a closed-form inverse of ``law``) carrying the law's range: NaN for a ``y`` the law never
+    takes, where the closed form would give a real number that is no answer (``tan(2)`` for ``atan(v) = 2``:
+    ``atan`` stays within ``±π/2``); the flow that asks for it then stops with a non-finite state.  The range
+    is sympy's over the real line, in the budget; a law onto the whole line, a range sympy does not find, and
+    a closed form that leaves the reals by itself outside the range (``log(1 + y/Is)`` of a diode below
+    ``−Is``: the law that failed is named there) are kept as they are."""
+    def found():
+        from sympy.calculus.util import function_range
+
+        return function_range(law, variable, sp.S.Reals)
+
+    try:
+        image = budget.run(f"the range of {law}", found)
+    except (budget.OverBudget, NotImplementedError, ValueError, TypeError):
+        return branch
+    if not isinstance(image, sp.Interval) or image == sp.S.Reals or image.free_symbols:
+        return branch
+    outside = [value for value in (image.inf - 1, image.sup + 1) if value.is_finite]
+    if not any(_real(branch.xreplace({y: value}).evalf(30)) is not None for value in outside):
+        return branch
+    return sp.Piecewise((branch, image.as_relational(y)), (sp.nan, True))

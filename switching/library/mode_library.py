@@ -76,6 +76,11 @@ def canonical(expr) -> str:
     return sp.srepr(expr)
 
 
+#: part of the disk-cache key of everything generated for a model: change it when a derivation changes
+#: (2: a closed-form inverse carries its law's range, NaN outside it)
+DERIVATION_VERSION = "2"
+
+
 def definition_fingerprint(model) -> str:
     """A hash of ``model``'s symbolic definition (structure, laws, guards,
     signals, parameter order) and the toolkit version: the disk-cache key of
@@ -84,7 +89,7 @@ def definition_fingerprint(model) -> str:
     from bondgraph import __version__
 
     graph = model.graph
-    parts = [__version__, model.name, f"jump law {model.jump_law}"]
+    parts = [__version__, f"derivation {DERIVATION_VERSION}", model.name, f"jump law {model.jump_law}"]
     for el in graph.elements.values():
         parts.append(f"{type(el).__name__} {el.name} " + " ".join(canonical(e) for e in el.expressions()))
         if hasattr(el, "state"):
