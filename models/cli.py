@@ -4,7 +4,7 @@
     hbg run MODEL [--set name=value ...] [--t-end T] [--method M] [--dt DT | --rtol R]
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
-                  [--no-stiffness-check] [--max-steps N]
+                  [--no-stiffness-check] [--max-steps N] [--progress | --quiet]
     hbg modes MODEL [--mode LABEL] [--latex] [--state-space] [--t-end T]
                                               f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
@@ -490,14 +490,16 @@ def _cmd_run(args) -> int:
     wants_files = bool(args.csv or args.npz or args.plot)
 
     _compile_notice(_auto_choice(model, t_end, options) if method == "auto" else method)
-    progress = ProgressBar(0.0, t_end, terminal_only=True)  # (a file or a pipe gets no bar)
+    # (a file or a pipe gets no bar unless asked: --progress)
+    progress = None if args.quiet else ProgressBar(0.0, t_end, terminal_only=not args.progress)
     failure = None
     status = EXIT_OK
     try:
         try:
             trajectory = model.simulate(t_end, method, progress=progress, **options)
         finally:
-            progress.close()
+            if progress is not None:
+                progress.close()
     except KeyboardInterrupt as exc:  # SimulationInterrupted too: it carries the partial run
         failure, status = exc, EXIT_INTERRUPTED
         trajectory = getattr(exc, "trajectory", None)
@@ -1105,6 +1107,11 @@ def _add_run(sub) -> None:
     p.add_argument("--max-steps", type=int, dest="max_steps",
                    help="the most integrator steps the run may take (default 10000000): options that need more "
                         "are refused up front, a run that takes more stops with its partial run saved")
+    shown = p.add_mutually_exclusive_group()
+    shown.add_argument("--progress", action="store_true",
+                       help="show the progress bar even when stderr is no terminal (a log file); by default a run "
+                            "longer than 2 s shows it on a terminal: simulated time, rate and time left")
+    shown.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_cmd_run)
 
 
