@@ -68,6 +68,11 @@ def stored_energy(graph) -> sp.Expr:
     return sp.Add(*(storage_energy(element) for element in graph.storage))
 
 
+#: Gauss–Legendre nodes and weights on [0, 1] of the quadrature of a law whose energy sympy's closed form cannot
+#: be computed in floating point (a closed form with erfi or fresnels, which no numeric module prints, or none)
+_NODES, _WEIGHTS = (lambda n, w: ((n + 1) / 2, w / 2))(*np.polynomial.legendre.leggauss(48))
+
+
 def energy_function(graph, states: Sequence[sp.Symbol], parameters: Mapping[sp.Symbol, float],
                     inputs: Sequence[sp.Symbol] = ()):
     """A numerical evaluator of :func:`stored_energy` for given parameter values.
@@ -75,16 +80,20 @@ def energy_function(graph, states: Sequence[sp.Symbol], parameters: Mapping[sp.S
     Returns ``energy(x, t, u)`` where ``x`` is an ``(N, n)`` array of states in
     ``states`` order (or one state vector), ``t`` the times (``N``) and ``u`` a
     list with one array of values per input symbol; it returns the ``N``
-    energies [J] (a float for one state vector)."""
-    expr = stored_energy(graph).xreplace({k: sp.Float(v) for k, v in parameters.items()})
+    energies [J] (a float for one state vector).  A law whose energy has no
+    closed form that computes in floating point (none in the budget, or one
+    with a function no numeric module has: ``erfi``, ``fresnels``) is
+    integrated numerically (Gauss–Legendre on ``[0, x]``)."""
+    values = {k: sp.Float(v) for k, v in parameters.items()}
     known = set(states) | set(inputs) | {TIME}
-    unknown = expr.free_symbols - known
+    laws = [element.law.xreplace(values) for element in graph.storage]
+    unknown = set().union(*(law.free_symbols for law in laws)) - known
     if unknown:
         names = ", ".join(sorted(s.name for s in unknown))
         raise DerivationError(f"the stored energy of graph {graph.name!r} depends on {names}, which have no value",
                               [e.name for e in graph.storage if e.law.free_symbols & unknown])
     args = list(states) + [TIME] + list(inputs)
-    fn = sp.lambdify(args, expr, modules="numpy")
+    terms = [_term(element, law, values, args) for element, law in zip(graph.storage, laws)]
     n = len(states)
 
     def energy(x, t, u=()):
@@ -93,7 +102,33 @@ def energy_function(graph, states: Sequence[sp.Symbol], parameters: Mapping[sp.S
         x = x.reshape(1 if single else len(x), n)  # (rows given: a graph without storage has n = 0)
         t = np.broadcast_to(np.asarray(t, dtype=float), (len(x),))
         u = [np.broadcast_to(np.asarray(v, dtype=float), (len(x),)) for v in u]
-        values = np.broadcast_to(np.asarray(fn(*x.T, t, *u), dtype=float), (len(x),)).copy()
-        return float(values[0]) if single else values
+        total = np.zeros(len(x))
+        for term in terms:
+            total += np.broadcast_to(np.asarray(term(*x.T, t, *u), dtype=float), (len(x),))
+        return float(total[0]) if single else total
 
     return energy
+
+
+def _term(element: Storage, law: sp.Expr, values: dict, args: list):
+    """The evaluator of one element's stored energy (see :func:`energy_function`)."""
+    energy = _integrated(element.law, element.state)
+    if not energy.has(sp.Integral):
+        try:
+            fn = sp.lambdify(args, energy.xreplace(values), modules=["numpy", "scipy"])
+            with np.errstate(all="ignore"):
+                fn(*([0.5] * len(args)))  # a name no module defines (erfi without scipy's) fails here
+            return fn
+        except Exception:  # a function no module prints (fresnels), or one missing: the quadrature below
+            pass
+    index = args.index(element.state)
+    rate = sp.lambdify(args, law, modules=["numpy", "scipy"])
+
+    def quadrature(*arguments):
+        x = np.asarray(arguments[index], dtype=float)
+        points = [np.asarray(a, dtype=float)[..., None] for a in arguments]
+        points[index] = x[..., None] * _NODES  # (samples, nodes)
+        f = np.broadcast_to(np.asarray(rate(*points), dtype=float), points[index].shape)
+        return x * (f @ _WEIGHTS)
+
+    return quadrature

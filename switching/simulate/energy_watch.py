@@ -65,6 +65,11 @@ def energy_created(trajectory) -> EnergyBalance | None:
         balance = trajectory.power_balance()
     except HybridBondGraphError:
         return None
+    except Exception as exc:  # a finished run is never lost to its energy bookkeeping: the watch is skipped
+        warnings.warn(f"the energy watch of this run was skipped: its stored energy or power could not be "
+                      f"computed ({type(exc).__name__}: {exc}); the run itself is complete", RuntimeWarning,
+                      stacklevel=7)
+        return None
     net = balance["supplied"] - balance["dissipated"]
     dt = np.diff(t)
     with np.errstate(invalid="ignore", over="ignore"):
