@@ -204,6 +204,23 @@ MODE_COMPILE_SECONDS = 0.3  # compiling one mode's function (about: codegen.nati
 #: codegen.native compiles about 1.5 generated lines a millisecond, and a mode has about 10 lines per state or
 #: transition (``python benchmarks/mode_compile.py``; a 50-ball chain: ≈ 1.4 s a mode)
 MODE_COMPILE_SECONDS_PER_ITEM = 0.007
+#: the expected cost of a Python run, from the work of the model's last one (never from its wall time, which
+#: a loaded machine stretches: the same command takes the same engine wherever it runs): an RK45 step of the
+#: Python path (six evaluations of the generated rates and the guards' scan; the bouncing ball's ≈ 0.4 ms), more
+#: per state and guard transition of the model (a ten-ball chain's ≈ 1 ms), and an instant resolved in Python
+PYTHON_STEP_SECONDS = 3e-4
+PYTHON_STEP_SECONDS_PER_ITEM = 2e-5
+PYTHON_INSTANT_SECONDS = 1e-3
+
+
+def python_run_seconds(model, steps: float, instants: float) -> float:
+    """The expected wall time [s] of a Python run of ``model`` taking ``steps`` RK45 steps and resolving
+    ``instants`` instants (:data:`PYTHON_STEP_SECONDS`, :data:`PYTHON_INSTANT_SECONDS`): a figure of the run's
+    work, the same on any machine."""
+    per_step = PYTHON_STEP_SECONDS + PYTHON_STEP_SECONDS_PER_ITEM * (len(model.states) + len(model.guard_conditions))
+    return steps * per_step + instants * PYTHON_INSTANT_SECONDS
+
+
 #: with the Python speed of a model not known yet, ``auto`` compiles (its kernel cached) only when one
 #: mode's function costs at most this much: a large scene's run measures the Python speed first
 CHEAP_MODE_SECONDS = 1.0
@@ -259,16 +276,14 @@ class AutoChoice:
         self.verdicts[mode] = ModeStiffness(True, math.nan, what)
         self.noted.add(mode)
 
-    def report(self, wall: float, span: float, preparation: float = 0.0) -> dict:
-        """The stats entries of a finished run of ``span`` seconds that took
-        ``wall`` seconds, ``preparation`` of them making the modes' functions
-        (:attr:`ModeLibrary.preparation_seconds`); a Python run stores its
-        speed (integration seconds per simulated second at its rtol: ``wall``
-        less ``preparation``, which a later run pays only for modes it has not
-        met) in the disk cache."""
-        flowing = wall - preparation
-        if self.method == "RK45" and span > 0 and flowing >= 0 and not self.noted:  # (a switched run: no measure)
-            self.model.cache.write_record(_speed_key(self.model), {"rate": flowing / span, "rtol": self.rtol})
+    def report(self, span: float, steps: int, instants: int) -> dict:
+        """The stats entries of a finished run of ``span`` seconds that took ``steps`` steps and resolved
+        ``instants`` instants; a Python run stores its work (steps and instants per simulated second at its
+        rtol: the same on any machine, however loaded) in the disk cache, from which the next choice expects
+        the time of a Python run (:func:`python_run_seconds`)."""
+        if self.method == "RK45" and span > 0 and not self.noted:  # (a switched run: no measure)
+            self.model.cache.write_record(_speed_key(self.model), {"steps": steps / span, "instants": instants / span,
+                                                                   "rtol": self.rtol})
         method = self.method
         if self.per_mode and any(v.stiff for m, v in self.verdicts.items() if m not in self.noted):
             method += " (rodas-jit in its stiff modes)"
@@ -313,8 +328,9 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     model's inputs can run compiled, and what it would compile first is paid
     for: nothing (the kernel and the functions of the modes it would cover —
     the initial mode, those visited, those remembered — are cached), or less
-    than a Python run is expected to take (expected from the speed of this
-    model's last Python run chosen by ``auto``, scaled by ``rtol^(-1/5)``;
+    than a Python run is expected to take (expected from the work of this
+    model's last Python run chosen by ``auto``, its steps scaled by
+    ``rtol^(-1/5)``, priced by :func:`python_run_seconds`: never its wall time;
     compiling estimated as :data:`KERNEL_COMPILE_SECONDS` for the kernel,
     :func:`mode_compile_seconds` per mode), or the initial mode's flow is
     stiff (:func:`.spectrum.mode_stiffness` at ``x0``, ``mode``: the
@@ -361,7 +377,8 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
         return compiled(f"{stiff}: compiling {what} (≈ {cost:g} s) pays for itself")
     speed = model.cache.record(_speed_key(model))
     try:
-        expected = speed["rate"] * span * (speed["rtol"] / float(rtol)) ** 0.2
+        expected = python_run_seconds(model, float(speed["steps"]) * span * (speed["rtol"] / float(rtol)) ** 0.2,
+                                      float(speed["instants"]) * span)
     except (TypeError, KeyError, ValueError, ZeroDivisionError, OverflowError):
         if ready and per_mode <= CHEAP_MODE_SECONDS:
             return compiled(f"the kernel is cached; compiling {what} costs ≈ {cost:g} s")

@@ -182,7 +182,6 @@ class HybridRun:
         self.auto = None
         self.output = options.output.recorded
         self.started = _time.perf_counter()
-        self.prepared = model.library.preparation_seconds  # (auto: the run's time making modes is not its flows')
         self.x = model.initial_state() if start.x0 is None else start.x0
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
@@ -441,8 +440,7 @@ class HybridRun:
             if self.python_instants:  # modes met outside the kernel: a new process's kernel covers them too
                 _remember_modes(self.model, self.model.visited_modes)
         if self.auto is not None:
-            stats.update(self.auto.report(stats["wall time [s]"], self.t_end - self.options.start.t0,
-                                          self.model.library.preparation_seconds - self.prepared))
+            stats.update(self.auto.report(self.t_end - self.options.start.t0, self.n_steps, self.recorder.n_events))
         if status is Status.ZENO:
             stats["zeno accumulation time [s]"] = self.accumulation
         recorder = self.recorder

@@ -534,15 +534,13 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
     assert run.stats["method chosen by auto"] == ("RK45: the compiled kernel is not cached yet and this model's "
                                                   "Python speed is not known yet (this run measures it)")
     speed = model.cache.record(jm._speed_key(model))
-    # the run's own integration time: its wall time less the time making its modes' functions (a later run
-    # pays that only for modes it has not met)
-    preparation = model.library.preparation_seconds
-    assert 0 < preparation < run.stats["wall time [s]"]
-    assert speed["rtol"] == 1e-6 and speed["rate"] == pytest.approx((run.stats["wall time [s]"] - preparation) / 0.5,
-                                                                    abs=2e-6)
-    model.cache.write_record(jm._speed_key(model), {"rate": 0.1, "rtol": 1e-6})  # ≈ 0.1 s per simulated second
+    # the run's work, not its wall time: steps and instants per simulated second
+    assert speed == {"steps": run.stats["steps"] / 0.5, "instants": len(run.events) / 0.5, "rtol": 1e-6}
+    # ≈ 0.1 s per simulated second: steps at the model's price of a step
+    model.cache.write_record(jm._speed_key(model), {"steps": 0.1 / jm.python_run_seconds(model, 1, 0),
+                                                    "instants": 0.0, "rtol": 1e-6})
     cost = jm.KERNEL_COMPILE_SECONDS + 2 * jm.MODE_COMPILE_SECONDS  # the kernel and both modes (visited)
-    short, long = (jm.choose_method(model, 0.0, f * cost / 0.1, 1e-6) for f in (0.5, 2.0))
+    short, long = (jm.choose_method(model, 0.0, f * cost / 0.1, 1e-6) for f in (0.5, 2.0))  # (0.5, 2)·cost
     assert short.method == "RK45" and short.reason == (
         f"a Python run is expected to take ≈ {0.5 * cost:.3g} s, less than compiling the kernel and the functions "
         f"of 2 mode(s) (≈ {cost:g} s)")
@@ -568,6 +566,34 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
                                               "compiled path)")
 
 
+def test_auto_s_choice_does_not_depend_on_the_machine_s_load(tmp_path, monkeypatch):
+    """The record a Python run leaves for the next choice is its work (steps, instants), not its wall time:
+    the same run on a machine a thousand times slower leaves the same record, and the next run of the same
+    command takes the same engine (issue 45, item 10)."""
+    import time
+
+    import switching.library.jit_model as jm
+    import switching.simulate.driver as driver
+    from codegen.cache import SourceCache
+
+    monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: False)
+    monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
+    records, choices = [], []
+    for slowdown in (1.0, 1000.0):
+        model = bouncing_ball.build()
+        model.cache = SourceCache(tmp_path / f"x{slowdown:g}")
+        clock = time.perf_counter
+        monkeypatch.setattr(driver._time, "perf_counter", lambda: clock() * slowdown)  # a loaded machine
+        run = model.simulate(0.5, "auto")
+        monkeypatch.setattr(driver._time, "perf_counter", clock)
+        assert run.stats["method"] == "RK45"
+        records.append(model.cache.record(jm._speed_key(model)))
+        choices.append([(c.method, c.reason) for c in (jm.choose_method(model, 0.0, span, 1e-6)
+                                                       for span in (1.0, 1e3, 1e5))])
+    assert records[0] == records[1] and choices[0] == choices[1]
+    assert [method for method, _ in choices[0]] == ["RK45", "RK45", "RK45-jit"]
+
+
 def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, monkeypatch):
     """A mode's function of a large scene takes seconds to compile (about 0.7 ms
     per generated line, ten lines per state or transition): with the Python
@@ -588,7 +614,8 @@ def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, 
     assert (choice.method, choice.reason) == ("RK45", f"compiling a mode's function of this model costs ≈ "
                                               f"{per_mode:.2g} s and its Python speed is not known yet (this run "
                                               "measures it)")
-    model.cache.write_record(jm._speed_key(model), {"rate": 0.5, "rtol": 1e-9})
+    model.cache.write_record(jm._speed_key(model), {"steps": 0.5 / jm.python_run_seconds(model, 1, 0),
+                                                    "instants": 0.0, "rtol": 1e-9})
     assert jm.choose_method(model, 0.0, 1.0, 1e-9).method == "RK45"  # 0.5 s against ≈ 1.7 s for the initial mode
     assert jm.choose_method(model, 0.0, 100.0, 1e-9).method == "RK45-jit"
 
