@@ -226,7 +226,7 @@ def test_an_unsupported_plot_format_is_a_usage_error_listing_the_formats(capsys,
 @pytest.mark.parametrize("bad", ["plot", "csv"])
 def test_a_file_that_cannot_be_written_does_not_stop_the_others(capsys, tmp_path, monkeypatch, bad):
     """The directory vanishes during the run (the check before it passed)."""
-    monkeypatch.setattr(cli, "_check_output", lambda *args, **kwargs: None)
+    monkeypatch.setattr("models.cli.outputs.check_output", lambda *args, **kwargs: None)
     paths = {kind: tmp_path / f"ok.{kind}" for kind in ("csv", "npz", "png")}
     broken = tmp_path / "gone" / ("x.png" if bad == "plot" else "x.csv")
     paths["png" if bad == "plot" else "csv"] = broken

@@ -71,7 +71,9 @@ def test_a_state_value_must_be_a_finite_number(capsys):
 
 def test_atol_and_max_step_reach_the_run(capsys, tmp_path, monkeypatch):
     seen = {}
-    original = cli.load
+    from models.cli import common
+
+    original = common.load
 
     def spy(name):
         module = original(name)
@@ -89,7 +91,7 @@ def test_atol_and_max_step_reach_the_run(capsys, tmp_path, monkeypatch):
                 return model
         return Spied()
 
-    monkeypatch.setattr(cli, "load", spy)
+    monkeypatch.setattr(common, "load", spy)
     status, out, err = hbg(capsys, "run", "parallel-capacitors", "--atol", 1e-13, "--max-step", 1e-3, "--rtol", 1e-8,
                            "--t-end", 0.02, "--samples", 0, "--csv", tmp_path / "c.csv")
     assert status == 0, err

@@ -71,7 +71,7 @@ def test_modes_and_codegen_say_which_run_found_their_modes_and_take_t_end(tmp_pa
 
 
 def test_without_t_end_the_modes_come_from_a_run_bounded_in_computing_time(monkeypatch, capsys):
-    monkeypatch.setattr(cli, "EXPLORATION_SECONDS", 0.0)
+    monkeypatch.setattr("models.cli.modes.EXPLORATION_SECONDS", 0.0)
     assert cli.main(["modes", "boost-converter"]) == 0
     out, err = capsys.readouterr()
     assert "stopped after 0 s of computing (give --t-end to choose the run)" in err
