@@ -70,6 +70,9 @@ from .compiler import dispatch, inline, rodas_control, stamp_with_rules
 __all__ = ["implicit_workspaces", "jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
 
 _SQRT_EPS = math.sqrt(np.finfo(np.float64).eps)
+#: the shortest step RODAS4P factors: ``1/(γ·h)`` stays finite (a first step of 10 ulps of t = 0, 5e-323 s, made
+#: it infinite: the relay with atol = 1e-300 started there, its matrix and stages NaN)
+_MIN_IMPLICIT_STEP = 1e-290
 #: a step is taken again, shorter, when the stages damped its motion more than this many times what the
 #: Jacobian at its end would (see rosenbrock_step)
 DAMPING_RATIO = 4.0
@@ -314,6 +317,11 @@ def jacobian(m, k, t, y, f, M, L, tmp, f1):
         if ctl[3] == 0.0 or not _still_zero(jbuf, ke, order, int(ctl[2])):
             _partition(jbuf, ke, order, ctl, L[2], False)
             ctl[3] = 1.0
+    for i in range(ke * ke):
+        if not (jbuf[i] - jbuf[i] == 0.0):  # J not finite (√q at q = 0): the explicit step the method can take
+            for j in range(ke * ke):
+                jbuf[j] = 0.0
+            break
     for i in range(ke):
         fx[i] = 0.0
     if M.driven != 0 and k > 0 and M.jfns[m] != 0:  # the compiled Jacobian's ∂f/∂t, after J
@@ -381,9 +389,16 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
     tmp, err, K = W
     jbuf, lu, piv, fx, ctl, order = L
     ke = y.shape[0]
-    min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+    min_step = max(10 * abs(np.nextafter(t, np.inf) - t), _MIN_IMPLICIT_STEP)
     h_abs = min(h_abs, max_step)
     h_abs = max(h_abs, min_step)
+    if not t < t_end:  # a flow asked to go nowhere (t_end on an instant, a PWM edge): a step of length 0
+        for c in range(ke):
+            y_new[c] = y[c]
+            f_new[c] = f[c]
+            Q[c, 0] = 0.0
+            Q[c, 1] = 0.0
+        return True, t_end, 0.0, h_abs
     if ctl[4] == 0.0:
         jacobian(m, k, t, y, f, M, L, tmp, f_new)
     ctl[4] = 0.0

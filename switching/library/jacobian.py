@@ -165,12 +165,19 @@ class FlowJacobian:
         return out
 
     def __call__(self, t, y):
-        """``J`` at ``(t, y)``: a ``(k, k)`` array, or a CSC matrix when :attr:`sparse`."""
+        """``J`` at ``(t, y)``: a ``(k, k)`` array, or a CSC matrix when :attr:`sparse`.  Where ``J`` is not
+        finite (``√q`` at ``q = 0``: an infinite slope) it is 0: the implicit method takes the explicit step it
+        can take there (its Newton iteration a plain one), and ``J`` is finite again a step on."""
+        values = self.values(t, y)
+        if not np.all(np.isfinite(values)):
+            values = np.zeros_like(values)
         if self.sparse:
             from scipy.sparse import csc_matrix
 
-            return csc_matrix((self.values(t, y).copy(), (self.rows, self.cols)), shape=(self.k, self.k))
-        return self.dense(t, y)
+            return csc_matrix((values.copy(), (self.rows, self.cols)), shape=(self.k, self.k))
+        out = np.zeros((self.k, self.k))
+        out[self.rows, self.cols] = values
+        return out
 
 
 def flow_jacobian(model, cm, x) -> FlowJacobian | None:

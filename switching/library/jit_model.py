@@ -246,6 +246,7 @@ class AutoChoice:
         self.per_mode, self.span = per_mode, span
         self.verdicts: dict = dict(verdicts or {})
         self.noted: set = set()  # modes whose Python flow switched to Radau (:meth:`note`)
+        self.fell_back: set = set()  # modes whose implicit flow failed at its start (:meth:`fall_back`)
 
     def classify(self, compiled, x, t) -> None:
         """Judge each mode of ``compiled`` not judged yet at the state ``x`` at ``t`` [s], and mark the stiff ones
@@ -263,6 +264,18 @@ class AutoChoice:
 
         self.verdicts[mode] = ModeStiffness(True, math.nan, why)
         compiled.mark_implicit({mode: True})
+
+    def fall_back(self, compiled, mode, why: str) -> bool:
+        """Flow in ``mode`` with the explicit method from now on (the implicit one failed where its flow
+        started, ``why``); ``False`` when the mode fell back already (the explicit method failed there too)."""
+        from .spectrum import ModeStiffness
+
+        if mode in self.fell_back:
+            return False
+        self.fell_back.add(mode)
+        self.verdicts[mode] = ModeStiffness(False, math.nan, why)
+        compiled.mark_implicit({mode: False})
+        return True
 
     def is_implicit(self, mode) -> bool:
         """Does ``mode`` flow with the implicit method (judged stiff, or switched)?"""

@@ -96,6 +96,13 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             auto.switch(compiled, mode, f"RK45's step {'left the reals' if status == 'nonfinite' else 'collapsed'} "
                         f"at t = {t:.6g} s (a stiff flow)")
             continue
+        what = "left the reals" if status == "nonfinite" else "collapsed"
+        if status in ("nonfinite", "collapsed") and kind == AUTO_KIND and auto.is_implicit(mode) and t == start[0] \
+                and np.all(np.isfinite(x)) and \
+                auto.fall_back(compiled, mode, f"RODAS4P's step {what} where its flow started, t = {t:.6g} s"):
+            continue  # the implicit method cannot start here: the explicit one takes the mode
+        if kind == AUTO_KIND:  # the method that failed, not the one auto is named by
+            method = "rodas-jit" if auto.is_implicit(mode) else "RK45-jit"
         overflow = overflow_message(model, method, mode, t, x) if status in ("nonfinite", "collapsed") else None
         if overflow:
             raise FlowFailure(NonFiniteStateError, overflow, t, x, steps, mode)

@@ -3,14 +3,20 @@ counts the steps a run takes, and a fixed-step run of ``n·dt`` takes ``n``."""
 
 from __future__ import annotations
 
-import pytest
+import math
 
-from bondgraph import BondGraph, C, R, Zero
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.optimize import brentq
+
+from bondgraph import BondGraph, C, One, R, Se, Zero
+from models import boost_converter
 from models.mechanics import Mechanism
 from switching import Automaton, HybridModel
 from switching.errors import NonFiniteStateError, SimulationError, ZenoError
 
-from switching_models import rc_relay, relay_graph
+from switching_models import rc_relay, rc_relay_exact, relay_graph
 
 
 @pytest.mark.parametrize("method", ["euler", "rk4", "euler-jit", "rk4-jit"])
@@ -85,3 +91,59 @@ def test_advice_names_a_method_simulate_accepts():
     with pytest.raises(SimulationError, match="use 'Radau'") as info:  # a Python function as an input
         model.simulate(1.0, "rodas-jit")
     assert "'rodas'" not in str(info.value)
+
+
+# ----------------------------------------------------------------- runs the implicit methods must finish (item 5)
+
+
+def sqrt_capacitor():
+    """V = 1 through R = 1 onto a C with ``e = √q`` from q = 0: ``q' = 1 − √q``, whose Jacobian
+    ``−1/(2√q)`` is infinite at the start.  With ``u = √q``: ``t = −2u − 2·ln(1 − u)``."""
+    g = BondGraph("sqrt")
+    j = g.add(One("j"))
+    g.connect(Se("V", "V"), j)
+    g.connect(j, R("R1", "R1"))
+    g.connect(j, C("K", effort_law=lambda q: sp.sqrt(q)))
+    return HybridModel(g, [], dict(V=1.0, R1=1.0), {"q_K": 0.0})
+
+
+def sqrt_capacitor_exact(t):
+    u = brentq(lambda u: -2 * u - 2 * math.log1p(-u) - t, 0.0, 1.0 - 1e-16, xtol=1e-16, rtol=1e-15)
+    return u * u
+
+
+@pytest.mark.parametrize("method", ["rodas-jit", "Radau", "BDF", "auto", "RK45"])
+def test_an_infinite_jacobian_at_the_start_is_stepped_over_explicitly(method):
+    # rodas-jit returned q = 0 for ever (a matrix I/(γh) − J with J = −∞), Radau and BDF failed at t = 0
+    run = sqrt_capacitor().simulate(1.0, method, rtol=1e-9, atol=1e-12)
+    assert sqrt_capacitor_exact(1.0) == pytest.approx(0.48761, abs=1e-5)
+    assert run.x[-1, 0] == pytest.approx(sqrt_capacitor_exact(1.0), rel=1e-6)
+
+
+def test_rodas_takes_the_relay_with_atol_1e_300():
+    # the first step was 10 ulps of t = 0 (5e-323 s): 1/(γh) infinite, the stages NaN
+    run = rc_relay().simulate(2.0, "rodas-jit", atol=1e-300, rtol=1e-8)
+    v, events = rc_relay_exact(2.0)
+    assert run.x[-1, 0] == pytest.approx(v, rel=1e-6)
+    np.testing.assert_allclose(run.event_times, events, rtol=1e-7)
+
+
+def test_rodas_ends_on_a_pwm_edge_at_t_end():
+    # 0.01 s is an edge of the boost converter's PWM: the flow after that instant is of length 0
+    model = boost_converter.build()
+    implicit = model.simulate(0.01, "rodas-jit", max_step=1e-5)
+    explicit = model.simulate(0.01, "RK45-jit", max_step=1e-5)
+    assert implicit.t[-1] == explicit.t[-1] == 0.01
+    np.testing.assert_allclose(implicit.x[-1], explicit.x[-1], rtol=1e-4)
+
+
+@pytest.mark.parametrize("mass", [1e-6, 1e-15])
+@pytest.mark.parametrize("method", ["BDF", "Radau", "LSODA"])
+def test_the_implicit_methods_take_a_light_rod_with_much_friction_through_its_impact(mass, method):
+    from models import falling_rod
+
+    run = falling_rod.build(m=mass, mu=10.0).simulate(0.5, method, rtol=1e-9, atol=1e-12)
+    # free fall at rest until the lower end, l·sin(θ0) below the centre, meets the floor
+    p = falling_rod.DEFAULTS
+    impact = math.sqrt(2 * (p["y0"] - p["l"] * math.sin(p["theta0"])) / p["g"])
+    assert run.t[-1] == 0.5 and run.event_times[0] == pytest.approx(impact, rel=1e-6)
