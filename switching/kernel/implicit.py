@@ -332,6 +332,11 @@ def jacobian(m, k, t, y, f, M, L, tmp, f1):
         fun(m, t + dt, y, k, M, f1)
         for i in range(ke):
             fx[i] = (f1[i] - f[i]) / dt
+    for i in range(ke):
+        if not (fx[i] - fx[i] == 0.0):  # ∂f/∂t not finite (an input √t at t = 0): the explicit step, as for J
+            for j in range(ke):
+                fx[j] = 0.0
+            break
 
 
 @inline

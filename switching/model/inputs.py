@@ -9,6 +9,7 @@ input; one-sided where the function is not defined before ``t``)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 
 
@@ -35,7 +36,10 @@ class InputValues:
             self._rates[name] = getattr(fn, "derivative", None)
         rate = self._rates[name]
         if rate is not None:
-            return float(rate(t))
+            try:
+                return float(rate(t))
+            except ArithmeticError:  # an infinite slope (√t at t = 0): no number; read only by equations
+                return math.nan      # that take the input's rate (a flow of dependent storage), there non-finite
         h = 6.0e-6 * max(1.0, abs(t))
         try:
             return (float(fn(t + h)) - float(fn(t - h))) / (2.0 * h)

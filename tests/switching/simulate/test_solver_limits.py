@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 from bondgraph import BondGraph, C, One, R, Se, Zero
 from models import boost_converter
 from models.mechanics import Mechanism
-from switching import Automaton, HybridModel
+from switching import Automaton, ExpressionInput, HybridModel
 from switching.errors import NonFiniteStateError, SimulationError, ZenoError
 
 from switching_models import rc_relay, rc_relay_exact, relay_graph
@@ -147,3 +147,26 @@ def test_the_implicit_methods_take_a_light_rod_with_much_friction_through_its_im
     p = falling_rod.DEFAULTS
     impact = math.sqrt(2 * (p["y0"] - p["l"] * math.sin(p["theta0"])) / p["g"])
     assert run.t[-1] == 0.5 and run.event_times[0] == pytest.approx(impact, rel=1e-6)
+
+
+def sqrt_driven_rc(resistance):
+    """``√t`` across R in series with C = 1 from q = 0: ``q' = (√t − q)/R``, whose ∂f/∂t is infinite at t = 0;
+    for ``τ = R·C`` small, ``q = u − τ·u′ + τ²·u″ − …`` with ``u = √t``."""
+    g = BondGraph("sqrt_t")
+    j = g.add(One("j"))
+    u = g.input("u")
+    g.connect(Se("V", u), j)
+    g.connect(j, R("R1", "R1"))
+    g.connect(j, C("C", "C"))
+    return HybridModel(g, [], dict(R1=resistance, C=1.0), {"q_C": 0.0}, inputs={"u": ExpressionInput("sqrt(t)")})
+
+
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit", "rodas-jit", "auto", "Radau"])
+def test_an_input_with_an_infinite_slope_at_the_start(method):
+    # the input's rate 1/(2√t) raised ZeroDivisionError at t = 0 (RK45, and auto before choosing: not even an
+    # error of the toolkit); rodas-jit's f_t was NaN there ("a law left its domain")
+    tau = 1e-5
+    run = sqrt_driven_rc(tau).simulate(1.0, method, rtol=1e-10, atol=1e-12)
+    assert run.x[-1, 0] == pytest.approx(1.0 - tau / 2 - tau**2 / 4, rel=1e-8)
+    if method == "auto":
+        assert "rodas-jit" in run.stats["method per mode (auto)"]  # τ·T = 1e5: stiff, the implicit method
