@@ -200,9 +200,11 @@ class ConfigurationEquations:
         return out
 
     def _config_text(self) -> str:
+        """`` [junctions: S1 on, D1 off]``: the controlled junctions' states (a mode's automata may word theirs
+        otherwise: a switch ``closed``, a clutch ``engaged``)."""
         if not self.configuration:
             return ""
-        return " [" + ", ".join(f"{k}={'on' if v else 'off'}" for k, v in self.configuration.items()) + "]"
+        return " [junctions: " + ", ".join(f"{k} {'on' if v else 'off'}" for k, v in self.configuration.items()) + "]"
 
     def pretty(self, signals: bool = False) -> str:
         """A multi-line human-readable listing (``signals=True`` adds every bond's effort and flow)."""

@@ -97,3 +97,11 @@ def test_an_unknown_method_is_still_refused_with_the_names():
 
     with pytest.raises(OptionValueError, match="unknown method 'rk46'; choose one of"):
         bouncing_ball.build().simulate(0.5, "rk46")
+
+
+def test_the_equations_name_the_junctions_states_as_junctions(capsys):
+    """``mode S1=closed`` above ``equations of 'buck' [S1=on]`` read as two words for one switch: the bracket
+    is the controlled junctions' configuration, and says so."""
+    assert cli.main(["modes", "bouncing-ball", "--t-end", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "mode contact=flight\nequations of 'bouncing_ball' [junctions: floor off]" in out and "floor=off" not in out
