@@ -738,25 +738,30 @@ class _Builder(NetlistBuilder):
         automaton.add_transition("closed", "open", opening, "a priori")
         self.automata.append(automaton)
 
+    def windings(self, part) -> tuple:
+        """The 1-junctions ``<name>_primary`` and ``<name>_secondary`` of a two-port part, in series between
+        its nodes: ``p1 → primary → p2`` and ``s1 ← secondary ← s2`` (the secondary's flow out of ``s1``)."""
+        name = part.name
+        p1, p2, s1, s2 = part.nodes
+        primary = self.graph.add(One(self.internal(f"{name}_primary")))
+        secondary = self.graph.add(One(self.internal(f"{name}_secondary")))
+        for n, bond in ((p1, lambda: self.graph.connect(self.node(p1), primary)),
+                        (p2, lambda: self.graph.connect(primary, self.node(p2))),
+                        (s1, lambda: self.graph.connect(secondary, self.node(s1))),
+                        (s2, lambda: self.graph.connect(self.node(s2), secondary))):
+            if n != GROUND:
+                self.note(n, bond())
+        return primary, secondary
+
     def two_port(self, part):
         name = part.name
         owner = f"{'transformer' if part.kind == 'T' else 'gyrator'} {name!r}"
         modulus = self.number_or_parameter(part.values["value"], name, f"ratio of {owner}",
                                            rename=f"rename {owner}")
         element = (TF if part.kind == "T" else GY)(name, modulus)
-        p1, p2, s1, s2 = part.nodes
-        primary = self.graph.add(One(self.internal(f"{name}_primary")))
-        secondary = self.graph.add(One(self.internal(f"{name}_secondary")))
-        if p1 != GROUND:
-            self.note(p1, self.graph.connect(self.node(p1), primary))
-        if p2 != GROUND:
-            self.note(p2, self.graph.connect(primary, self.node(p2)))
+        primary, secondary = self.windings(part)
         bond_p = self.graph.connect(primary, element, name=self.bond_name(f"{name}_p"))
         bond_s = self.graph.connect(element, secondary, name=self.bond_name(f"{name}_s"))
-        if s1 != GROUND:
-            self.note(s1, self.graph.connect(secondary, self.node(s1)))
-        if s2 != GROUND:
-            self.note(s2, self.graph.connect(self.node(s2), secondary))
         for side, bond in (("p", bond_p), ("s", bond_s)):
             self.signal(f"v_{name}_{side}", f"e_{bond.name}", owner)
             self.signal(f"i_{name}_{side}", f"f_{bond.name}", owner)
@@ -776,14 +781,8 @@ class _Builder(NetlistBuilder):
                                      allowed=Range(f"the coupling coefficient of {owner}", 0.0, 1.0, low_open=True,
                                                    required=True))
         L1, L2 = inductance["L1"], inductance["L2"]
-        p1, p2, s1, s2 = part.nodes
-        primary = self.graph.add(One(self.internal(f"{name}_primary")))
+        primary, secondary = self.windings(part)
         core = self.graph.add(Zero(self.internal(f"{name}_core")))
-        secondary = self.graph.add(One(self.internal(f"{name}_secondary")))
-        if p1 != GROUND:
-            self.note(p1, self.graph.connect(self.node(p1), primary))
-        if p2 != GROUND:
-            self.note(p2, self.graph.connect(primary, self.node(p2)))
         into_core = self.graph.connect(primary, core, name=self.bond_name(f"{name}_core"))
         across = f"e_{into_core.name}"
         if part.values["k"] != 1:  # (k = 1: no leakage)
@@ -795,10 +794,6 @@ class _Builder(NetlistBuilder):
         element = self.graph.add(TF(self.internal(f"{name}_transformer"), k * sp.sqrt(L1 / L2)))
         self.graph.connect(core, element, name=self.bond_name(f"{name}_p"))
         bond_s = self.graph.connect(element, secondary, name=self.bond_name(f"{name}_s"))
-        if s1 != GROUND:
-            self.note(s1, self.graph.connect(secondary, self.node(s1)))
-        if s2 != GROUND:
-            self.note(s2, self.graph.connect(self.node(s2), secondary))
         self.signal(f"v_{name}_p", across, owner)
         self.signal(f"i_{name}_p", f"f_{into_core.name}", owner)
         self.signal(f"v_{name}_s", f"e_{bond_s.name}", owner)

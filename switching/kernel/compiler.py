@@ -37,7 +37,7 @@ from codegen import decision
 from .. import rules
 from ..rules import bracket, instants, jumps, maximize, rosenbrock, steppers, stiffness
 
-__all__ = ["band", "decides_as_in_flow", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic", "hermite_terms",
+__all__ = ["band", "decides_as_in_flow", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
            "inline", "instant_begin", "instant_next", "jit", "jump_pulse", "maximize_begin", "maximize_next", "nearer_end", "parabola_peak", "peak_in_reach",
            "pulse_decides", "pulse_holds", "rk4_combine", "rodas_control", "rodas_dense", "stamp_with_rules",
            "worth_refining"]
@@ -60,7 +60,6 @@ rk4_combine = jit(steppers.rk4_combine)
 fixed_size = jit(steppers.fixed_size)
 hermite_cubic = jit(steppers.hermite_cubic)
 nearer_end = jit(steppers.nearer_end)
-hermite_terms = jit(steppers.hermite_terms)
 jump_pulse = dispatch(jumps.jump_pulse)
 fixed_stiffness = jit(stiffness.fixed_stiffness)
 rodas_dense = jit(rosenbrock.rodas_dense)

@@ -21,8 +21,8 @@ import math
 import numpy as np
 
 from .calls import argmax_abs, finite, fun
-from .compiler import (dispatch, euler_step, fixed_size, fixed_stiffness, hermite_cubic, hermite_terms, inline, jit,
-                       nearer_end, rk4_combine, rodas_dense, stamp_with_rules)
+from .compiler import (dispatch, euler_step, fixed_size, fixed_stiffness, hermite_cubic, inline, jit, nearer_end,
+                       rk4_combine, rodas_dense, stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
            "initial_step", "interp"]
@@ -89,8 +89,9 @@ def interp(kind, t_old, h, A, tau, out):
     elif kind == 1:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):
+            terms = hermite_cubic(abs(y_old[i]), abs(f_old[i]), abs(y_new[i]), -abs(f_new[i]), abs(h), theta)
             out[i] = nearer_end(hermite_cubic(y_old[i], f_old[i], y_new[i], f_new[i], h, theta), y_old[i],
-                                y_new[i], hermite_terms(y_old[i], f_old[i], y_new[i], f_new[i], h, theta))
+                                y_new[i], terms)
     elif kind == 3:
         theta = (tau - t_old) / h
         for i in range(out.shape[0]):

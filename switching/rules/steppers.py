@@ -25,9 +25,11 @@ size — and a guard on that state holds inside the step though it holds at
 neither end: a diode of a bridge turned off and on again at every step, a
 divergence of time of round-off.  :func:`nearer_end`: a value beyond the
 nearer end by no more than ``DENSE_ULPS·ε·Σ|terms|`` is that end's value.
-The Hermite interpolant's terms are weighed at the ``θ`` evaluated
-(:func:`hermite_terms`: a ball's bounce within one fixed RK4 step is a hump
-above both ends, near ``θ = 0`` where the terms are small, and it stays);
+The Hermite interpolant's terms are weighed at the ``θ`` evaluated (a
+ball's bounce within one fixed RK4 step is a hump above both ends, near
+``θ = 0`` where the terms are small, and it stays): for ``θ`` in [0, 1]
+``h₁₁ ≤ 0`` and the other weights are ``≥ 0``, so their sum is
+``hermite_cubic(|y0|, |f0|, |y1|, −|f1|, |h|, θ)``;
 an adaptive method's coefficients (RK45's ``Q``, RODAS4P's ``q₁``, ``q₂``)
 carry the round-off of the stages they were formed from, which are of the
 ends' size, so theirs count whole.
@@ -42,10 +44,10 @@ IEEE results either way.
 
 from __future__ import annotations
 
-__all__ = ["RULES", "DENSE_ULPS", "END_SLACK", "euler_step", "fixed_size", "hermite_cubic", "hermite_terms",
-           "nearer_end", "rk4_combine"]
+__all__ = ["RULES", "DENSE_ULPS", "END_SLACK", "euler_step", "fixed_size", "hermite_cubic", "nearer_end",
+           "rk4_combine"]
 
-RULES = ("euler_step", "fixed_size", "hermite_cubic", "hermite_terms", "nearer_end", "rk4_combine")
+RULES = ("euler_step", "fixed_size", "hermite_cubic", "nearer_end", "rk4_combine")
 
 #: a fixed-step flow whose remainder to its end after one more step ``dt`` is below ``END_SLACK·dt`` takes that
 #: step to the end: the remainder is the round-off of the sum of the steps (10 000 steps of 1e-4 from 0 sum to
@@ -93,17 +95,6 @@ def hermite_cubic(y0, f0, y1, f1, h, theta):
     h01 = -2 * theta3 + 3 * theta2
     h11 = theta3 - theta2
     return h00 * y0 + h10 * h * f0 + h01 * y1 + h11 * h * f1
-
-
-def hermite_terms(y0, f0, y1, f1, h, theta):
-    """``Σ|terms|`` of :func:`hermite_cubic` at ``θ``: ``|h₀₀·y0| + |h₁₀·h·f0| + |h₀₁·y1| + |h₁₁·h·f1|``."""
-    theta2 = theta * theta
-    theta3 = theta2 * theta
-    h00 = 2 * theta3 - 3 * theta2 + 1
-    h10 = theta3 - 2 * theta2 + theta
-    h01 = -2 * theta3 + 3 * theta2
-    h11 = theta3 - theta2
-    return abs(h00 * y0) + abs(h10 * h * f0) + abs(h01 * y1) + abs(h11 * h * f1)
 
 
 def nearer_end(v, y0, y1, terms):

@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from ..rules.steppers import euler_step, fixed_size, hermite_cubic, hermite_terms, nearer_end, rk4_combine
+from ..rules.steppers import euler_step, fixed_size, hermite_cubic, nearer_end, rk4_combine
 from ..rules.stiffness import AT_ONCE, fixed_stiffness
 
 __all__ = ["Euler", "RK4", "Adaptive", "ORDERS", "STABILITY_LIMITS", "StepFailed", "StiffnessDetected"]
@@ -231,11 +231,12 @@ class RK4(_Stepper):
         theta = (tau - self.t_old) / h
         if self._old_lists is not None:
             y_old, f_old = self._old_lists
-            return np.array([nearer_end(hermite_cubic(a, b, c, d, h, theta), a, c, hermite_terms(a, b, c, d, h, theta))
+            return np.array([nearer_end(hermite_cubic(a, b, c, d, h, theta), a, c,
+                                        hermite_cubic(abs(a), abs(b), abs(c), -abs(d), abs(h), theta))
                              for a, b, c, d in zip(y_old, f_old, self._y_list, self._f_list)])
         y_old, f_old = self._arrays
-        return nearer_end(hermite_cubic(y_old, f_old, self.y, self.f, h, theta), y_old, self.y,
-                          hermite_terms(y_old, f_old, self.y, self.f, h, theta))
+        terms = hermite_cubic(np.abs(y_old), np.abs(f_old), np.abs(self.y), -np.abs(self.f), abs(h), theta)
+        return nearer_end(hermite_cubic(y_old, f_old, self.y, self.f, h, theta), y_old, self.y, terms)
 
 
 # the stage evaluated at t + h for Hairer's test (RK23 has none: see Adaptive._hairer)

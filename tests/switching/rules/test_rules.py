@@ -234,10 +234,9 @@ def test_the_steppers_python_and_compiled_agree_to_the_bit():
     numba = pytest.importorskip("numba")
     import numpy as np
 
-    from switching.rules.steppers import euler_step, hermite_cubic, hermite_terms, rk4_combine
+    from switching.rules.steppers import euler_step, hermite_cubic, rk4_combine
 
     euler, combine, hermite = numba.njit(euler_step), numba.njit(rk4_combine), numba.njit(hermite_cubic)
-    terms = numba.njit(hermite_terms)
     rng = np.random.default_rng(6)
     for values in rng.normal(size=(200, 5)).tolist():
         h = abs(values[0]) * 1e-2
@@ -245,7 +244,6 @@ def test_the_steppers_python_and_compiled_agree_to_the_bit():
         assert combine(*values, h) == rk4_combine(*values, h)
         theta = abs(values[4]) % 1.0
         assert hermite(*values[:4], h, theta) == hermite_cubic(*values[:4], h, theta)
-        assert terms(*values[:4], h, theta) == hermite_terms(*values[:4], h, theta)
 
 
 def test_a_dense_value_beyond_the_steps_ends_within_its_terms_round_off_is_the_nearer_end():
@@ -267,6 +265,22 @@ def test_a_dense_value_beyond_the_steps_ends_within_its_terms_round_off_is_the_n
     values = [-1.9e-39, 2.47e-23 + 1e-39, beyond, 1.2e-23]
     whole = nearer_end(np.array(values), np.zeros(4), np.full(4, 2.47e-23), np.full(4, terms))
     assert whole.tolist() == [nearer_end(v, 0.0, 2.47e-23, terms) for v in values]
+
+
+def test_the_hermite_terms_magnitudes_are_the_cubic_of_the_magnitudes_with_the_last_slope_negated():
+    """For θ in [0, 1] the weights h₀₀, h₁₀, h₀₁ are ≥ 0 and h₁₁ ≤ 0 (the interpolants' round-off scale)."""
+    import numpy as np
+
+    from switching.rules.steppers import hermite_cubic
+
+    rng = np.random.default_rng(8)
+    for y0, f0, y1, f1, h in rng.normal(size=(200, 5)).tolist():
+        for theta in (0.0, 1e-9, 0.3, 0.5, 0.99, 1.0):
+            t2, t3 = theta * theta, theta * theta * theta
+            weights = (2 * t3 - 3 * t2 + 1, t3 - 2 * t2 + theta, -2 * t3 + 3 * t2, t3 - t2)
+            explicit = sum(abs(w * v) for w, v in zip(weights, (y0, h * f0, y1, h * f1)))
+            assert hermite_cubic(abs(y0), abs(f0), abs(y1), -abs(f1), abs(h), theta) == pytest.approx(explicit,
+                                                                                                   rel=1e-12)
 
 
 def test_the_nearer_end_python_and_compiled_agree_to_the_bit():
