@@ -17,6 +17,14 @@ from .run import add_run
 from .sweep import add_sweep
 
 
+def _model_command(sub, name: str, **options):
+    """The parser of command ``name`` that takes a MODEL and its ``--set`` values."""
+    p = sub.add_parser(name, **options)
+    p.add_argument("model", help=MODEL_HELP)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    return p
+
+
 class _Parser(argparse.ArgumentParser):
     """Errors are usage errors; an option is spelt out (``--max-step`` is not read as ``--max-steps``)."""
 
@@ -39,9 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_run(sub)
 
-    p = sub.add_parser("modes", help="derived equations of the modes a run visits")
-    p.add_argument("model", help=MODEL_HELP)
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    p = _model_command(sub, "modes", help="derived equations of the modes a run visits")
     p.add_argument("--mode", help="one mode, as outputs show it ('contact=free, friction=stuck'; automata not named "
                    "keep their initial state) or its states joined by | ('free|stuck')")
     p.add_argument("--latex", action="store_true", help="print the equations as LaTeX")
@@ -50,30 +56,22 @@ def build_parser() -> argparse.ArgumentParser:
     add_exploration(p)
     p.set_defaults(run=cmd_modes)
 
-    p = sub.add_parser("verify", help="static divergence-of-time check")
-    p.add_argument("model", help=MODEL_HELP)
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    p = _model_command(sub, "verify", help="static divergence-of-time check")
     p.add_argument("--samples", type=int, default=10, help="sampled states per mode (at least 1)")
     p.set_defaults(run=cmd_verify)
 
-    p = sub.add_parser("codegen", help="export the generated per-mode functions")
-    p.add_argument("model", help=MODEL_HELP)
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    p = _model_command(sub, "codegen", help="export the generated per-mode functions")
     p.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="the folder the module is written to (created if missing)")
     add_exploration(p)
     p.set_defaults(run=cmd_codegen)
 
-    p = sub.add_parser("save", help="write a model to a model file (TOML)")
-    p.add_argument("model", help=MODEL_HELP)
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    p = _model_command(sub, "save", help="write a model to a model file (TOML)")
     p.add_argument("-o", "--output", required=True, metavar="FILE.toml", help="the model file written")
     p.set_defaults(run=cmd_save)
 
-    p = sub.add_parser("draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
-                                    "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
-    p.add_argument("model", help=MODEL_HELP)
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help=SET_HELP)
+    p = _model_command(sub, "draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
+                       "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
     p.add_argument("--mode", metavar="MODE", help="the mode drawn, as outputs show it ('contact=free, friction=stuck') "
                    "or its states joined by | (default: the initial mode)")
     p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")
