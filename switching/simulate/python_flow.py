@@ -49,10 +49,12 @@ def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, l
             raise FlowFailure(
                 functools.partial(StiffnessError, h=exc.h, h_lambda=exc.h_lambda, limit=exc.limit),
                 stiffness_message(model, cm, mode, exc), t, x, steps) from None
-        except StepFailed as exc:
+        except (StepFailed, ValueError) as exc:  # (scipy's Radau factors a matrix of an overflowed state: ValueError)
             overflow = overflow_message(model, method.name, mode, t, x)
             if overflow:
                 raise FlowFailure(NonFiniteStateError, overflow, t, x, steps) from None
+            if not isinstance(exc, StepFailed):
+                raise
             raise FlowFailure(
                 StepSizeError,
                 f"{method.name} failed at t = {t:.12g} in mode {mode.describe()}: {exc}. "

@@ -38,7 +38,7 @@ def negative_resistance(resistance=-1e-3):
     return HybridModel(g, [], dict(C=1.0, R=resistance), {"q_C": 1.0})
 
 
-@pytest.mark.parametrize("method", ["RK45", "RK45-jit", "rodas-jit", "auto"])
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit", "rodas-jit", "auto", "Radau", "BDF"])
 def test_an_overflowing_flow_is_reported_as_unbounded_growth(method):
     with pytest.raises(NonFiniteStateError, match="grew without bound and overflowed") as info:
         negative_resistance().simulate(2.0, method)
