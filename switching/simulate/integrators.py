@@ -322,7 +322,12 @@ class Adaptive(_Stepper):
         if self._dense is None:
             self._dense = self.solver.dense_output()
             self._terms = _dense_terms(self._dense, self.y_old, self.y)
-        return nearer_end(self._dense(tau), self.y_old, self.y, self._terms)
+            self._hull = (np.minimum(self.y_old, self.y), np.maximum(self.y_old, self.y))
+        value = self._dense(tau)
+        lower, upper = self._hull
+        if ((value < lower) | (value > upper)).any():  # (between the ends the rule keeps the value: not called)
+            return nearer_end(value, self.y_old, self.y, self._terms)
+        return value
 
     @property
     def step_size(self):
