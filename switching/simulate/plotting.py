@@ -20,8 +20,8 @@ import numpy as np
 from bondgraph.drawing import draw_bond_graph, pyplot
 from bondgraph.errors import HybridBondGraphError
 
-__all__ = ["DEFAULT_PANELS", "FLAT", "MAX_POINTS", "MAX_SPANS", "default_signals", "draw_bond_graph", "mode_colors",
-           "mode_graph", "phase_portrait", "plain", "plot_trajectory", "time_unit"]
+__all__ = ["DEFAULT_PANELS", "DENSE_SAMPLES", "FLAT", "MAX_POINTS", "MAX_SPANS", "default_signals", "draw_bond_graph",
+           "mode_colors", "mode_graph", "phase_portrait", "plain", "plot_trajectory", "time_unit"]
 
 
 def mode_colors(modes, model=None) -> dict:
@@ -58,6 +58,8 @@ DEFAULT_PANELS = 6
 MAX_POINTS = 6000
 #: the most mode intervals shaded one by one; beyond, the shading is decimated per column (_shading)
 MAX_SPANS = 400
+#: uniform times added between a run's rows in a panel's window of few rows (:func:`_densified`)
+DENSE_SAMPLES = 2000
 #: a signal whose range is below this fraction of its magnitude is drawn as constant (round-off is not a signal)
 FLAT = 1e-9
 
@@ -227,6 +229,10 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     else:
         low, high = (float(t[0]), float(t[-1])) if len(t) else (0.0, 1.0)
         inside = np.ones(len(t), dtype=bool)
+    drawn = _densified(trajectory, low, high, int(np.count_nonzero(inside)))
+    if drawn is not trajectory:
+        t = np.asarray(drawn.t)
+        inside = (t >= low) & (t <= high)
     spans = [(max(a, low), min(b, high), m) for a, b, m in _intervals(trajectory) if b >= low and a <= high]
     colors = mode_colors([m for *_, m in spans] or trajectory.modes, trajectory.model)
     spans = _shading(spans, low, high, MAX_POINTS // 2)
@@ -238,7 +244,7 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
         flat = {}  # name → its value, for a signal constant to round-off
         for k, name in enumerate(names):
             color = "black" if len(names) == 1 else cycle[k % len(cycle)]
-            constant = _draw_signal(ax, t[inside], np.asarray(trajectory.signal(name))[inside], name, color)
+            constant = _draw_signal(ax, t[inside], np.asarray(drawn.signal(name))[inside], name, color)
             if constant is not None:
                 flat[name] = constant
         _shade(ax, spans, colors)
@@ -270,6 +276,16 @@ def plot_trajectory(trajectory, signals=None, axes=None, title=None, max_instant
     if not own:
         fig.tight_layout()
     return fig
+
+
+def _densified(trajectory, low, high, rows):
+    """The trajectory as drawn over ``[low, high]``: with :data:`DENSE_SAMPLES` interpolated times added
+    (:meth:`Trajectory.dense`) when its window holds fewer than ``MAX_POINTS/2`` rows (a run's solver steps:
+    a sine stepped 20 times a period would be drawn as chords), else as it is.  Not when the run kept no
+    instants: a jump between two rows could not be told from the flow."""
+    if rows >= MAX_POINTS // 2 or not getattr(trajectory, "instants_kept", False) or trajectory.model is None:
+        return trajectory
+    return trajectory.dense(DENSE_SAMPLES, (low, high))
 
 
 def _shade(ax, spans, colors):
@@ -313,10 +329,13 @@ def _mode_legend(fig, ax, colors, instants, max_instants, own, panel_legend):
 
 def phase_portrait(trajectory, x: str, y: str, ax=None, label=None, color=None):
     """``y`` against ``x``, each mode in its colour (or all in ``color``, to
-    compare runs on one axis), jumps dotted.  Returns the axis."""
+    compare runs on one axis), jumps dotted; a run of few rows drawn dense
+    (:func:`_densified`).  Returns the axis."""
     plt = pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 4))
+    if len(trajectory.t):
+        trajectory = _densified(trajectory, float(trajectory.t[0]), float(trajectory.t[-1]), len(trajectory.t))
     xs, ys = trajectory.signal(x), trajectory.signal(y)
     spans = _intervals(trajectory)
     colors = mode_colors([m for *_, m in spans], trajectory.model)

@@ -14,7 +14,10 @@ run's sampling (``trajectory.sampling``):
 * ``"samples"`` (``samples=N``, ``hbg run``'s output): the ``N`` times
   ``linspace(t0, t_end, N)`` and every instant's before and after rows in
   time order (a time equal to an instant's comes after its pair, with the
-  state after it); :meth:`Trajectory.without_instants` leaves the ``N``.
+  state after it); :meth:`Trajectory.without_instants` leaves the ``N``;
+* ``"dense"`` (:meth:`Trajectory.dense`, what the plots draw): a run's rows
+  and uniform times between them, interpolated (cubic Hermite per flow
+  interval).
 
 Whatever the rows, ``events`` lists the
 :class:`~switching.simulate.resolution.Instant` records (their states before
@@ -38,7 +41,8 @@ from bondgraph.elements import R, OnePort, Source, Storage
 from bondgraph.energy import energy_function
 from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
 
-from .plotting import plot_trajectory
+from .dense_rows import hermite_states, interpolable
+from .plotting import DENSE_SAMPLES, plot_trajectory
 
 __all__ = ["Trajectory", "EnergyRecord", "InstantStates"]
 
@@ -241,6 +245,35 @@ class Trajectory:
         out.stats = dict(self.stats)
         if self.sensitivities is not None:
             out.sensitivities = self.sensitivities.take(rows)
+        return out
+
+    def dense(self, samples: int = DENSE_SAMPLES, t_range=None) -> "Trajectory":
+        """The run with ``samples`` uniform times over ``t_range`` (default: the whole run) added between its
+        rows, each state there the cubic Hermite interpolant of its flow interval from the rows' states and
+        flows (:mod:`switching.simulate.dense_rows`: error ``O(h⁴)`` in the row spacing): what the plots draw,
+        so that a run of solver steps is drawn as the curve it followed, not as chords.  Every row and
+        instant stays; ``sampling`` is ``"dense"``; no sensitivities.  Itself without a model or rows."""
+        if self.model is None or len(self.t) < 2:
+            return self
+        low, high = (float(self.t[0]), float(self.t[-1])) if t_range is None else map(float, t_range)
+        times = np.linspace(low, high, int(samples))
+        usable = interpolable(self.t, self.modes, self.event_times)
+        rows, states, kept = hermite_states(self.model, self.t, self.x, self.modes, usable, times)
+        all_t = np.concatenate([self.t, times[kept]])
+        order = np.argsort(all_t, kind="stable")
+        place = np.empty_like(order)
+        place[order] = np.arange(len(order))
+        out = object.__new__(type(self))
+        out.__dict__.update(self.__dict__)
+        out.__dict__.pop("_numbers", None)
+        out.t = all_t[order]
+        out.x = np.concatenate([self.x, states])[order]
+        modes = self.modes + [self.modes[r] for r in rows]
+        out.modes = [modes[k] for k in order]
+        out.event_index = [int(place[k]) for k in self.event_index]
+        out.stats = dict(self.stats)
+        out.sampling = "dense"
+        out.sensitivities = None
         return out
 
     @property
