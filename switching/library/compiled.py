@@ -519,6 +519,27 @@ class CompiledMode:
         out = np.empty(self.n) if out is None else out
         return self._rates(x, t, model.parameter_array, model.input_values(t), out)
 
+    def rates_at(self, xs: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """``f(x_j, t_j)`` of many states at once [states' units per s]: ``xs`` (N, n), ``times`` (N,) →
+        (N, n); one call of the generated function on numpy arrays where it takes them, else row by row
+        (a function whose code branches on values).  NaN where the flow cannot be evaluated."""
+        model, xs, times = self.model, np.asarray(xs, dtype=float), np.asarray(times, dtype=float)
+        out = np.empty((self.n, len(times)))
+        with np.errstate(all="ignore"):
+            try:
+                inputs = [np.array(column, dtype=float) for column in
+                          zip(*(model.input_values(t) for t in times))] or []
+                self.on_numpy("rates")(xs.T, times, model.parameter_array, inputs, out)
+                return out.T.copy()
+            except (ArithmeticError, ValueError, TypeError, IndexError):
+                rows = np.full((len(times), self.n), np.nan)
+                for j, t in enumerate(times):
+                    try:
+                        rows[j] = self.rates(xs[j].copy(), float(t))
+                    except (ArithmeticError, ValueError):
+                        pass
+                return rows
+
     def jump(self, x: np.ndarray, t: float) -> np.ndarray:
         """``x⁺ = g(x)`` (restitution included), exactly as the jump map gives it."""
         x = np.asarray(x, dtype=float)

@@ -65,14 +65,15 @@ def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: list, usable: np.
 
 
 def _row_rates(model, t, x, modes, rows) -> np.ndarray:
-    """``f(x_k, t_k)`` in each row's mode for the ``rows`` asked (NaN elsewhere and where it fails)."""
+    """``f(x_k, t_k)`` in each row's mode for the ``rows`` asked, one call per mode (NaN elsewhere and
+    where it cannot be evaluated)."""
     rates = np.full(x.shape, np.nan)
-    with np.errstate(all="ignore"):
-        for r in rows:
-            try:
-                rates[r] = model.compiled_mode(modes[r]).rates(x[r].copy(), float(t[r]))
-            except (ArithmeticError, ValueError):  # a flow that cannot be evaluated there: the chord
-                pass
+    by_mode: dict = {}
+    for r in rows:
+        by_mode.setdefault(modes[r], []).append(r)
+    for mode, members in by_mode.items():
+        members = np.asarray(members)
+        rates[members] = model.compiled_mode(mode).rates_at(x[members], t[members])
     return rates
 
 

@@ -100,3 +100,15 @@ def test_the_default_plot_of_a_sine_driven_rectifier_draws_its_peaks():
         drawn = ax.lines[0].get_ydata()
         assert len(drawn) > 2000 and drawn.max() > 325 * (1 - 2e-5)
     assert len(fig.axes[0].lines[0].get_xdata()) > 2000
+
+
+def test_the_flow_of_many_rows_at_once_is_the_flow_of_each():
+    from models import boost_converter
+
+    model = boost_converter.build()
+    run = model.simulate(1e-3)
+    for mode in set(run.modes):
+        rows = np.array([k for k, m in enumerate(run.modes) if m == mode])
+        compiled = model.compiled_mode(mode)
+        each = np.array([compiled.rates(run.x[k].copy(), run.t[k]) for k in rows])
+        np.testing.assert_array_equal(compiled.rates_at(run.x[rows], run.t[rows]), each)
