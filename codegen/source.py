@@ -167,6 +167,17 @@ class _Printer(PythonCodePrinter):
     def _print_NegativeInfinity(self, expr):
         return "-H.inf" if self._raw else "-inf"
 
+    def _print_Heaviside(self, expr):
+        """``Heaviside(x, h0)``: 1 for ``x > 0``, 0 for ``x < 0``, ``h0`` at 0 and NaN for NaN, as
+        conditional expressions (as ``sign`` and ``Piecewise`` print: plain Python, numba and the
+        native backend alike; on ``Hyper`` values a pulse's sign decides)."""
+        argument, at_zero = expr.args
+        x = self.parenthesize(argument, 0)
+        if at_zero == 1:
+            return f"(1.0 if {x} >= 0 else (0.0 if {x} < 0 else nan))"
+        h0 = self._print(sp.Float(float(at_zero)) if at_zero.is_Number else at_zero)
+        return f"(1.0 if {x} > 0 else (0.0 if {x} < 0 else ({h0} if {x} == 0 else nan)))"
+
 
 def _is_cheap(expr) -> bool:
     """A node not worth a temporary: ``1/a`` and ``-a`` of an atom (``b/a``

@@ -14,8 +14,10 @@ holds them.  What cannot be written raises
 :class:`~switching.files.errors.ModelFileError` naming the culprit: an
 input given as a Python function (give it as an
 :class:`~switching.model.expression_input.ExpressionInput`), a law that uses a
-function the text grammar lacks (``Piecewise``, ``Heaviside``), an element
-class of one's own.
+function the text grammar lacks (``Piecewise``), an element class of one's
+own.  A ``Heaviside(x, h0)`` is written ``step(x)`` when ``h0 = 1`` (the text's
+right-continuous unit step), else ``Heaviside(x, h0)`` (``Heaviside(x, 1/2)``
+for sympy's ``Heaviside(x)``), and reads back to the same tree.
 """
 
 from __future__ import annotations

@@ -23,9 +23,11 @@ fingerprint.  What makes that work:
 
 Only what the parser can produce is printed: numbers (integers, fractions,
 finite floats), symbols with valid names, ``pi``, ``E`` (as ``exp(1)``), the
-parser's functions, relations and ``and``/``or``/``not``.  Anything else (a
-``Piecewise``, ``Heaviside``, a complex number, a derivative, a ``Dummy``)
-raises :class:`ExpressionTextError` saying what it is.
+parser's functions (a ``Heaviside(x, h0)`` as ``step(x)`` when ``h0 = 1``, else
+as ``Heaviside(x, h0)``: ``Heaviside(x, 1/2)`` for sympy's ``Heaviside(x)``),
+relations and ``and``/``or``/``not``.  Anything else (a ``Piecewise``, a
+complex number, a derivative, a ``Dummy``) raises :class:`ExpressionTextError`
+saying what it is.
 
 Example::
 
@@ -141,6 +143,8 @@ def _text(node) -> tuple[str, int]:
         return _mul(node)
     if node.is_Pow:
         return _pow(node)
+    if isinstance(node, sp.Heaviside):
+        return _step(node), _ATOM
     if type(node) in _FUNCTION_NAMES:
         return f"{_FUNCTION_NAMES[type(node)]}({', '.join(_text(a)[0] for a in node.args)})", _ATOM
     raise ExpressionTextError(
@@ -148,6 +152,15 @@ def _text(node) -> tuple[str, int]:
         f"+ - * / **, pi and the functions {', '.join(sorted(FUNCTIONS))}",
         node,
     )
+
+
+def _step(node) -> str:
+    """``Heaviside(x, h0)`` as ``step(x)`` when ``h0 = 1`` (the text's unit
+    step), else as ``Heaviside(x, h0)`` (sympy's ``Heaviside(x)`` has ``h0 = 1/2``)."""
+    argument, at_zero = node.args
+    if at_zero == 1:
+        return f"step({_text(argument)[0]})"
+    return f"Heaviside({_text(argument)[0]}, {_text(at_zero)[0]})"
 
 
 def _ordered(args):

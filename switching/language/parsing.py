@@ -18,7 +18,24 @@ parameters, ``t``); a hierarchical name such as ``rod/theta`` is one name if
 known, otherwise ``/`` is a division.  Unknown plain names become parameter
 symbols (their values are then required like any other parameter).
 Functions: abs, sign, sqrt, exp, log (``log(x, base)`` too), sin, cos, tan,
-asin, acos, atan, atan2, sinh, cosh, tanh, min, max.
+asin, acos, atan, atan2, sinh, cosh, tanh, min, max, step and Heaviside.
+
+The unit step
+-------------
+``step(x)`` and ``Heaviside(x)`` are the engineers' unit step, *right-continuous*:
+0 for ``x < 0`` and 1 for ``x ≥ 0``, so ``step(0) = 1`` (sympy's
+``Heaviside(x, 1)``; sympy's own ``Heaviside(x)`` is ½ at 0).
+``Heaviside(x, h0)`` gives the value at 0 explicitly: ``Heaviside(x, 1/2)`` is
+sympy's ``Heaviside(x)``, the form a model built in Python with
+``sp.Heaviside(x)`` is written to a model file in.  Where a step jumps — in an
+element law, or in an input given as an expression of time
+(:mod:`switching.model.stepped_inputs`) — it is a law switch
+(:mod:`bondgraph.law_switches`): the crossing of ``x = 0`` is located as an
+event and the flows on either side see 0 and 1, so a source ``V*step(t - t1)``
+is off up to ``t1`` and on after it.  The value at 0 is what a signal, a guard
+or an input's value reads where ``x = 0`` — ``V`` at ``t1``: the source is on
+from ``t1`` itself — and what a law that stays continuous across the step
+(``c*f*step(f)``, left as written) reads.
 
 Limits
 ------
@@ -77,7 +94,16 @@ __all__ = [
     "MAX_SYMBOLIC_EXPONENT",
     "MAX_EXACT_BITS",
     "MAX_MINMAX_ARGUMENTS",
+    "unit_step",
 ]
+
+
+def unit_step(x, value_at_zero=sp.S.One):
+    """``Heaviside(x, h0)``: 0 for ``x < 0``, 1 for ``x > 0`` and ``h0`` at
+    ``x = 0``, by default 1 (the right-continuous unit step of the module
+    docstring)."""
+    return sp.Heaviside(x, value_at_zero)
+
 
 FUNCTIONS = {
     "abs": sp.Abs,
@@ -97,6 +123,8 @@ FUNCTIONS = {
     "tanh": sp.tanh,
     "min": sp.Min,
     "max": sp.Max,
+    "step": unit_step,
+    "Heaviside": unit_step,
 }
 
 # -- limits (see the module docstring); a real guard never meets them
@@ -125,7 +153,7 @@ _LOG10_MAX = math.log10(MAX_MAGNITUDE)
 _LOG10_MIN = math.log10(MIN_MAGNITUDE)
 _FOLD = 32  # 'and'/'or' chains longer than this are built in one sympy call
 _FRAMES_PER_LEVEL = 10  # Python frames one nesting level costs at most (a parenthesis: 9)
-_ARITY = {"atan2": (2,), "log": (1, 2), "min": None, "max": None}  # default: one argument
+_ARITY = {"atan2": (2,), "log": (1, 2), "min": None, "max": None, "Heaviside": (1, 2)}  # default: one argument
 _UNITS = {sp.S.One, sp.S.NegativeOne, sp.I, -sp.I}  # exact powers of these stay small
 _NONFINITE = {
     sp.S.ComplexInfinity: "complex infinity (zoo)",
@@ -228,6 +256,8 @@ def _estimate_call(name: str, values: list):
         if isinstance(y, complex) or isinstance(x, complex):
             return None
         return math.atan2(y, x)
+    if name in ("step", "Heaviside"):
+        return _step_value(values)
     if name == "log" and len(values) == 2:
         z, base = values
         if z == 0 or base == 0:
@@ -241,6 +271,17 @@ def _estimate_call(name: str, values: list):
     if name == "log" and z == 0:
         raise ZeroDivisionError
     return _real_if_possible(getattr(cmath, name)(z))
+
+
+def _step_value(values: list):
+    """The unit step of ``values[0]``: 0 below 0, 1 above, ``values[1]`` (else
+    1) at 0; None for a complex argument (sympy refuses it)."""
+    z = values[0]
+    if isinstance(z, complex):
+        return None
+    if z == 0:
+        return 1.0 if len(values) == 1 else values[1]
+    return 1.0 if z > 0 else 0.0
 
 
 def _exact_bits(expr, depth: int = 2) -> int:

@@ -25,6 +25,7 @@ import numpy as np
 import sympy as sp
 
 from bondgraph import budget
+from bondgraph.inverse import slope_of
 from codegen.cache import fingerprint
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, function_source, module_namespace
@@ -41,8 +42,10 @@ SPARSE_FROM = 40
 
 def real_gradient(expression, variables) -> list:
     """``∂e/∂v`` for each of ``variables``, every symbol taken real (so
-    ``|s|`` gives ``sign(s)``, not complex parts); zeros where ``e`` does not
-    contain ``v``."""
+    ``|s|`` gives ``sign(s)``, not complex parts), without Dirac pulses (the
+    ``2|s|·δ(s)`` of ``∂(s|s|)/∂s``, the ``s·δ(s)`` of ``∂(s·step(s))/∂s``:
+    nought wherever flow evaluates it, :func:`bondgraph.inverse.slope_of`);
+    zeros where ``e`` does not contain ``v``."""
     e = sp.sympify(expression)
     free = e.free_symbols
     if not free & set(variables):
@@ -50,7 +53,7 @@ def real_gradient(expression, variables) -> list:
     real = {s: sp.Dummy(s.name, real=True) for s in free}
     back = {r: s for s, r in real.items()}
     e = e.xreplace(real)
-    return [sp.diff(e, real[v]).xreplace(back) if v in free else sp.S.Zero for v in variables]
+    return [slope_of(e, real[v]).xreplace(back) if v in free else sp.S.Zero for v in variables]
 
 
 def flow_rate(me, state):

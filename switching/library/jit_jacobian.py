@@ -32,6 +32,7 @@ import re
 import sympy as sp
 
 from bondgraph import budget
+from bondgraph.inverse import slope_of
 from codegen.cache import fingerprint
 from codegen.machine import machine_function
 from codegen.source import Argument, docstring, inverse_helpers
@@ -74,7 +75,7 @@ def jacobian_function_source(model, mode) -> str | None:
     if inputs:  # ∂ẏ/∂t through the inputs (expressions of t)
         me = model.mode_equations(mode)
         for i, state in enumerate(model.states[j] for j in independent):
-            derivative = sp.diff(sp.sympify(flow_rate(me, state)).xreplace(inputs), model.time)
+            derivative = slope_of(sp.sympify(flow_rate(me, state)).xreplace(inputs), model.time)  # (no δ)
             if derivative != 0:
                 place.append(k * k + i)
                 entries = [*entries, derivative]

@@ -25,6 +25,7 @@ from collections.abc import Mapping
 import numpy as np
 import sympy as sp
 
+from bondgraph.inverse import slope_of
 from bondgraph.symbols import t as TIME
 
 from ..errors import ModelDefinitionError
@@ -87,8 +88,10 @@ class ExpressionInput:
 
     @property
     def derivative(self) -> "ExpressionInput":
-        """``du/dt`` as an input of its own (exact: the expression differentiated)."""
-        return ExpressionInput(sp.diff(self.expression, TIME), self.parameters)
+        """``du/dt`` as an input of its own (exact: the expression differentiated) between the input's
+        steps: without their Dirac pulses (``d step(t - t1)/dt = δ(t - t1)`` is 0 wherever ``t ≠ t1``;
+        at ``t1`` the input changes its value, :func:`bondgraph.inverse.slope_of`)."""
+        return ExpressionInput(slope_of(self.expression, TIME), self.parameters)
 
     def __getstate__(self):
         return {"expression": self.expression, "parameters": self.parameters}

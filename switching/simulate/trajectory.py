@@ -312,7 +312,11 @@ class Trajectory:
             times = self.t[mask]
             inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
             values = np.empty((1, int(mask.sum())))
-            fn(self.x[mask].T, times, model.parameter_array, inputs, values)
+            try:
+                fn(self.x[mask].T, times, model.parameter_array, inputs, values)
+            except (TypeError, ValueError):  # a branch (step, sign, Piecewise) on arrays: one sample at a time
+                for i, (x, tk) in enumerate(zip(self.x[mask], times)):
+                    fn(x, tk, model.parameter_array, model.input_values(tk), values[:, i])
             out[mask] = values[0]
         return out
 

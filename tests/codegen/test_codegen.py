@@ -263,3 +263,75 @@ def test_text_shared_between_functions_names_only_temporaries_each_assigns():
         exec(compile(function_source(spec, memo), "<test>", "exec"), namespace)
         out = namespace[spec.name](values, np.zeros(len(spec.outputs)))
         assert out[0] == pytest.approx(2.0 / 9.0, rel=1e-15)
+
+
+# ------------------------------------------------------------------ the unit step
+
+
+def test_heaviside_prints_as_the_unit_step_on_every_path():
+    """``Heaviside(x, h0)``: 0 below 0, 1 above, ``h0`` at ±0 (1 for the text's ``step``), NaN for NaN,
+    in the module the checker passes, on Python floats, on numpy scalars and (raw) on ``Hyper``
+    values, where a pulse's sign decides."""
+    from codegen.safety import check_source, execute
+    from codegen.source import Argument, FunctionSpec, function_source, module_namespace
+
+    x = sp.Symbol("x")
+    outputs = (sp.Heaviside(x, 1), sp.Heaviside(x), sp.Heaviside(3 * x - 1, sp.Rational(1, 4)))
+    source = function_source(FunctionSpec("h", (Argument("x", (x,), scalar=True),), outputs))
+    check_source(source)
+    python, numpy = (execute(source, module_namespace(vectorized=v))["h"] for v in (False, True))
+    expected = [(-2.0, [0, 0, 0]), (-0.0, [1, 0.5, 0]), (0.0, [1, 0.5, 0]), (1 / 3, [1, 1, 0.25]), (3.0, [1, 1, 1])]
+    for value, row in expected:
+        assert list(python(value, np.empty(3))) == row
+        assert list(numpy(np.float64(value), np.empty(3))) == row
+    assert np.all(np.isnan(python(float("nan"), np.empty(3))))
+    raw = function_source(FunctionSpec("h", (Argument("x", (x,), scalar=True),), outputs, raw=True))
+    check_source(raw)
+    hyper_h = execute(raw, module_namespace())["h"]
+    assert hyper_h(Hyper(-1.0, 5.0)) == [0, 0, 0] and hyper_h(Hyper(2.0, -5.0)) == [1, 1, 1]
+    assert hyper_h(Hyper(0.0, 0.0)) == [1, 0.5, 0]
+
+
+def one_way_damper():
+    """A mass (1 kg) on a spring (1 N/m) with a damper that acts only while the mass moves forwards,
+    ``e = c·f·step(f)``: a law that stays continuous, kept as written (no law switch), so the step
+    reaches the generated rates, their Jacobian and the signals."""
+    from bondgraph import C, I, One, R
+    from bondgraph import BondGraph as Graph
+    from switching import HybridModel
+    from switching.language.parsing import parse_expression
+
+    g = Graph("one_way_damper")
+    v = g.add(One("v"))
+    g.connect(v, I("m", 1.0))
+    g.connect(v, C("k", 1.0))
+    g.connect(v, R("d", effort_law=lambda f: parse_expression("c*f*step(f)", {"f": f})))
+    return HybridModel(g, [], {"c": 0.5}, initial_state={"q_k": 1.0}, signals={"forwards": "step(p_m)"})
+
+
+def one_way_damper_closed_form(t):
+    """``q_k(t)`` from ``q = 1``, ``p = 0`` (α = c/2, ω = √(1 − α²)): undamped backwards ``cos t`` until
+    π; damped forwards ``−e^{−αs}(cos ωs + (α/ω) sin ωs)`` for ``s = t − π`` up to ``π/ω``, where
+    ``q = A = e^{−απ/ω}``; undamped backwards ``A cos(t − t₂)`` from ``t₂ = π + π/ω`` for π."""
+    alpha = 0.25
+    omega = np.sqrt(1 - alpha**2)
+    t2 = np.pi + np.pi / omega
+    s = t - np.pi
+    damped = -np.exp(-alpha * s) * (np.cos(omega * s) + alpha / omega * np.sin(omega * s))
+    return np.where(t <= np.pi, np.cos(t), np.where(t <= t2, damped, np.exp(-alpha * np.pi / omega) * np.cos(t - t2)))
+
+
+@pytest.mark.parametrize("method", ["RK45", "Radau", "RK45-jit", "rodas-jit"])
+def test_a_continuous_law_with_a_step_runs_against_its_closed_form(method):
+    """The kept step in the rates (Python, numba's or the native backend's machine code; for the
+    implicit methods the Jacobian, whose ``c·f·δ(f)`` is dropped: 0 wherever flow evaluates it) gives
+    the piecewise closed form; the signal ``step(p_m)`` evaluates on the run's samples (a branch on
+    arrays: one sample at a time)."""
+    if method.endswith("-jit"):
+        pytest.importorskip("numba")
+    model = one_way_damper()
+    assert model.law_switches == {}
+    rtol = 1e-10
+    run = model.simulate(9.0, method, rtol=rtol, atol=1e-12)
+    assert np.max(np.abs(run.state("q_k") - one_way_damper_closed_form(run.t))) <= 10 * rtol
+    np.testing.assert_array_equal(run.signal("forwards"), np.where(run.state("p_m") >= 0, 1.0, 0.0))

@@ -122,6 +122,40 @@ def test_arithmetic_has_numbas_meaning_bit_for_bit():
             assert got == expected and same_bits(out_ours, out_reference), (n, a, b, out_ours, out_reference)
 
 
+def test_the_unit_step_as_printed_is_numbas_and_pythons_bit_for_bit():
+    """``Heaviside(x, h0)`` as the code generator prints it (conditional expressions, ``nan`` for NaN),
+    translated and compiled by numba: the same bits, and the values plain Python gives."""
+    import sympy as sp
+
+    from codegen.source import Argument, module_namespace
+    from switching.library.jit_model import generated_statements
+
+    a = sp.Symbol("a")
+    outputs = [sp.Heaviside(a, 1), sp.Heaviside(a), 2 * sp.Heaviside(1 - 3 * a, 0) + sp.Heaviside(2 * a - 1, 1)]
+    statements = generated_statements({}, "h", (Argument("a", (a,), scalar=True),), outputs)
+    source = HEADER + "def f(a, out_):\n    out = carray(out_, (3,))\n" + textwrap.indent(
+        "\n".join(statements), "    ") + "\n    return 0\n"
+    ours, reference, _ = both(source, "f", ["f", ("ptr", "f")], "i")
+    python = {}
+    exec("def f(a, out):\n" + textwrap.indent("\n".join(statements), "    ") + "\n    return out\n",
+         {**module_namespace()}, python)  # (the generated statements, run as the Python path runs them)
+    for value in SPECIAL + [1 / 3]:
+        out_ours, out_reference = np.full(3, 0.125), np.full(3, 0.125)
+        assert ours(value, pointer(out_ours)) == reference(value, pointer(out_reference)) == 0
+        assert same_bits(out_ours, out_reference), (value, out_ours, out_reference)
+        assert same_bits(out_ours, python["f"](value, np.empty(3))), value
+
+
+def test_mode_functions_of_a_law_that_keeps_its_step_agree_with_numba_bit_for_bit():
+    from test_codegen import one_way_damper
+
+    model = one_way_damper()
+    model.cache = SourceCache(None)
+    model.simulate(9.0, "RK45")
+    assert any("nan))" in model.compiled_mode(m).source for m in model.visited_modes)  # (the step is printed)
+    assert_modes_agree_with_numba(model)
+
+
 def test_zero_to_a_negative_literal_power_is_infinite():
     """The one place where the meaning differs from numba's on purpose: numba
     computes ``x**-k`` as ``1/x**k`` under Python's error model, so ``0.0**-2``

@@ -20,6 +20,20 @@ def test_parse_precedence_and_logic():
     assert parse_expression("2.5e-3*x + .5") == sp.Float("2.5e-3") * x + sp.Float(0.5)
 
 
+def test_step_and_heaviside_are_the_right_continuous_unit_step():
+    """``step(x) = Heaviside(x) = H(x)`` with ``H(0) = 1``; ``Heaviside(x, h0)`` sets the value at 0
+    (``Heaviside(x, 1/2)`` is sympy's ``Heaviside(x)``)."""
+    t, t1, V = sp.symbols("t t1 V")
+    source = parse_expression("V*step(t - t1)", {"t": t})
+    assert sp.simplify(source - V * sp.Heaviside(t - t1, 1)) == 0
+    assert parse_expression("Heaviside(x)") == sp.Heaviside(x, 1) == parse_expression("step(x)")
+    assert parse_expression("Heaviside(x, 1/2)") == sp.Heaviside(x)
+    assert source.subs({t: 2, t1: 2}) == V and source.subs({t: 1, t1: 2}) == 0  # on from t1 itself
+    values = [parse_expression(text) for text in ("step(0)", "step(-1e-300)", "step(3)", "Heaviside(0, 0.25)")]
+    assert values == [1, 0, 1, 0.25]
+    assert parse_condition("step(t - 1) > 1/2", {"t": t}) == sp.Gt(sp.Heaviside(t - 1, 1), sp.Rational(1, 2))
+
+
 def test_chained_comparison_is_a_conjunction():
     assert parse_condition("0 <= x < 1") == sp.And(sp.Le(0, x, evaluate=False), sp.Lt(x, 1))
 
@@ -50,6 +64,9 @@ def test_text_is_never_executed():
         ("x + 1", "not a condition"),
         ("(x > 1) + 2 > 0", "a condition is used where a number is expected"),
         ("sin(x, y) > 0", "wrong number of arguments"),
+        ("step(x, y) > 0", "wrong number of arguments to step()"),
+        ("Heaviside(x, y, a) > 0", "wrong number of arguments to Heaviside()"),
+        ("step() > 0", "expected a number"),
         ("x > 1 y", "unexpected 'y'"),
         ("", "non-empty"),
     ],
