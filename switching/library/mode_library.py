@@ -58,6 +58,7 @@ from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_source_and_meta
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
 from ..model.modes import Mode, ModeEquations
+from ..model.stepped_inputs import stepped_inputs
 
 __all__ = ["ModeLibrary", "canonical", "definition_fingerprint"]
 
@@ -85,7 +86,8 @@ def definition_fingerprint(model) -> str:
     """A hash of ``model``'s symbolic definition (structure, laws, guards,
     signals, parameter order) and the toolkit version: the disk-cache key of
     everything generated for it.  Parameter values, the initial state and the
-    input functions are not part of it."""
+    input functions are not part of it, but for the inputs that step, which the
+    modes are derived with (:mod:`switching.model.stepped_inputs`)."""
     from bondgraph import __version__
 
     graph = model.graph
@@ -98,6 +100,7 @@ def definition_fingerprint(model) -> str:
     parts += [f"{b.name} {b.tail} {b.head}" for b in graph.bonds.values()]
     parts += [f"{d.symbol} {d.bond} {d.sign}" for d in graph.displacements.values()]
     parts += [" ".join(graph.inputs), " ".join(s.name for s in model.parameter_symbols)]
+    parts += [f"{u} = {canonical(e)}" for u, e in stepped_inputs(graph, model.input_signals.functions).items()]
     for automaton in model.automata:
         parts.append(f"{automaton.name} {automaton.states!r} {automaton.initial}")
         parts += [f"{k} {sorted((n, canonical(v)) for n, v in t.items())}" for k, t in automaton.values.items()]

@@ -43,6 +43,7 @@ from . import initial_state
 from .inputs import InputValues
 from .law_automata import branches_at, law_automaton, starting_mode
 from .mode_space import ModeSpace
+from .stepped_inputs import with_stepped_inputs
 from .services import SERVICES
 from .simulate_doc import SIMULATE_DOC
 
@@ -153,9 +154,10 @@ class HybridModel:
         graph.validate()
         self.graph = graph
         self.name = name or graph.name
-        #: the graph the modes are derived from: ``graph`` with each discontinuity of an element
-        #: law replaced by a branch symbol (:mod:`bondgraph.law_switches`)
-        self.derivation_graph, switches = law_switches(graph)
+        self._inputs = definition.check_inputs(graph, inputs or {})
+        #: the graph the modes are derived from: ``graph`` with stepping inputs read into its laws
+        #: (:mod:`.stepped_inputs`), each discontinuity of a law a branch symbol (:mod:`bondgraph.law_switches`)
+        self.derivation_graph, switches = law_switches(with_stepped_inputs(graph, self._inputs))
         #: law switch name → :class:`bondgraph.law_switches.LawSwitch`; each drives the automaton of that name
         self.law_switches = {sw.name: sw for sw in switches}
         definition.check_law_switch_names(graph, self.law_switches, automata)
@@ -176,7 +178,6 @@ class HybridModel:
         self._guards = definition.parse_guards(self.automata, {**self._names, **self._signals}, self._signals)
         #: the modes of :attr:`automata`, named, configured and left by their guards
         self.mode_space = ModeSpace(self.automata, self._guards)
-        self._inputs = definition.check_inputs(graph, inputs or {})
         self.input_signals = InputValues(tuple(graph.inputs), self._inputs)
         self.parameter_symbols = definition.collect_parameters(self)
         self.allow_infinite = frozenset(allow_infinite)

@@ -624,6 +624,16 @@ C = "j -> C"
 [signals]
 v = "q_C/C"
 """
+#: the same circuit driven by an input that steps (an expression of t, as a file's [inputs] hold it)
+RC_STEP_INPUT = RC_STEP.replace('value = "V0*step(t - t1)"', 'value = "u"').replace(
+    "[elements]", '[inputs]\nu = "V0*step(t - t1)"\n\n[elements]')
+
+
+def _rc_step_closed_form(t, V0=12.0, t1=1e-3, RC=1e-3):
+    """``v_C(t) = V0·(1 − e^{−(t − t1)/RC})`` after the step at ``t1``, 0 before it."""
+    return np.where(t >= t1, V0 * (1 - np.exp(-(t - t1) / RC)), 0.0)
+
+
 def test_a_source_law_with_a_step_runs_as_the_python_model_and_round_trips():
     """A file's ``step(t - t1)`` and a Python-built ``sp.Heaviside(t - t1)`` (½ at 0) make the same law
     switch and the same run; both are written back as text that reads back to the same law."""
@@ -642,6 +652,37 @@ def test_a_source_law_with_a_step_runs_as_the_python_model_and_round_trips():
         again = loads_model(text)
         assert same(again.graph.elements["V"].value, model.graph.elements["V"].value)
         assert again.fingerprint == model.fingerprint
+
+
+@pytest.mark.parametrize("method", ["RK45", "RK45-jit"])
+def test_an_input_that_steps_is_an_instant_at_its_time_and_matches_the_closed_form(method):
+    """``u = V0*step(t - t1)`` drives an RC circuit (RC = 1 ms): the step is located as an instant at
+    ``t1`` (its law switch), nothing moves before it and ``v_C`` follows its closed form after it
+    within the method's tolerance (a step spanning ``t1`` used to smear it: 8.7e-5 V off at rtol 1e-8)."""
+    if method.endswith("-jit"):
+        pytest.importorskip("numba")
+    model = loads_model(RC_STEP_INPUT)
+    assert isinstance(model._inputs["u"], ExpressionInput) and list(model.law_switches) == ["V_law"]
+    rtol = 1e-8
+    run = model.simulate(5e-3, method, rtol=rtol, atol=1e-14)
+    (event,) = run.events
+    assert event.t == pytest.approx(1e-3, rel=1e-15) and event.mode_after.label == "positive"
+    v, before, after = run.signal("v"), run.t < event.t, run.t > event.t
+    assert before.sum() >= 2 and after.sum() >= 10
+    assert np.all(v[before] == 0.0) and np.all(run.state("q_C")[run.t <= event.t] == 0.0)
+    assert np.max(np.abs(v[after] - _rc_step_closed_form(run.t[after]))) <= 10 * rtol * 12.0
+    law = loads_model(RC_STEP).simulate(5e-3, method, rtol=rtol, atol=1e-14)  # the step written in the law
+    np.testing.assert_allclose(run.x[-1], law.x[-1], rtol=1e-12)
+    again = loads_model(dumps_model(model))
+    assert again.fingerprint == model.fingerprint and 'u = "V0*step(t - t1)"' in dumps_model(model)
+
+
+def test_an_input_that_steps_keeps_its_step_time_in_the_fingerprint():
+    """The modes are derived with the stepping input's values: another step time is another model."""
+    other = RC_STEP_INPUT.replace("t1 = 1e-3", "t1 = 2e-3")
+    first, second = loads_model(RC_STEP_INPUT), loads_model(other)
+    assert first.fingerprint != second.fingerprint
+    assert second.simulate(5e-3, "RK45").event_times[0] == pytest.approx(2e-3, rel=1e-15)
 
 
 def test_model_file_object_pickles_by_path():
