@@ -519,26 +519,48 @@ class CompiledMode:
         out = np.empty(self.n) if out is None else out
         return self._rates(x, t, model.parameter_array, model.input_values(t), out)
 
+    def complete_at(self, xs: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """:meth:`complete` of many states at once: ``xs`` (N, n), ``times`` (N,) → a copy (N, n) with
+        the dependent entries of each row set from its independent ones."""
+        out = np.array(xs, dtype=float)
+        if not len(self.dependent):
+            return out
+        values = self._vectorized("phi", out, times, len(self.dependent))
+        if values is None:
+            for j, t in enumerate(times):
+                self.complete(out[j], float(t))
+        else:
+            out[:, self.dependent] = values
+        return out
+
+    def _vectorized(self, name: str, xs: np.ndarray, times: np.ndarray, size: int) -> np.ndarray | None:
+        """Generated function ``name`` on N rows at once (N, size), or None where its code does not take
+        arrays (it branches on values)."""
+        model, times = self.model, np.asarray(times, dtype=float)
+        out = np.empty((size, len(times)))
+        with np.errstate(all="ignore"):
+            try:
+                self.on_numpy(name)(np.asarray(xs, dtype=float).T, times, model.parameter_array,
+                                    model.input_columns(times), out)
+            except (ArithmeticError, ValueError, TypeError, IndexError):
+                return None
+        return out.T.copy()
+
     def rates_at(self, xs: np.ndarray, times: np.ndarray) -> np.ndarray:
         """``f(x_j, t_j)`` of many states at once [states' units per s]: ``xs`` (N, n), ``times`` (N,) →
         (N, n); one call of the generated function on numpy arrays where it takes them, else row by row
         (a function whose code branches on values).  NaN where the flow cannot be evaluated."""
-        model, xs, times = self.model, np.asarray(xs, dtype=float), np.asarray(times, dtype=float)
-        out = np.empty((self.n, len(times)))
+        found = self._vectorized("rates", xs, times, self.n)
+        if found is not None:
+            return found
+        rows = np.full((len(times), self.n), np.nan)
         with np.errstate(all="ignore"):
-            try:
-                inputs = [np.array(column, dtype=float) for column in
-                          zip(*(model.input_values(t) for t in times))] or []
-                self.on_numpy("rates")(xs.T, times, model.parameter_array, inputs, out)
-                return out.T.copy()
-            except (ArithmeticError, ValueError, TypeError, IndexError):
-                rows = np.full((len(times), self.n), np.nan)
-                for j, t in enumerate(times):
-                    try:
-                        rows[j] = self.rates(xs[j].copy(), float(t))
-                    except (ArithmeticError, ValueError):
-                        pass
-                return rows
+            for j, t in enumerate(times):
+                try:
+                    rows[j] = self.rates(np.array(xs[j], dtype=float), float(t))
+                except (ArithmeticError, ValueError):
+                    pass
+        return rows
 
     def jump(self, x: np.ndarray, t: float) -> np.ndarray:
         """``x⁺ = g(x)`` (restitution included), exactly as the jump map gives it."""

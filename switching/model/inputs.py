@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 
+import numpy as np
+
 
 class InputValues:
     """``u(t)`` and ``du/dt`` of the inputs ``names`` (in this order), given
@@ -28,6 +30,13 @@ class InputValues:
         if values:
             values += [self.rate(name, t) for name in self.names]
         return values
+
+    def columns(self, times) -> list:
+        """:meth:`values` at many times [s]: one array (N,) per entry (empty without inputs)."""
+        if not self.names:
+            return []
+        rows = [self.values(t) for t in times]
+        return [np.array([row[j] for row in rows], dtype=float) for j in range(2 * len(self.names))]
 
     def rate(self, name: str, t: float) -> float:
         """``du/dt`` of input ``name`` at ``t`` (in its unit per second)."""

@@ -11,7 +11,10 @@ step by ``(t_stop − t_start)/50`` for the same reason.  Here a run whose
 shortest period of a ``sin``, ``cos`` or ``tan`` of time in a source's value
 or an expression input (:func:`step_bound`).  A clock that only guards read (a
 PWM carrier) has its edges located as instants, but only where a step's
-samples see its window: a circuit's PWM switch bounds the step by half its
+samples see its window: the sinusoids of time in the guards (and in the
+signals they name) bound the step the same way — a boost converter run
+without ``max_step`` stepped 200 µs over its 50 µs PWM windows and read
+74.7 V for 24.0 V — and a circuit's PWM switch bounds it by half its
 shortest on or off window (``HybridModel.max_step_hint``, set by
 ``Circuit.build``) — a synchronous buck's low-side opening at 3.58 periods
 was stepped over without it.
@@ -20,13 +23,15 @@ was stepped over without it.
 from __future__ import annotations
 
 import math
+import weakref
 
 import sympy as sp
 
 from bondgraph.elements import Source
+from bondgraph.errors import HybridBondGraphError
 from bondgraph.symbols import t as TIME
 
-__all__ = ["PERIOD_FRACTION", "source_periods", "step_bound"]
+__all__ = ["PERIOD_FRACTION", "guard_periods", "source_periods", "step_bound"]
 
 #: the steps of an adaptive method per period of the fastest source sinusoid, at least
 PERIOD_FRACTION = 16
@@ -67,11 +72,51 @@ def source_periods(model) -> list[float]:
     return periods
 
 
+def guard_periods(model) -> list[float]:
+    """The periods [s] of the sinusoids of time in ``model``'s guards and in the signals they name (a
+    PWM carrier ``acos(cos(2π·f_sw·t − π·D))/π`` read by ``carrier <= D``)."""
+    values = {sp.Symbol(k) if isinstance(k, str) else k: sp.Float(v) for k, v in model.parameter_values.items()}
+    return [period for expression in _timed_guards(model) for period in _periods(expression, values)]
+
+
+#: mode space → the expressions of time its guards read (they depend on the structure alone)
+_TIMED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _timed_guards(model) -> list:
+    """The guards that read time and the signals of time guards name, once per structure."""
+    found = _TIMED.get(model.mode_space)
+    if found is not None:
+        return found
+    names, seen, found = set(model.signal_names), set(), []
+    for condition, _ in model.mode_space.guards.values():
+        symbols = getattr(condition, "free_symbols", set())
+        if TIME in symbols:
+            found.append(condition)
+        for symbol in symbols - seen:
+            seen.add(symbol)
+            if symbol != TIME and symbol.name in names:
+                try:
+                    expression = model.signal_expression(symbol.name)
+                except HybridBondGraphError:
+                    continue
+                if expression.has(TIME):
+                    found.append(expression)
+    _TIMED[model.mode_space] = found
+    return found
+
+
 def step_bound(model) -> float:
     """The largest step [s] an adaptive run of ``model`` takes unless given ``max_step``: the shortest
-    source period over :data:`PERIOD_FRACTION`, and the model's own hint (``max_step_hint``: half the
-    shortest window of a circuit's PWM switches, which a step spanning it would pass unseen); ``inf``
-    without either."""
+    period of a sinusoid of time in its sources over :data:`PERIOD_FRACTION`, and its clocks' bound: the
+    model's own hint where it states one (``max_step_hint``: half the shortest window of a circuit's PWM
+    switches, which a step spanning it would pass unseen), else the shortest period of a sinusoid of time
+    in its guards over :data:`PERIOD_FRACTION` (a clock that only guards read has its edges located only
+    where a step's samples see its window: a boost converter's 50 µs PWM windows were stepped over by
+    steps of 200 µs); ``inf`` without any."""
     periods = source_periods(model)
+    hint = getattr(model, "max_step_hint", None)
+    if hint is None:
+        periods += guard_periods(model)
     bound = min(periods) / PERIOD_FRACTION if periods else math.inf
-    return min(bound, getattr(model, "max_step_hint", math.inf))
+    return bound if hint is None else min(bound, hint)

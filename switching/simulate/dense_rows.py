@@ -21,16 +21,24 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["interpolable", "hermite_states"]
+__all__ = ["interpolable", "hermite_states", "row_rates", "numbered"]
 
 
-def interpolable(t: np.ndarray, modes: list, event_times: np.ndarray) -> np.ndarray:
+def numbered(modes: list) -> tuple[np.ndarray, list]:
+    """``(numbers, distinct)``: each row's mode as its place in ``distinct`` (the modes in order of first
+    appearance) — the form the functions here take a run's modes in (:meth:`Trajectory.mode_numbers`)."""
+    places: dict = {}
+    numbers = np.fromiter((places.setdefault(m, len(places)) for m in modes), dtype=np.int64, count=len(modes))
+    return numbers, list(places)
+
+
+def interpolable(t: np.ndarray, modes: tuple, event_times: np.ndarray) -> np.ndarray:
     """``usable[k]`` (``len(t) − 1`` booleans): rows ``k`` and ``k + 1`` bound one flow interval, the same
-    mode at both, ``t_k < t_{k+1}`` and no instant strictly between them."""
+    mode at both (``modes``: :func:`numbered`), ``t_k < t_{k+1}`` and no instant strictly between them."""
     if len(t) < 2:
         return np.zeros(0, dtype=bool)
-    same = np.fromiter((a == b for a, b in zip(modes[:-1], modes[1:])), dtype=bool, count=len(t) - 1)
-    usable = same & (t[1:] > t[:-1])
+    numbers = modes[0]
+    usable = (numbers[1:] == numbers[:-1]) & (t[1:] > t[:-1])
     if len(event_times):
         events = np.sort(np.asarray(event_times, dtype=float))
         inside = np.searchsorted(events, t[1:], side="left") > np.searchsorted(events, t[:-1], side="right")
@@ -38,21 +46,30 @@ def interpolable(t: np.ndarray, modes: list, event_times: np.ndarray) -> np.ndar
     return usable
 
 
-def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: list, usable: np.ndarray,
-                   times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(rows, states, kept)`` at ``times`` [s] strictly inside the usable intervals (module docstring):
-    ``rows[j]`` the interval's first row, ``states[j]`` the interpolated state (n,), ``kept`` the indices
-    into ``times`` that were interpolated (the others fall on a row or an interval left out)."""
+def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: tuple, usable: np.ndarray,
+                   times: np.ndarray, rows: np.ndarray | None = None,
+                   rates: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(rows, states, kept)`` at ``times`` [s] strictly inside the usable intervals (module docstring;
+    ``modes``: :func:`numbered`): ``rows[j]`` the interval's first row, ``states[j]`` the interpolated
+    state (n,), ``kept`` the indices into ``times`` that were interpolated (the others fall on a row or an
+    interval left out).  Given ``rows`` (one per time, each time in ``[t_row, t_row+1]``, ends included),
+    those intervals are used; given ``rates`` (:func:`row_rates` of the rows used), they are not computed
+    again."""
     times = np.asarray(times, dtype=float)
-    k = np.searchsorted(t, times, side="right") - 1
-    valid = (k >= 0) & (k < len(t) - 1)
-    k_safe = np.clip(k, 0, max(len(t) - 2, 0))
-    valid &= usable[k_safe] if len(usable) else False
-    valid &= times > t[k_safe]
-    kept = np.flatnonzero(valid)
-    rows = k[kept]
-    ends = np.unique(np.concatenate([rows, rows + 1]))
-    rates = _row_rates(model, t, x, modes, ends)
+    if rows is None:
+        k = np.searchsorted(t, times, side="right") - 1
+        valid = (k >= 0) & (k < len(t) - 1)
+        k_safe = np.clip(k, 0, max(len(t) - 2, 0))
+        valid &= usable[k_safe] if len(usable) else False
+        valid &= times > t[k_safe]
+        kept = np.flatnonzero(valid)
+        rows = k[kept]
+    else:
+        rows, kept = np.asarray(rows, dtype=np.int64), np.arange(len(times))
+    if rates is None:
+        needed = np.zeros(len(t), dtype=bool)
+        needed[rows] = needed[rows + 1] = True
+        rates = row_rates(model, t, x, modes, np.flatnonzero(needed))
     finite = np.isfinite(rates[rows]).all(axis=1) & np.isfinite(rates[rows + 1]).all(axis=1)
     kept, rows = kept[finite], rows[finite]
     h = (t[rows + 1] - t[rows])[:, None]
@@ -60,26 +77,27 @@ def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: list, usable: np.
     s2, s3 = s * s, s * s * s
     states = ((2 * s3 - 3 * s2 + 1) * x[rows] + (s3 - 2 * s2 + s) * h * rates[rows]
               + (3 * s2 - 2 * s3) * x[rows + 1] + (s3 - s2) * h * rates[rows + 1])
-    _complete(model, states, times[kept], [modes[r] for r in rows])
+    for mode, members in by_mode(modes, rows):
+        compiled = model.compiled_mode(mode)
+        if len(compiled.dependent):  # the dependent states from the independent ones (the mode's constraints)
+            states[members] = compiled.complete_at(states[members], times[kept][members])
     return rows, states, kept
 
 
-def _row_rates(model, t, x, modes, rows) -> np.ndarray:
-    """``f(x_k, t_k)`` in each row's mode for the ``rows`` asked, one call per mode (NaN elsewhere and
-    where it cannot be evaluated)."""
+def by_mode(modes: tuple, rows: np.ndarray):
+    """``(mode, positions)`` for each mode some of ``rows`` are in: the positions in ``rows`` of its rows."""
+    numbers, distinct = modes
+    chosen = numbers[rows]
+    for k in np.unique(chosen):
+        yield distinct[k], np.flatnonzero(chosen == k)
+
+
+def row_rates(model, t, x, modes: tuple, rows) -> np.ndarray:
+    """``f(x_k, t_k)`` in each row's mode (``modes``: :func:`numbered`) for the ``rows`` asked, one call per
+    mode (NaN elsewhere and where it cannot be evaluated)."""
     rates = np.full(x.shape, np.nan)
-    by_mode: dict = {}
-    for r in rows:
-        by_mode.setdefault(modes[r], []).append(r)
-    for mode, members in by_mode.items():
-        members = np.asarray(members)
-        rates[members] = model.compiled_mode(mode).rates_at(x[members], t[members])
+    rows = np.asarray(rows, dtype=np.int64)
+    for mode, members in by_mode(modes, rows):
+        chosen = rows[members]
+        rates[chosen] = model.compiled_mode(mode).rates_at(x[chosen], t[chosen])
     return rates
-
-
-def _complete(model, states, times, modes) -> None:
-    """The dependent states of each row from its independent ones, in place (a mode's constraints)."""
-    for j, mode in enumerate(modes):
-        compiled = model.compiled_mode(mode)
-        if len(compiled.dependent):
-            compiled.complete(states[j], float(times[j]))

@@ -37,12 +37,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bondgraph.elements import R, OnePort, Source, Storage
 from bondgraph.energy import energy_function
 from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNameError
 
-from .dense_rows import hermite_states, interpolable
+from .dense_rows import hermite_states, interpolable, numbered
+from .measurements import measure, spectrum
 from .plotting import DENSE_SAMPLES, plot_trajectory
+from .signal_values import element_power, power_flows, signal_values
 
 __all__ = ["Trajectory", "EnergyRecord", "InstantStates"]
 
@@ -61,9 +62,6 @@ ENERGY_ROUNDOFF = 1e-9
 
 _energy_functions: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
-#: signal names ``power:<element>`` (and the totals ``power:supplied``, …) give power flows
-POWER_PREFIX = "power:"
-_POWER_TOTALS = ("supplied", "dissipated", "stored")
 
 
 def energy_figure(value: float, scale: float) -> str:
@@ -183,17 +181,14 @@ class Trajectory:
     def __len__(self) -> int:
         return len(self.t)
 
-    def _mode_numbers(self) -> tuple[np.ndarray, list]:
+    def mode_numbers(self) -> tuple[np.ndarray, list]:
         """``(numbers, modes)``: each sample's mode as its place in ``modes``
         (the distinct modes in order of appearance); kept while ``self.modes``
         is the same list of the same length."""
         key = (id(self.modes), len(self.modes))
         cached = self.__dict__.get("_numbers")
         if cached is None or cached[0] != key:
-            places: dict = {}
-            numbers = np.fromiter((places.setdefault(m, len(places)) for m in self.modes), dtype=np.int64,
-                                  count=len(self.modes))
-            cached = self.__dict__["_numbers"] = (key, numbers, list(places))
+            cached = self.__dict__["_numbers"] = (key, *numbered(self.modes))
         return cached[1], cached[2]
 
     @property
@@ -257,8 +252,9 @@ class Trajectory:
             return self
         low, high = (float(self.t[0]), float(self.t[-1])) if t_range is None else map(float, t_range)
         times = np.linspace(low, high, int(samples))
-        usable = interpolable(self.t, self.modes, self.event_times)
-        rows, states, kept = hermite_states(self.model, self.t, self.x, self.modes, usable, times)
+        modes = self.mode_numbers()
+        usable = interpolable(self.t, modes, self.event_times)
+        rows, states, kept = hermite_states(self.model, self.t, self.x, modes, usable, times)
         all_t = np.concatenate([self.t, times[kept]])
         order = np.argsort(all_t, kind="stable")
         place = np.empty_like(order)
@@ -298,27 +294,7 @@ class Trajectory:
         wherever signal names are (plots, CSV, sweep metrics)."""
         if name in self.state_names:
             return self.state(name)
-        if name.startswith(POWER_PREFIX):
-            which = name[len(POWER_PREFIX):]
-            if which in _POWER_TOTALS and which not in self._needs_model().graph.elements:
-                return self.power_balance()[which]
-            return self.power(which)
-        model = self._needs_model()
-        out = np.empty(len(self.t))
-        numbers, modes = self._mode_numbers()
-        for k, mode in enumerate(modes):
-            mask = numbers == k
-            fn = model.signal_function(mode, [name])
-            times = self.t[mask]
-            inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
-            values = np.empty((1, int(mask.sum())))
-            try:
-                fn(self.x[mask].T, times, model.parameter_array, inputs, values)
-            except (TypeError, ValueError):  # a branch (step, sign, Piecewise) on arrays: one sample at a time
-                for i, (x, tk) in enumerate(zip(self.x[mask], times)):
-                    fn(x, tk, model.parameter_array, model.input_values(tk), values[:, i])
-            out[mask] = values[0]
-        return out
+        return signal_values(self._needs_model(), name, self.t, self.x, self.mode_numbers())
 
     # ---------------------------------------------------------------- sensitivities
 
@@ -358,7 +334,7 @@ class Trajectory:
     def _stored_energy(self, x, times) -> np.ndarray:
         model = self._needs_model()
         times = np.atleast_1d(np.asarray(times, dtype=float))
-        inputs = [np.array([model.input_values(tk)[j] for tk in times]) for j in range(len(model.input_symbols))]
+        inputs = model.input_columns(times)
         x = np.asarray(x, dtype=float).reshape(len(times), len(model.states))
         return _energy_evaluator(model)(x, times, inputs)
 
@@ -374,13 +350,7 @@ class Trajectory:
         dissipates (``≥ 0`` for a passive law), for a C or I element the rate
         of its stored energy, for a source minus the power it supplies (see
         :meth:`power_balance`)."""
-        model = self._needs_model()
-        if not isinstance(model.graph.element(element), OnePort):
-            raise HybridBondGraphError(
-                f"{element!r} is a {type(model.graph.element(element)).__name__}, not a one-port element: "
-                "power() is for sources, R, C and I elements (junctions and TF/GY pass power on)")
-        (bond,) = model.graph.bonds_of(element)
-        return bond.sign_at(element) * self.signal(bond.effort.name) * self.signal(bond.flow.name)
+        return element_power(self._needs_model(), element, self.t, self.x, self.mode_numbers())
 
     def power_balance(self) -> dict:
         """The model's power flows [W] at every sample: ``"supplied"`` (the
@@ -390,16 +360,7 @@ class Trajectory:
         (the junction structure, TF and GY conserve power).  A source
         modulated to act as friction (a Coulomb force as an ``Se``) counts
         among the sources: what it takes out is negative supply."""
-        model = self._needs_model()
-        out = {key: np.zeros(len(self.t)) for key in ("supplied", "dissipated", "stored")}
-        for name, element in model.graph.elements.items():
-            if isinstance(element, Source):
-                out["supplied"] -= self.power(name)
-            elif isinstance(element, R):
-                out["dissipated"] += self.power(name)
-            elif isinstance(element, Storage):
-                out["stored"] += self.power(name)
-        return out
+        return power_flows(self._needs_model(), self.t, self.x, self.mode_numbers())
 
     def energy_ledger(self, warn: bool = True) -> list:
         """One :class:`EnergyRecord` ``(t, before, after, lost)`` per kept
@@ -483,6 +444,20 @@ class Trajectory:
         return "\n".join(lines)
 
     __str__ = summary
+
+    def measure(self, signal, what="mean", **window):
+        """A measurement of a signal over a window, exact where the run is piecewise smooth
+        (:func:`switching.simulate.measurements.measure`): ``what`` one of ``mean``, ``rms``, ``ac_rms``,
+        ``min``, ``max``, ``ripple``, ``peak``, ``crest``, ``thd``, ``power_factor`` (``signal`` an element),
+        ``efficiency`` (``signal`` the load elements), or a list of them (a dict); ``window``: ``t_from``,
+        ``t_to`` [s], or ``periods=N`` with ``period=T`` [s] (the last N periods); ``fundamental`` [Hz]
+        for ``thd``.  ``run.measure("v_out", ["mean", "ripple"], periods=10, period=1e-5)``."""
+        return measure(self, signal, what, **window)
+
+    def spectrum(self, signal: str, fundamental: float, harmonics: int = 20, **window) -> np.ndarray:
+        """The amplitudes of the harmonics 0 … ``harmonics`` of ``fundamental`` [Hz] of a signal over the
+        window, integrated exactly piecewise (:func:`switching.simulate.measurements.spectrum`)."""
+        return spectrum(self, signal, fundamental, harmonics, **window)
 
     def plot(self, signals=None, **options):
         """The run as a figure (:func:`switching.simulate.plotting.plot_trajectory`):

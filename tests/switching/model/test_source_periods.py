@@ -54,3 +54,22 @@ def test_an_exponential_diode_rectifier_does_not_step_over_its_conduction_pulses
         run = model.simulate(0.1, method)
         assert run.signal("v_p")[-1] == pytest.approx(8.1084012, rel=1e-4)
         assert max(run.t[1:] - run.t[:-1]) <= 0.02 / 16 * (1 + 1e-12)
+
+
+def test_a_clock_only_guards_read_bounds_the_step():
+    """The boost converter's PWM carrier ``acos(cos(2π·f_sw·t − π·D))/π`` is read only by its guards:
+    without a bound RK45 stepped 200 µs over its 50 µs windows and read 74.7 V for 24 V.  Its period
+    bounds the step, and the default run is the run with a step bound given."""
+    from models import boost_converter
+    from switching.model.source_periods import PERIOD_FRACTION, guard_periods, step_bound
+
+    model = boost_converter.build()
+    f_sw = 10e3
+    assert guard_periods(model) == [pytest.approx(1 / f_sw, rel=1e-12)] * 2  # (the two guards)
+    assert step_bound(model) == pytest.approx(1 / f_sw / PERIOD_FRACTION, rel=1e-12)
+    default = model.simulate(0.02)
+    bounded = model.simulate(0.02, max_step=1e-5)
+    assert len(default.events) == len(bounded.events) == 400  # two PWM edges a period
+    window = dict(periods=10, period=1 / f_sw)
+    assert default.measure("v_C", "mean", **window) == pytest.approx(bounded.measure("v_C", "mean", **window),
+                                                                     rel=1e-6)
