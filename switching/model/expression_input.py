@@ -88,10 +88,13 @@ class ExpressionInput:
 
     @property
     def derivative(self) -> "ExpressionInput":
-        """``du/dt`` as an input of its own (exact: the expression differentiated) between the input's
-        steps: without their Dirac pulses (``d step(t - t1)/dt = δ(t - t1)`` is 0 wherever ``t ≠ t1``;
-        at ``t1`` the input changes its value, :func:`bondgraph.inverse.slope_of`)."""
-        return ExpressionInput(slope_of(self.expression, TIME), self.parameters)
+        """``du/dt`` as an input of its own (exact: the expression differentiated, time taken real so
+        that ``d|t - t1|/dt`` is ``sign(t - t1)``) between the input's steps: without their Dirac pulses
+        (``d step(t - t1)/dt = δ(t - t1)`` is 0 wherever ``t ≠ t1``; at ``t1`` the input changes its value,
+        :func:`bondgraph.inverse.slope_of`)."""
+        real = sp.Dummy("t", real=True)
+        rate = slope_of(self.expression.xreplace({TIME: real}), real).xreplace({real: TIME})
+        return ExpressionInput(rate, self.parameters)
 
     def __getstate__(self):
         return {"expression": self.expression, "parameters": self.parameters}

@@ -99,3 +99,20 @@ def test_compiled_run_takes_the_exact_input_derivative():
     compiled = model.simulate(3.0, "RK45-jit", rtol=1e-10, t_eval=np.linspace(0, 3, 7))
     np.testing.assert_allclose(compiled.signal("e_drive"), plain.signal("e_drive"), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(compiled.state("p_m"), 2.0 * np.sin(2 * compiled.t), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("text, before", [("v0*step(t - 1)", 0.0), ("v0*sign(t - 1)", -1.0)])
+def test_a_prescribed_velocity_that_steps_jumps_the_momentum_at_its_instant(text, before):
+    """``u = v0·step(t − 1)`` (or ``v0·sign(t − 1)``) of a mass: the step is an instant at t = 1 (a law
+    switch of the source, :mod:`switching.model.stepped_inputs`) whose jump sets ``p = m·u⁺``; between
+    steps ``du/dt = 0`` (the pulse of the step dropped) and the force is ``b·u``."""
+    m, b, v0 = 2.0, 0.5, 3.0
+    model = HybridModel(driven_mass(), [], {"m": m, "b": b}, initial_state={"p_m": m * v0 * before},
+                        inputs={"u": ExpressionInput(text, {"v0": v0})})
+    assert model.input_signals.rate("u", 0.5) == 0.0 == model.input_signals.rate("u", 1.5)
+    tr = model.simulate(2.0, "RK45", rtol=1e-10)
+    (event,) = tr.events
+    assert event.t == 1.0 and event.x_before[0] == m * v0 * before and event.x_after[0] == m * v0
+    u = np.where(tr.t < 1.0, v0 * before, v0)
+    np.testing.assert_array_equal(tr.state("p_m")[tr.t != 1.0], m * u[tr.t != 1.0])
+    np.testing.assert_allclose(tr.signal("e_drive")[tr.t != 1.0], b * u[tr.t != 1.0], rtol=1e-15)
