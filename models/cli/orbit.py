@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import sys
 
+from switching.simulate.plotting import plot_trajectory
 
 from .common import (EXIT_FAILED, EXIT_OK, MODEL_HELP, UsageError, check_positive, finite_number, initial_state,
                      model_module, parse_sets)
+from .measure import parse_measures, print_measures
 from .outputs import check_outputs, plot_target
 from .sweep import MAX_RUNS
 
@@ -104,13 +106,21 @@ def _cmd_orbit(args) -> int:
             check_positive(option, value)
     if args.warmup < 0:
         raise UsageError(f"--warmup must be 0 or more, got {args.warmup}")
-    signal = args.signal
+    if args.samples < 2:
+        raise UsageError(f"--samples must be at least 2 (the period's start and end), got {args.samples}")
     check_outputs((("--csv", args.csv, "data"), ("--plot", args.plot, "plot")))
     model = module.build(**parameters)
     x0 = initial_state(model, states, module.DEFAULTS)
-    if signal is not None and signal not in model.state_names and signal not in model.signal_names:
-        raise UsageError(f"--signal {signal}: not a state or signal of {model.name}; states: "
-                         f"{', '.join(model.state_names)}; signals: {', '.join(model.signal_names)}")
+    names = [name for name in (args.signal or "").split(",") if name]
+    for name in names:
+        if name not in model.state_names and name not in model.signal_names:
+            raise UsageError(f"--signal {name}: not a state or signal of {model.name}; states: "
+                             f"{', '.join(model.state_names)}; signals: {', '.join(model.signal_names)}")
+    signal = names[0] if names else None
+    measures = parse_measures(args.measure, model)
+    if measures and args.continue_:
+        raise UsageError("--measure measures one orbit: leave out --continue (or measure each point in Python: "
+                         "continue_orbit's points are PeriodicOrbit objects with .measure)")
     options = {"rtol": args.rtol if args.rtol is not None else 1e-10, "warmup": args.warmup}
     max_step = args.max_step if args.max_step is not None else module.RUN.get("max_step")
     if max_step is not None:
@@ -124,7 +134,12 @@ def _cmd_orbit(args) -> int:
     if axis is None:
         orbit = periodic_orbit(model, args.period, x0=x0, **options)
         _print_orbit(model, orbit)
-        return _orbit_outputs(args, model, orbit=orbit)
+        start = float(orbit.trajectory.t[0])
+        measured = print_measures(orbit.trajectory, measures, dict(t_from=start, t_to=start + orbit.period,
+                                                                   fundamental=1.0 / orbit.period),
+                                  "one period of the orbit")
+        written = _orbit_outputs(args, model, orbit=orbit, names=names)
+        return written if measured else EXIT_FAILED
     name, values = axis
     print(f"continuation of the periodic orbit of {model.name} in {name} from {values[0]:g} to {values[-1]:g} "
           f"({len(values)} points)")
@@ -148,14 +163,16 @@ def _cmd_orbit(args) -> int:
     if result.stopped:
         print(f"hbg: error: {result.stopped}", file=sys.stderr)
         status = EXIT_FAILED
-    written = _orbit_outputs(args, model, continuation=result)
+    written = _orbit_outputs(args, model, continuation=result, names=names)
     return status if status != EXIT_OK else written
 
 
-def _orbit_outputs(args, model, orbit=None, continuation=None) -> int:
-    """Write ``--csv`` (the one-period run, or the continuation's table) and ``--plot`` (the states over the
-    period, or the bifurcation diagram of ``--signal``); exit status 1 when one could not be written."""
+def _orbit_outputs(args, model, orbit=None, continuation=None, names=()) -> int:
+    """Write ``--csv`` (the period at ``--samples`` times, or the continuation's table) and ``--plot`` (the
+    signals over the period, a panel per unit, or the bifurcation diagram of ``--signal``); exit status 1
+    when one could not be written."""
     status = EXIT_OK
+    dense = orbit.sampled(args.samples) if orbit is not None and (args.csv or args.plot) else None
     if args.csv:
         try:
             if continuation is not None:
@@ -168,8 +185,10 @@ def _orbit_outputs(args, model, orbit=None, continuation=None) -> int:
                     writer.writerows(rows)
                 print(f"  csv: {args.csv} ({len(rows)} rows)")
             else:
-                orbit.trajectory.to_csv(args.csv)
-                print(f"  csv: {args.csv} (the orbit over one period)")
+                rows = dense.without_instants()
+                rows.to_csv(args.csv, signals=[n for n in names if n not in model.state_names])
+                print(f"  csv: {args.csv} (the orbit over one period: {len(rows.t)} rows at --samples "
+                      f"{args.samples} times)")
         except OSError as exc:
             print(f"hbg: error: could not write csv {args.csv}: {exc}", file=sys.stderr)
             status = EXIT_FAILED
@@ -180,18 +199,13 @@ def _orbit_outputs(args, model, orbit=None, continuation=None) -> int:
         from bondgraph.drawing import pyplot
 
         if continuation is not None:
-            name = args.signal or model.state_names[0]
+            name = names[0] if names else model.state_names[0]
             ax = continuation.plot(name)
             ax.set_title(f"{model.name}: {ax.get_title()}", fontsize=9)
             figure = ax.figure
         else:
-            figure, ax = pyplot().subplots(figsize=(6.4, 4.0))
-            names = [args.signal] if args.signal else list(model.state_names)
-            for name in names:
-                ax.plot(orbit.trajectory.t, orbit.trajectory.signal(name), label=model.annotations.label(name))
-            ax.set_xlabel("t [s]")
-            ax.set_title(f"{model.name}: periodic orbit, period {orbit.period:.6g} s", fontsize=9)
-            ax.legend(fontsize=8)
+            figure = plot_trajectory(dense, _by_unit(model, names or list(model.state_names)),
+                                     title=f"{model.name}: periodic orbit, period {orbit.period:.6g} s")
         try:
             figure.savefig(args.plot, dpi=110, bbox_inches="tight")
             print(f"  plot: {plot_target(args.plot)}")
@@ -201,6 +215,15 @@ def _orbit_outputs(args, model, orbit=None, continuation=None) -> int:
         finally:
             pyplot().close(figure)
     return status
+
+
+def _by_unit(model, names) -> list:
+    """``names`` grouped by unit, in order of first appearance: a panel per unit (states of V·s and C on
+    one axis would share no scale)."""
+    groups: dict = {}
+    for name in names:
+        groups.setdefault(model.annotations.unit(name), []).append(name)
+    return list(groups.values())
 
 
 def add_orbit(sub) -> None:
@@ -230,10 +253,17 @@ def add_orbit(sub) -> None:
     p.add_argument("--rtol", type=float, help="relative tolerance of every run (default 1e-10)")
     p.add_argument("--max-step", type=float, dest="max_step", metavar="H",
                    help="the longest step in s (default: the model's, e.g. a PWM converter's)")
-    p.add_argument("--signal", metavar="NAME", help="the state or signal plotted (default: every state; with "
-                   "--continue the first state)")
-    p.add_argument("--csv", metavar="FILE", help="write the orbit over one period (time, mode, states), or with "
-                   "--continue the table, as CSV")
-    p.add_argument("--plot", metavar="FILE.png", help="plot the orbit over one period, or with --continue the "
-                   "bifurcation diagram (min and max over a period; stable solid, unstable dashed)")
+    p.add_argument("--signal", metavar="NAME", help="the state or signal plotted and written (default: every "
+                   "state; with --continue the first state); several as NAME,NAME")
+    p.add_argument("--samples", type=int, default=500, metavar="N",
+                   help="the orbit's files and plot at N equally spaced times over one period, plus its instants' "
+                        "rows (default 500, at least 2): one run from the orbit's start")
+    p.add_argument("--measure", action="append", metavar="SIGNAL:KIND[,KIND…]",
+                   help="print measurements over the orbit's period (repeatable): mean, rms, ac_rms, min, max, "
+                        "ripple, peak, crest, thd (fundamental 1/period), power_factor (of an element), "
+                        "efficiency (of a load element); exact, the orbit's flow integrated piece by piece")
+    p.add_argument("--csv", metavar="FILE", help="write the orbit over one period (time, states, the --signal "
+                   "signals, mode), or with --continue the table, as CSV")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the orbit over one period (a panel per unit), or with "
+                   "--continue the bifurcation diagram (min and max over a period; stable solid, unstable dashed)")
     p.set_defaults(run=_cmd_orbit)

@@ -10,7 +10,11 @@ from switching.simulate.progress import ProgressBar
 
 from .common import (EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, MODEL_HELP, RUN_SET_HELP, UsageError, add_steps,
                      check_run_options, check_samples, initial_state, model_module, parse_sets, run_settings)
+from .measure import add_window, parse_measures, print_measures, window_options
 from .outputs import check_outputs, output_rows, write_outputs
+
+#: the sample times of a run's data files unless told (--samples)
+DEFAULT_SAMPLES = 500
 
 
 def _auto_choice(model, t_end, options) -> str:
@@ -42,6 +46,16 @@ def _cmd_run(args) -> int:
     states: dict = {}
     parameters = parse_sets(args.set or [], module.DEFAULTS, states)
     t_end, method, options = run_settings(args, module, "auto")
+    window = window_options(args)
+    if args.measure and args.samples not in (None, 0):
+        raise UsageError(f"--measure measures the run's own steps (its flow integrated piece by piece), which "
+                         f"--samples {args.samples} would not keep: leave --samples out (the files then hold every "
+                         "step) or give --samples 0")
+    if window and not args.measure:
+        raise UsageError("--period, --periods, --window and --fundamental set the window of --measure: give "
+                         "--measure SIGNAL:KIND too")
+    if args.samples is None:
+        args.samples = 0 if args.measure else DEFAULT_SAMPLES
     if args.samples < 0 or args.samples == 1:
         raise UsageError(f"--samples must be 0 (every step) or at least 2 (the start and the end), got {args.samples}")
     check_outputs((("--csv", args.csv, "data"), ("--npz", args.npz, "npz"), ("--plot", args.plot, "plot")))
@@ -57,6 +71,7 @@ def _cmd_run(args) -> int:
             b.flow.name for b in model.graph.bonds.values()
         }:
             raise UsageError(f"unknown signal {s!r}; signals: {', '.join(model.signal_names)}")
+    measures = parse_measures(args.measure, model)
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
     if args.samples:
@@ -103,6 +118,8 @@ def _cmd_run(args) -> int:
         print(("partial " if failure is not None else "") + trajectory.summary())
     except Exception as exc:  # noqa: BLE001 - a summary of a partial run must not lose its files
         print(f"hbg: warning: no summary of this run ({exc})", file=sys.stderr)
+    if not print_measures(trajectory, measures, window) and status == EXIT_OK:
+        status = EXIT_FAILED
     if failure is None and hasattr(module, "error_estimate"):
         try:
             print(f"  error estimate: {module.error_estimate(trajectory)}")
@@ -138,11 +155,18 @@ def add_run(sub) -> None:
     p.add_argument("--npz", metavar="FILE", help="write the run as numpy arrays (t, x, modes, signals, instants)")
     p.add_argument("--signals", help="comma-separated signals to plot and save (default: the model's; the plot "
                    "draws the first six of them)")
-    p.add_argument("--samples", type=int, default=500, metavar="N",
+    p.add_argument("--samples", type=int, default=None, metavar="N",
                    help="sample the run at this many equally spaced times from 0 to t_end, plus the two rows "
-                        "(before, after) of every instant: simulate(..., samples=N) (default 500, at least 2; "
-                        "0: every step and every instant, Python's default output='steps'); the plot draws "
-                        "them all, the data files the N times (a time on an instant: the state after it)")
+                        f"(before, after) of every instant: simulate(..., samples=N) (default {DEFAULT_SAMPLES}, "
+                        "at least 2; 0: every step and every instant, Python's default output='steps', and the "
+                        "default with --measure); the plot draws them all, the data files the N times (a time on "
+                        "an instant: the state after it)")
+    p.add_argument("--measure", action="append", metavar="SIGNAL:KIND[,KIND…]",
+                   help="print measurements of a signal over the window (repeatable): mean, rms, ac_rms, min, max, "
+                        "ripple, peak, crest, thd (of a signal), power_factor (of an element), efficiency (of a "
+                        "load element); exact, the run's flow integrated piece by piece, so the run keeps its "
+                        "steps (--samples 0)")
+    add_window(p, "--measure")
     p.add_argument("--with-instants", action="store_true",
                    help="also write the two rows (before, after) of every instant to the data files: exactly the "
                         "rows of simulate(..., samples=N)")

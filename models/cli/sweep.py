@@ -7,9 +7,11 @@ import os
 import sys
 import time
 
+from bondgraph import HybridBondGraphError
 
 from .common import (EXIT_FAILED, EXIT_OK, MODEL_HELP, UsageError, add_steps, check_run_options, finite_number,
                      model_module, parse_sets, run_settings)
+from .measure import add_window, window_options
 from .outputs import check_outputs, plot_target
 
 
@@ -55,9 +57,10 @@ def _grid_axis(item, defaults) -> tuple[str, list]:
     return name, [number(v) for v in text.split(",")]
 
 
-def _sweep_metrics(names, model):
+def _sweep_metrics(names, model, window=None):
     """The ``--metric`` names split into signal specs (KIND:SIGNAL, computed
-    in the workers) and columns of the table; unknown names are usage errors."""
+    in the workers, measurements over ``window``) and columns of the table;
+    unknown names are usage errors."""
     from switching.sweep.frame import FINAL, RUN_COLUMNS, SignalMetrics
 
     columns = [c for c in RUN_COLUMNS if c not in ("status", "error")] + [FINAL + s.name for s in model.states]
@@ -65,11 +68,18 @@ def _sweep_metrics(names, model):
     for name in names:
         if ":" not in name and name not in columns:
             raise UsageError(f"--metric {name}: not a column of the sweep table; use one of {', '.join(columns)} "
-                             "or KIND:SIGNAL (KIND final, min or max; e.g. max:" + model.signal_names[0] + ")")
+                             f"or KIND:SIGNAL (KIND {', '.join(SignalMetrics.KINDS)}; e.g. max:"
+                             + model.signal_names[0] + ")")
     if not specs:
+        if window:
+            raise UsageError("--period, --periods, --window and --fundamental set the window of a --metric "
+                             "KIND:SIGNAL: give one")
         return None
-    metrics = SignalMetrics(*specs)
-    metrics.check(model)
+    try:
+        metrics = SignalMetrics(*specs, **(window or {}))
+        metrics.check(model)
+    except HybridBondGraphError as exc:
+        raise UsageError(f"--metric: {exc}") from None
     return metrics
 
 
@@ -106,7 +116,7 @@ def _cmd_sweep(args) -> int:
     model = module.build(**base)  # checks --set, and names the states and signals metrics may use
     check_run_options(model, t_end, method, options)  # a --dt no run could take: refused once, not by every run
     names = args.metric or ["events"]
-    metrics = _sweep_metrics(names, model)
+    metrics = _sweep_metrics(names, model, window_options(args))
     sets = [{**base, **point} for point in parameter_grid(axes)]
     where = args.scheduler or f"{min(args.workers or os.cpu_count() or 1, len(sets))} local Dask worker(s)"
     print(f"sweep of {model.name}: {len(sets)} runs over {' × '.join(f'{n} ({len(v)})' for n, v in axes.items())}, "
@@ -174,6 +184,9 @@ def add_sweep(sub) -> None:
                    help="a Zeno run fails (raise, default) or ends at the accumulation point (stop)")
     p.add_argument("--metric", action="append", metavar="NAME",
                    help="a column (events, first_event, t_final, wall_time, final_STATE) or KIND:SIGNAL with KIND "
-                        "final, min or max, computed in the workers (repeatable; the first is plotted; "
+                        "final, min or max (over the samples), or a measurement over the window: mean, rms, "
+                        "ac_rms, ripple, peak, crest, thd, power_factor, efficiency (min and max too, exact, "
+                        "when a window is given), computed in the workers (repeatable; the first is plotted; "
                         "default: events)")
+    add_window(p, "the --metric measurements")
     p.set_defaults(run=_cmd_sweep)

@@ -156,6 +156,23 @@ class PeriodicOrbit:
     def mode_names(self) -> list:
         return [m.describe() for m in self.modes]
 
+    def measure(self, signal, what="mean", **window):
+        """A measurement over the orbit, one exact period by default (:meth:`Trajectory.measure`: ``mean``,
+        ``rms``, ``ripple``, ``thd``, …, the flow integrated piece by piece); ``window`` as there."""
+        if not window:
+            window = dict(t_from=float(self.trajectory.t[0]), t_to=float(self.trajectory.t[0]) + self.period)
+        window.setdefault("fundamental", 1.0 / self.period)
+        return self.trajectory.measure(signal, what, **window)
+
+    def sampled(self, samples: int = 1000):
+        """The orbit over one period at ``samples`` equal times plus its instants' before/after rows
+        (``simulate(..., samples=N)`` from ``x0`` in the orbit's first mode, with the runs' method,
+        tolerances and options): a trajectory of the whole period, every signal available, for plots and
+        files (:attr:`trajectory` keeps the solver's steps, about ten a period)."""
+        shooter, mode = self.shooting
+        return shooter.model.simulate(self.t0 + self.period, shooter.method, t0=self.t0, x0=self.x0, mode=mode,
+                                      rtol=shooter.rtol, atol=shooter.atol, samples=samples, **shooter.options)
+
     def small_signal(self, inputs=(), outputs=None):
         """``δx_{k+1} = A δx_k + B δu_k``, ``y_k = C δx_k + D δu_k`` over one
         period, ``A`` the period (return) map's Jacobian, ``B`` its derivative

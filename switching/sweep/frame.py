@@ -19,6 +19,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from bondgraph.errors import DuplicateNameError, ParameterValueError, UnknownNameError
+from switching.simulate.measurements import MEASURES, measure
 
 from .batch import DASK_EXTRA, MissingDependencyError
 
@@ -49,15 +50,21 @@ def parameter_grid(axes: Mapping[str, Iterable]) -> list[dict]:
 
 class SignalMetrics:
     """A ``metrics`` callable for :func:`switching.simulate_many`: for each
-    spec ``"KIND:SIGNAL"`` (``KIND`` one of ``final``, ``min``, ``max``; the
-    signal a named signal or state of the model, in its own units), that
-    value of the signal's finite part over the run's samples, under the
-    spec as its name.  It pickles (plain data), so it travels to workers;
+    spec ``"KIND:SIGNAL"`` that value of the signal (a named signal or state
+    of the model, in its own units) under the spec as its name.  ``KIND``:
+    ``final``, ``min`` or ``max`` over the run's samples, or a measurement of
+    :data:`switching.simulate.measurements.MEASURES` (``mean``, ``rms``,
+    ``ripple``, ``thd``, …: exact over the window, the run's flow integrated
+    piecewise) over the window ``t_from``/``t_to`` [s] or the last
+    ``periods`` of ``period`` [s] (``fundamental`` [Hz] of ``thd``) — a
+    sweep's steady-state ripple: ``SignalMetrics("ripple:v_C", periods=10,
+    period=1e-5)``.  It pickles (plain data), so it travels to workers;
     ``check(model)`` names unknown signals before a sweep starts."""
 
-    KINDS = ("final", "min", "max")
+    SAMPLED = ("final", "min", "max")
+    KINDS = SAMPLED + tuple(k for k in MEASURES if k not in ("min", "max"))
 
-    def __init__(self, *specs: str):
+    def __init__(self, *specs: str, t_from=None, t_to=None, periods=None, period=None, fundamental=None):
         self.specs = []
         for spec in specs:
             kind, colon, signal = str(spec).partition(":")
@@ -66,6 +73,8 @@ class SignalMetrics:
                                           f"{', '.join(self.KINDS)} (e.g. 'final:{signal or 'theta'}')",
                                           "metrics", spec)
             self.specs.append((kind, signal))
+        self.window = {key: value for key, value in dict(t_from=t_from, t_to=t_to, periods=periods, period=period,
+                                                         fundamental=fundamental).items() if value is not None}
 
     @property
     def names(self) -> list[str]:
@@ -73,9 +82,12 @@ class SignalMetrics:
 
     def check(self, model) -> None:
         """Raise :class:`~bondgraph.errors.UnknownNameError` naming every signal
-        that ``model`` has neither as a signal nor as a state."""
+        that ``model`` has neither as a signal nor as a state (nor, for
+        ``power_factor`` and ``efficiency``, as an element)."""
         known = set(model.signal_names) | {s.name for s in model.states}
-        unknown = [signal for _, signal in self.specs if signal not in known]
+        elements = set(model.graph.elements)
+        unknown = [signal for kind, signal in self.specs
+                   if signal not in (elements if kind in ("power_factor", "efficiency") else known)]
         if unknown:
             raise UnknownNameError(f"no signal {', '.join(map(repr, unknown))} in {model.name!r}; signals: "
                                    f"{', '.join(model.signal_names)}", unknown[0])
@@ -83,6 +95,10 @@ class SignalMetrics:
     def __call__(self, trajectory) -> dict:
         out = {}
         for (kind, signal), name in zip(self.specs, self.names):
+            if kind != "final" and (kind not in self.SAMPLED or self.window):  # (a window: min and max exact)
+                out[name] = float(measure(trajectory, signal, kind, **self.window)) if len(trajectory.t) > 1 \
+                    else math.nan
+                continue
             values = trajectory.signal(signal) if len(trajectory.t) else np.zeros(0)
             if not len(values):
                 out[name] = math.nan

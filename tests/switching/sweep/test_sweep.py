@@ -200,7 +200,7 @@ def test_signal_metrics_travel_to_the_workers_and_name_unknown_signals(client):
     with pytest.raises(Exception, match="no signal 'speed'"):
         SignalMetrics("final:speed").check(bouncing_ball.build())
     with pytest.raises(Exception, match="KIND:SIGNAL"):
-        SignalMetrics("mean:v")
+        SignalMetrics("average:v")
 
 
 def test_progress_bar_is_dasks(client, capsys):
