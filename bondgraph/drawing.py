@@ -26,7 +26,10 @@ Borutzky).
   run clear of the labels (only in a graph so crowded that a one-port finds
   no free place in sight of its junction may its bond pass a label).
 * **Controlled junctions** are boxed; given a configuration, each is marked
-  ``on`` or ``off`` (a superscript) and an off junction, with its bonds, is
+  ``on`` or ``off`` (a superscript) — or by the word its state has in a
+  hybrid model's mode, given as ``words`` (``closed``/``open`` for a
+  switch, ``conducting``/``blocking`` for a diode, ``engaged``/``disengaged``
+  for a clutch: what the run says) — and an off junction, with its bonds, is
   drawn grey and dashed (a bond between two off junctions of one kind
   carries nothing and has no stroke).
 
@@ -502,10 +505,11 @@ def _mathrm(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
-def element_label(element, state: bool | None = None, parameters=None) -> str:
+def element_label(element, state: bool | None = None, parameters=None, word: str | None = None) -> str:
     """The text written for an element: ``I: m``, ``Se: g``, junctions as
     ``0``/``1`` with the name as a subscript (and ``on``/``off`` as a
-    superscript for a controlled junction in a known configuration).  A
+    superscript for a controlled junction in a known configuration, or
+    ``word`` in their place: the state as a mode names it).  A
     source or two-port whose value or modulus depends on more than
     ``parameters`` (the graph's, :attr:`bondgraph.BondGraph.parameters`: on
     a state, a displacement, a bond variable, an input or time) is
@@ -513,7 +517,7 @@ def element_label(element, state: bool | None = None, parameters=None) -> str:
     ``parameters`` nothing is marked modulated."""
     kind = _kind_of(element)
     if kind == "junction":
-        sup = "" if state is None else "^{" + _mathrm("on" if state else "off") + "}"
+        sup = "" if state is None else "^{" + _mathrm(word or ("on" if state else "off")) + "}"
         return "$\\mathbf{" + element.kind + "}_{" + _mathrm(element.name) + "}" + sup + "$"
     if kind in ("twoport", "source") and parameters is not None:
         symbols = set().union(*(expr.free_symbols for expr in element.expressions()))
@@ -548,10 +552,13 @@ def _exit_distance(extent, direction, pad):
     return min(out) if out else 0.0
 
 
-def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, title=None):
+def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, title=None, words=None):
     """Draw ``graph`` as a textbook bond graph in configuration ``config``
     (controlled junction → on/off; ``None``: every controlled junction on,
-    then not marked on/off).
+    then not marked on/off).  ``words`` (controlled junction → text) marks a
+    junction with the word its state has in a mode instead of on/off, in the
+    labels and the default title: a hybrid model's
+    ``model.mode_space.junction_words(mode)``, so the drawing says what the run says.
 
     Half-arrows show the power direction, bold causal strokes the end of
     each bond that receives the effort, controlled junctions are boxed (off:
@@ -568,7 +575,8 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
 
         >>> from models import falling_rod
         >>> rod = falling_rod.build()
-        >>> ax = draw_bond_graph(rod.graph, rod.configuration_of(rod.mode("contact|stuck")))
+        >>> mode = rod.mode("contact|stuck")
+        >>> ax = draw_bond_graph(rod.graph, rod.configuration_of(mode), words=rod.mode_space.junction_words(mode))
         >>> ax.figure.savefig("rod.svg")  # doctest: +SKIP
     """
     plt = pyplot()
@@ -586,7 +594,7 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
     ppp = 72.0 / ax.figure.dpi  # points per pixel
 
     # labels first, measured at the base size
-    texts = _labels(ax, graph, causality, shown_config, fontsize)
+    texts = _labels(ax, graph, causality, shown_config, fontsize, words or {})
     extents = {name: _extent(t, renderer, ppp) for name, t in texts.items()}
 
     # grid → points: columns packed row by row around the labels, rows as tall as their tallest
@@ -600,13 +608,14 @@ def draw_bond_graph(graph, config=None, ax=None, *, fontsize=10.0, legend=True, 
         lo, hi = _legend(ax, graph, texts, lo, hi, fontsize, renderer, ppp)
     _fit(ax, own, texts, lines, lo, hi, fontsize, renderer, ppp)
     if title is None:
-        title = graph.name if shown_config is None else f"{graph.name}: {_describe(shown_config)}"
+        title = graph.name if shown_config is None else f"{graph.name}: {_describe(shown_config, words or {})}"
     ax.set_title(title, fontsize=fontsize, wrap=True)
     return ax
 
 
-def _labels(ax, graph, causality, shown_config, fontsize: float) -> dict:
-    """The text artist of every element (placed later), by name: controlled junctions boxed, grey when off."""
+def _labels(ax, graph, causality, shown_config, fontsize: float, words: dict) -> dict:
+    """The text artist of every element (placed later), by name: controlled junctions boxed, grey when off,
+    marked by their word in ``words`` where they have one."""
     parameters = graph.parameters
     texts = {}
     for name, el in graph.elements.items():
@@ -618,7 +627,8 @@ def _labels(ax, graph, causality, shown_config, fontsize: float) -> dict:
         if controlled:
             box.update(ec="0.55" if off else "black", ls="--" if off else "-", lw=1.0)
         size = fontsize * (1.2 if _kind_of(el) == "junction" else 1.0)
-        texts[name] = ax.text(0, 0, element_label(el, state, parameters), ha="center", va="center", fontsize=size,
+        label = element_label(el, state, parameters, words.get(name))
+        texts[name] = ax.text(0, 0, label, ha="center", va="center", fontsize=size,
                               family="serif", math_fontfamily="dejavuserif",
                               color="0.5" if off else "black", gid=f"element:{name}",
                               bbox=box, zorder=4)
@@ -737,14 +747,16 @@ def _corners(points):
     return out
 
 
-def _describe(config) -> str:
+def _describe(config, words: dict) -> str:
+    """The configuration in a title: ``S1 on, D1 off`` (each junction by its word in ``words`` where it has one:
+    ``S1 closed, D1 conducting``); a count when there are more than six."""
     if not config:
         return "no controlled junctions"
     if len(config) > 6:
         on = [name for name, value in config.items() if value]
         return (f"{len(config)} controlled junctions, {len(on)} on"
                 + (f" ({', '.join(on)})" if 0 < len(on) <= 6 else ""))
-    return ", ".join(f"{name} {'on' if on else 'off'}" for name, on in config.items())
+    return ", ".join(f"{name} {words.get(name) or ('on' if on else 'off')}" for name, on in config.items())
 
 
 def _spread_for_diagonals(layout, extents, gap_x, gap_y, pad):

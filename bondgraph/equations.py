@@ -199,16 +199,20 @@ class ConfigurationEquations:
         out += [sp.Eq(self.rate_symbols[x], self.rates[x]) for x in self.dependent]
         return out
 
-    def _config_text(self) -> str:
-        """`` [junctions: S1 on, D1 off]``: the controlled junctions' states (a mode's automata may word theirs
-        otherwise: a switch ``closed``, a clutch ``engaged``)."""
+    def _config_text(self, words=None) -> str:
+        """`` [junctions: S1 on, D1 off]``: the controlled junctions' states, each by its word in ``words``
+        (junction → text, as a mode says it: ``S1 closed, D1 conducting``) where it has one."""
         if not self.configuration:
             return ""
-        return " [junctions: " + ", ".join(f"{k} {'on' if v else 'off'}" for k, v in self.configuration.items()) + "]"
+        words = words or {}
+        return " [junctions: " + ", ".join(f"{k} {words.get(k) or ('on' if v else 'off')}"
+                                           for k, v in self.configuration.items()) + "]"
 
-    def pretty(self, signals: bool = False) -> str:
-        """A multi-line human-readable listing (``signals=True`` adds every bond's effort and flow)."""
-        lines = [f"equations of {self.graph_name!r}{self._config_text()}"]
+    def pretty(self, signals: bool = False, words=None) -> str:
+        """A multi-line human-readable listing (``signals=True`` adds every bond's effort and flow;
+        ``words``: controlled junction → the word its state is written with, ``on``/``off`` without:
+        a hybrid model's mode gives its automata's states, ``model.mode_space.junction_words(mode)``)."""
+        lines = [f"equations of {self.graph_name!r}{self._config_text(words)}"]
         lines.append("  states: " + ", ".join(str(x) for x in self.states))
         if self.dependent:
             lines.append("  dependent (derivative causality): " + ", ".join(str(x) for x in self.dependent))

@@ -22,7 +22,8 @@ law is smooth.  On the surface itself ``σ`` may take any value in
 ``[−1, 1]`` (Filippov's convex hull), which is what a sliding motion (a
 block held by friction) needs.  :mod:`switching.model.law_automata` turns every
 :class:`LawSwitch` into a local automaton (``positive``, ``negative``,
-``sliding``) whose states set ``σ``.
+``sliding``; a friction law's ``slipping_pos``, ``slipping_neg``, ``stuck``)
+whose states set ``σ``.
 
 Only discontinuities are rewritten.  A law that stays continuous across the
 surface (``sqrt(abs(e))·sign(e)`` of an orifice, a saturation written with
@@ -62,13 +63,19 @@ class LawSwitch:
     function as the user wrote it (text); ``sigma``: the branch symbol that
     replaces it in the rewritten law; ``surface``: ``s``, an expression of
     bond variables, states, inputs, parameters and ``t`` with ``σ = +1``
-    where ``s > 0``."""
+    where ``s > 0``; ``friction``: ``+1`` when the law is dry (Coulomb)
+    friction — an R element's effort that jumps where its own flow (a slip
+    speed) changes sign — and ``s`` is that flow, ``−1`` when ``s`` is minus
+    it, ``0`` for any other law (a relay, a bang-bang source): what the
+    branches mean, so that they can be named as engineers say them
+    (:mod:`switching.model.law_automata`: stuck, slipping)."""
 
     name: str
     element: str
     written: str
     sigma: sp.Symbol
     surface: sp.Expr
+    friction: int = 0
 
 
 def _oriented(condition, element: str) -> sp.Expr:
@@ -136,6 +143,16 @@ def _is_continuous(law: sp.Expr, sigma: sp.Symbol, surface: sp.Expr) -> bool:
     return False
 
 
+def _friction(graph, element, field_name: str, surface: sp.Expr) -> int:
+    """``±1`` when a switch of ``element``'s ``field_name`` on ``surface`` is dry friction (an R's effort
+    law switching on ``±`` its own flow: :attr:`LawSwitch.friction`), else 0."""
+    if not isinstance(element, R) or field_name != "effort_law":
+        return 0
+    (bond,) = graph.bonds_of(element.name)
+    flow = bond.sign_at(element.name) * bond.flow
+    return 1 if surface == flow else -1 if surface == -flow else 0
+
+
 def _law_fields(element) -> list:
     """The names of the element's fields that hold laws or values."""
     return [f.name for f in fields(element)
@@ -179,7 +196,8 @@ def _element_switches(graph, element, taken: set) -> tuple[dict, list]:
                 sigma = sp.Symbol(f"{name}_sigma")
                 sigmas.append(sigma)
                 surface = s.xreplace(local) if local else s
-                switches.append(LawSwitch(name, element.name, str(atom.xreplace(local)), sigma, surface))
+                switches.append(LawSwitch(name, element.name, str(atom.xreplace(local)), sigma, surface,
+                                          _friction(graph, element, field_name, surface)))
             law = law.xreplace({atom: _rewrite(atom, sigmas)})
         changes[field_name] = law
     return changes, switches

@@ -39,6 +39,7 @@ import networkx as nx
 
 from bondgraph.floating import floating_part
 
+from .circuit_words import OFF, ON
 from .netlist import REFERENCE
 
 __all__ = ["tie_groups", "witness_modes", "group_settings", "spanning_settings", "loop_settings",
@@ -62,9 +63,6 @@ def tie_groups(parts) -> list[frozenset]:
     return groups
 
 
-#: the blocking and the conducting state of a diode (D) and a switch (S)
-OFF = {"D": "off", "S": "open"}
-ON = {"D": "on", "S": "closed"}
 
 
 def witness_modes(parts, model) -> list:

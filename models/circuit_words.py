@@ -9,7 +9,9 @@ and a conducting diode): the loop's voltages would have to agree.
 :func:`conflict_loop` finds such a loop on the netlist (a cycle of the graph
 whose edges are the voltage sources and the conducting switches and diodes
 without ``r_on``) and says it with the components, the nodes, the mode in
-circuit words (``S1=closed, D1=conducting``) and the fix.
+circuit words (``S1=closed, D1=conducting``) and the fix.  The words are the
+states of the circuit's automata (:data:`ON`, :data:`OFF`): the mode of a
+run says them too.
 """
 
 from __future__ import annotations
@@ -18,7 +20,14 @@ import networkx as nx
 
 from .netlist import REFERENCE
 
-__all__ = ["conflict_loop", "mode_words"]
+__all__ = ["conflict_loop", "mode_words", "ON", "OFF", "DIODE_ALIASES"]
+
+#: the conducting state of a diode (D) and a switch (S), as their automata name it
+ON = {"D": "conducting", "S": "closed"}
+#: the blocking state of a diode and a switch
+OFF = {"D": "blocking", "S": "open"}
+#: the names a diode's states had before they were named as engineers say them, still read as input
+DIODE_ALIASES = {"on": ON["D"], "off": OFF["D"]}
 
 
 def _conducts(part, configuration: dict) -> bool:
@@ -31,8 +40,7 @@ def mode_words(parts, configuration: dict) -> str:
     words = []
     for part in parts:
         if part.kind in ("D", "S") and part.name in configuration:
-            on = bool(configuration[part.name])
-            words.append(f"{part.name}={('conducting' if on else 'blocking') if part.kind == 'D' else ('closed' if on else 'open')}")
+            words.append(f"{part.name}={(ON if configuration[part.name] else OFF)[part.kind]}")
     return ", ".join(words)
 
 

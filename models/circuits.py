@@ -44,10 +44,11 @@ and ``L`` take a nonlinear law as the element constructors do (a function of
 one argument: ``R``'s ``flow_law(v)`` or ``effort_law(i)``, ``C``'s
 ``effort_law(q)``, ``L``'s ``flow_law(p)``).
 
-Ideal diodes (:meth:`Circuit.diode`, automaton states ``off``/``on``)::
+Ideal diodes (:meth:`Circuit.diode`, automaton states ``blocking``/``conducting``,
+read as ``off``/``on`` too, the names they had)::
 
-    off → on   when  v_<D> > v_f   (a posteriori)
-    on  → off  when  i_<D> < 0     (a posteriori)
+    blocking   → conducting  when  v_<D> > v_f   (a posteriori)
+    conducting → blocking    when  i_<D> < 0     (a posteriori)
 
 Both guards are *a posteriori*: the ideal diode is a parameter abstraction
 (a resistance that is 0 or ∞), judged on the state the switch would produce,
@@ -143,7 +144,7 @@ from switching import Automaton, HybridModel
 
 from ._common import Range
 from .circuit_topology import first_floating_mode
-from .circuit_words import conflict_loop
+from .circuit_words import DIODE_ALIASES, OFF, ON, conflict_loop
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
@@ -688,10 +689,11 @@ class _Builder(NetlistBuilder):
                                             allowed=Range(f"the on-resistance of {owner}", 0.0))
             extra.append(R(self.internal(f"{name}_resistance"), r_on))
         self.controlled(part, owner, extra)
-        automaton = Automaton(name, {"off": {name: False}, "on": {name: True}},
-                              initial="on" if part.values["on"] else "off")
-        automaton.add_transition("off", "on", f"v_{name} > {threshold}", "a posteriori")
-        automaton.add_transition("on", "off", f"i_{name} < 0", "a posteriori")
+        blocking, conducting = OFF["D"], ON["D"]  # (read as off and on too)
+        automaton = Automaton(name, {blocking: {name: False}, conducting: {name: True}},
+                              initial=conducting if part.values["on"] else blocking, aliases=DIODE_ALIASES)
+        automaton.add_transition(blocking, conducting, f"v_{name} > {threshold}", "a posteriori")
+        automaton.add_transition(conducting, blocking, f"i_{name} < 0", "a posteriori")
         self.automata.append(automaton)
 
     def switch(self, part):
@@ -732,10 +734,11 @@ class _Builder(NetlistBuilder):
             initial = part.values["closed"]
             if initial is None:
                 initial = holds_at_start(closing, {**self.defaults, **self.given})
-        automaton = Automaton(name, {"open": {name: False}, "closed": {name: True}},
-                              initial="closed" if initial else "open")
-        automaton.add_transition("open", "closed", closing, "a priori")
-        automaton.add_transition("closed", "open", opening, "a priori")
+        opened, closed = OFF["S"], ON["S"]
+        automaton = Automaton(name, {opened: {name: False}, closed: {name: True}},
+                              initial=closed if initial else opened)
+        automaton.add_transition(opened, closed, closing, "a priori")
+        automaton.add_transition(closed, opened, opening, "a priori")
         self.automata.append(automaton)
 
     def windings(self, part) -> tuple:

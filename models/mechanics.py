@@ -68,8 +68,11 @@ impact: momentum ``J₁ω₁ + J₂ω₂`` is conserved and the energy
 ``J₁J₂/(J₁+J₂)·Δω²/2`` is lost).  With ``T_max`` it is a friction clutch: it
 transmits the Coulomb torque ``T_max·sign(ω₁ − ω₂)`` while it slips and
 sticks when the speeds meet, as long as the torque it must carry stays below
-``T_max`` (the toolkit's law switches: sticking is the sliding mode of the
-law's automaton ``<name>_law``).
+``T_max`` (the toolkit's law switches: the law's automaton ``<name>_law`` is
+``stuck`` while it sticks — the law's sliding (Filippov) mode, read as
+``sliding`` too — and ``slipping_pos``/``slipping_neg`` while it slips with the
+element's own slip speed positive or negative: ``v_<name>``, of the opposite
+sign for a clutch whose ``n1`` is the frame).
 
 Hard stops and backlash (:meth:`Mechanism.stop`, :meth:`Mechanism.backlash`;
 automaton states ``free``, ``upper_impact``/``lower_impact`` with

@@ -3,7 +3,7 @@
 values checked as they are added.
 
 A component's name is an identifier (it names signals, parameters and
-modes: ``v_D1``, ``D1=on``); a node's name is letters, digits and ``_``
+modes: ``v_D1``, ``D1=conducting``); a node's name is letters, digits and ``_``
 (``"0"``, the reference: ground or the fixed frame).  A value is a number
 (it becomes the parameter of the component's name), a parameter name, an
 expression of ``t`` as text (parsed, never evaluated), or a declared input.

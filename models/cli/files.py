@@ -33,7 +33,8 @@ def cmd_save(args) -> int:
 
 def cmd_draw(args) -> int:
     """``hbg draw``: the bond graph of one mode as textbooks draw it (see
-    :mod:`bondgraph.drawing`), written as PNG, SVG, PDF, … by the extension."""
+    :mod:`bondgraph.drawing`), written as PNG, SVG, PDF, … by the extension; each controlled junction
+    marked with its automaton's state, the word the run shows (``closed``, ``engaged``), not on/off."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -46,7 +47,8 @@ def cmd_draw(args) -> int:
     if len(described) > 100:  # a model with many automata (ball-chain N=50): the label stays readable
         described = described[:97].rsplit(", ", 1)[0] + ", …"
     ax = draw_bond_graph(model.graph, model.configuration_of(mode), legend=not args.no_legend,
-                         title=f"{model.name} in mode {described}")
+                         title=f"{model.name} in mode {described}",
+                         words=model.mode_space.junction_words(mode))  # the junctions as the run says them
     try:
         ax.figure.savefig(args.output, dpi=110)
     finally:

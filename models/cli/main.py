@@ -71,7 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=cmd_save)
 
     p = _model_command(sub, "draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
-                       "controlled junctions boxed and shown on/off (PNG, SVG, PDF by the extension)")
+                       "controlled junctions boxed and marked with their state as the mode names it (closed, "
+                       "engaged, ...; PNG, SVG, PDF by the extension)")
     p.add_argument("--mode", metavar="MODE", help="the mode drawn, as outputs show it ('contact=free, friction=stuck') "
                    "or its states joined by | (default: the initial mode)")
     p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")

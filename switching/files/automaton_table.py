@@ -13,7 +13,7 @@ from .specs import SIGNAL_NAMES, AutomatonSpec, TransitionSpec
 
 __all__ = ["read_automaton", "known_state"]
 
-AUTOMATON_KEYS = ("initial", "states", "restitution", "values", "transitions")
+AUTOMATON_KEYS = ("initial", "states", "restitution", "values", "transitions", "aliases")
 TRANSITION_KEYS = ("from", "to", "guard", "when", "pulses")
 WHEN = {"a priori": A_PRIORI, "a posteriori": A_POSTERIORI}
 
@@ -94,7 +94,21 @@ def read_automaton(reader, src: Source, graph: BondGraph, parameters: set, name:
                                       expected=SIGNAL_NAMES)
         transitions.append(TransitionSpec(item["from"], item["to"], condition, text, WHEN[when], pulses,
                                           (src, tkeys)))
-    return AutomatonSpec(name, states, initial, restitution, values, transitions, (src, keys))
+    aliases = read_aliases(src, spec.get("aliases", {}), states, keys + ("aliases",), culprit)
+    return AutomatonSpec(name, states, initial, restitution, values, transitions, (src, keys), aliases)
+
+
+def read_aliases(src: Source, table, states, keys, culprit) -> dict:
+    """``aliases = { on = "conducting" }``: other names the states are read by (an old name of a renamed
+    state), each a name that is no state, naming one of ``states``."""
+    aliases = src.table(table, keys, "aliases", example='aliases = { on = "conducting", off = "blocking" }')
+    for alias, state in aliases.items():
+        src.name(alias, keys, "alias")
+        if alias in states:
+            raise src.error(f"alias {alias!r} is the name of a state; an alias is another name for a state",
+                            keys, culprit)
+        known_state(src, state, states, keys, culprit)
+    return dict(aliases)
 
 def known_state(src: Source, state, states, keys, culprit) -> None:
     """A state named at ``keys`` must be one of ``states``."""

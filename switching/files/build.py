@@ -203,7 +203,8 @@ class LoadedModel:
         automata = []
         try:
             for spec in part.automata:
-                automaton = Automaton(spec.name, spec.states, spec.initial, spec.restitution, spec.values)
+                automaton = Automaton(spec.name, spec.states, spec.initial, spec.restitution, spec.values,
+                                      aliases=spec.aliases)
                 for k, tr in enumerate(spec.transitions):
                     guard = tr.text if (spec.name, k) in self._guard_texts else tr.condition
                     automaton.add_transition(tr.source, tr.target, guard, tr.when, pulses=tr.pulses)

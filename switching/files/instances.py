@@ -161,4 +161,4 @@ def renamed_automaton(src: Source, spec: AutomatonSpec, entry: Entry, symbol_map
                    for tr in spec.transitions]
     return AutomatonSpec(f"{prefix}/{spec.name}", states, spec.initial,
                          {s: e.xreplace(symbol_map) for s, e in spec.restitution.items()}, values,
-                         transitions, (src, entry.keys))
+                         transitions, (src, entry.keys), dict(spec.aliases))

@@ -92,7 +92,10 @@ A model file is TOML (https://toml.io).  Keys and tables, in any order:
 ``[ports]``
     ``name = "element"`` — for a file used as a sub-model.
 ``[automata.<name>]``
-    ``initial = "state"``, then::
+    ``initial = "state"``, optionally ``aliases = { on = "conducting" }`` (other
+    names the states are read by wherever a state is named — ``in_mode``, a
+    mode's text —, never shown: the old names of renamed states, as a
+    circuit's diode writes them), then::
 
         [automata.diode.states]          # state → controlled junctions on/off
         off = { D = false }

@@ -52,6 +52,7 @@ class AutomatonSpec:
     values: dict
     transitions: list
     where: tuple = ()
+    aliases: dict = field(default_factory=dict)  # other name → state (old names still read)
 
 
 @dataclass

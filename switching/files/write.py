@@ -266,6 +266,8 @@ class _Writer:
             prefix = f"automata.{_key(automaton.name)}"
             self.section(f"[{prefix}]")
             self.lines.append(f"initial = {_string(automaton.initial)}")
+            if automaton.aliases:  # the old names of renamed states, still read
+                self.lines.append(f"aliases = {_inline({a: _string(s) for a, s in automaton.aliases.items()})}")
             self.section(f"[{prefix}.states]")
             for state, setting in automaton.states.items():
                 self.lines.append(f"{_key(state)} = {_inline({j: 'true' if on else 'false' for j, on in setting.items()})}")

@@ -31,6 +31,7 @@ import sympy as sp
 from sympy.core.relational import Relational
 from sympy.logic.boolalg import BooleanAtom, BooleanFunction
 
+from bondgraph.errors import UnknownNameError
 from bondgraph.symbols import as_expr, check_name
 
 from ..errors import ModelDefinitionError
@@ -118,6 +119,12 @@ class Automaton:
         the bond graph (e.g. the direction ``sigma`` of a Coulomb friction
         source ``−sigma·mu·N``: +1 sliding forward, −1 backward, 0 stuck).
         Every state must set the same names.
+    aliases : mapping, optional
+        other name → state: names a state is also read by wherever a state is
+        named as input (a mode's text or mapping, :class:`InMode`, model
+        files), never shown — outputs show the state's own name.  They keep
+        the old names of renamed states readable: a circuit's diode reads
+        ``on``/``off`` as ``conducting``/``blocking``.
     """
 
     def __init__(
@@ -127,6 +134,7 @@ class Automaton:
         initial: str,
         restitution: Mapping[str, object] | None = None,
         values: Mapping[str, Mapping[str, object]] | None = None,
+        aliases: Mapping[str, str] | None = None,
     ):
         self.name = check_name(name, "automaton name")
         if not states:
@@ -170,7 +178,29 @@ class Automaton:
         if self.values and set(self.values) != set(self.states):
             missing = sorted(set(self.states) - set(self.values))
             raise ModelDefinitionError(f"automaton {name!r}: states {missing} set no values; every state must", [name])
+        self.aliases: dict[str, str] = self._checked_aliases(aliases or {})
         self.transitions: list[Transition] = []
+
+    def _checked_aliases(self, aliases: Mapping) -> dict:
+        """``aliases`` (other name → state) checked: each a valid name that is no state, each naming a state."""
+        for alias, state in aliases.items():
+            check_name(alias, f"alias of a state of automaton {self.name!r}")
+            if alias in self.states:
+                raise ModelDefinitionError(f"automaton {self.name!r}: alias {alias!r} is the name of a state; an "
+                                           "alias is another name for a state", [self.name])
+            self._check_state(state, f"alias {alias!r}")
+        return dict(aliases)
+
+    def state_named(self, name: str) -> str:
+        """The state ``name`` names: a state by its own name or by one of its :attr:`aliases`
+        (:class:`~bondgraph.errors.UnknownNameError` listing the states otherwise)."""
+        if name in self.states:
+            return name
+        if name in self.aliases:
+            return self.aliases[name]
+        also = f" (also read: {', '.join(f'{a} as {s}' for a, s in self.aliases.items())})" if self.aliases else ""
+        raise UnknownNameError(f"automaton {self.name!r} has no state {name!r}; its states are "
+                               f"{list(self.states)}{also}", name)
 
     def _check_state(self, state: str, what: str) -> None:
         if state not in self.states:

@@ -258,8 +258,8 @@ def collect_parameters(model) -> tuple:
                 used |= value.free_symbols
     for value, overrides in model._cross.values():
         used |= value.free_symbols
-        for automaton, state in overrides.items():
-            model.mode({automaton: state})  # unknown automata or states fail here, at construction
+        taken_in = model.mode(overrides)  # unknown automata or states fail here, at construction
+        overrides.update({a: taken_in.state_of(a) for a in overrides})  # each state by its own name, not an alias
     reserved |= graph.bond_symbols()
     parameters = tuple(sorted(used - reserved, key=lambda s: s.name))
     for symbol in parameters:  # those only guards and signals use are claimed here (the laws' already are)

@@ -39,9 +39,25 @@ equilibrium on the surface.
 **Initial branch.**  A run starts in ``positive`` where ``s > 0``,
 ``negative`` where ``s < 0`` and ``sliding`` where ``s = 0``
 (:func:`branches_at`); the instant at the start then moves it on.
+
+**Words.**  ``positive``, ``negative`` and ``sliding`` are the names of a
+law whose meaning is not known (a relay, a bang-bang source).  A dry
+friction law (:attr:`bondgraph.law_switches.LawSwitch.friction`: a clutch
+with ``T_max``, a damper with a Coulomb law, ``e = μN·sign(f)`` in any R)
+names them as engineers say them (:data:`FRICTION`): ``stuck`` is the
+sliding (Filippov) state — the surface is the slip speed, held at 0 —, and
+``slipping_pos``/``slipping_neg`` slip with the element's own flow positive
+or negative (identifiers, as every state name: ``+`` is no name).  The
+state names are the automaton's own: modes, run summaries, files and cache
+keys show them; the generic names stay readable as input
+(:attr:`switching.model.automaton.Automaton.aliases`: ``--mode
+clutch_law=sliding`` is ``clutch_law=stuck``).  :func:`law_words` gives a
+switch's names.
 """
 
 from __future__ import annotations
+
+from dataclasses import astuple, dataclass
 
 import numpy as np
 import sympy as sp
@@ -51,9 +67,39 @@ from bondgraph.errors import DerivationError
 from .automaton import Automaton
 
 __all__ = ["Rate", "RateWith", "law_automaton", "POSITIVE", "NEGATIVE", "SLIDING", "sliding_values",
-           "expand_rates", "branches_at"]
+           "expand_rates", "branches_at", "LawWords", "GENERIC", "FRICTION", "law_words"]
 
 POSITIVE, NEGATIVE, SLIDING = "positive", "negative", "sliding"
+
+
+@dataclass(frozen=True)
+class LawWords:
+    """The names of a law automaton's states: ``positive`` (``σ = +1``, ``s > 0``),
+    ``negative`` (``σ = −1``) and ``sliding`` (on the surface, ``σ = σ*``)."""
+
+    positive: str
+    negative: str
+    sliding: str
+
+    def aliases(self) -> dict:
+        """The generic names of the states these words rename (generic name → word)."""
+        return {old: new for old, new in zip(astuple(GENERIC), astuple(self)) if old != new}
+
+
+#: a law whose meaning is not known: the branches by the sign of the surface
+GENERIC = LawWords(POSITIVE, NEGATIVE, SLIDING)
+#: dry friction whose surface is the element's own flow (the slip speed)
+FRICTION = LawWords("slipping_pos", "slipping_neg", "stuck")
+
+
+def law_words(switch) -> LawWords:
+    """The names of the states of ``switch``'s automaton: :data:`FRICTION` for a dry friction law
+    (its positive branch ``slipping_neg`` when the surface is minus the slip speed), else :data:`GENERIC`."""
+    if switch.friction > 0:
+        return FRICTION
+    if switch.friction < 0:
+        return LawWords(FRICTION.negative, FRICTION.positive, FRICTION.sliding)
+    return GENERIC
 
 
 class Rate(sp.Function):
@@ -72,18 +118,21 @@ class RateWith(sp.Function):
 
 def law_automaton(switch) -> Automaton:
     """The local automaton of a :class:`bondgraph.law_switches.LawSwitch`
-    (module docstring); its initial state is set per run from the state."""
+    (module docstring), its states named by :func:`law_words` (the generic
+    names read as aliases); its initial state is set per run from the state."""
     sigma, s = switch.sigma.name, switch.surface
+    w = law_words(switch)
     automaton = Automaton(
         switch.name,
-        {POSITIVE: {}, NEGATIVE: {}, SLIDING: {}},
-        POSITIVE,
-        values={POSITIVE: {sigma: 1}, NEGATIVE: {sigma: -1}, SLIDING: {sigma: 0}},
+        {w.positive: {}, w.negative: {}, w.sliding: {}},
+        w.positive,
+        values={w.positive: {sigma: 1}, w.negative: {sigma: -1}, w.sliding: {sigma: 0}},
+        aliases=w.aliases(),
     )
-    automaton.add_transition(POSITIVE, SLIDING, sp.And(sp.Le(s, 0), sp.Lt(Rate(s), 0)))
-    automaton.add_transition(NEGATIVE, SLIDING, sp.And(sp.Ge(s, 0), sp.Gt(Rate(s), 0)))
-    automaton.add_transition(SLIDING, POSITIVE, sp.Gt(RateWith(s, switch.sigma, 1), 0))
-    automaton.add_transition(SLIDING, NEGATIVE, sp.Lt(RateWith(s, switch.sigma, -1), 0))
+    automaton.add_transition(w.positive, w.sliding, sp.And(sp.Le(s, 0), sp.Lt(Rate(s), 0)))
+    automaton.add_transition(w.negative, w.sliding, sp.And(sp.Ge(s, 0), sp.Gt(Rate(s), 0)))
+    automaton.add_transition(w.sliding, w.positive, sp.Gt(RateWith(s, switch.sigma, 1), 0))
+    automaton.add_transition(w.sliding, w.negative, sp.Lt(RateWith(s, switch.sigma, -1), 0))
     return automaton
 
 
@@ -162,7 +211,8 @@ def sliding_values(me, sliding: list, raw) -> dict:
 
 def branches_at(model, mode, x: np.ndarray, t: float):
     """``mode`` with each law automaton set by the sign of its surface at
-    ``(x, t)``: positive, negative, or sliding where ``s = 0``."""
+    ``(x, t)``: positive, negative, or sliding where ``s = 0`` (in the
+    switch's words, :func:`law_words`)."""
     if not model.law_switches:
         return mode
     me = model.mode_equations(mode)
@@ -178,7 +228,8 @@ def branches_at(model, mode, x: np.ndarray, t: float):
                 f"the surface {switch.surface} of law switch {switch.name!r} is not a number at t = {t} "
                 f"({surface}); it may use only states, bond variables, inputs, parameters and t"
             ) from None
-        states[switch.name] = POSITIVE if s > 0 else NEGATIVE if s < 0 else SLIDING
+        w = law_words(switch)
+        states[switch.name] = w.positive if s > 0 else w.negative if s < 0 else w.sliding
     return model.mode(states)
 
 

@@ -30,7 +30,9 @@ class ModeSpace:
         {automaton: state}, or text: as outputs show it,
         ``"contact=free, friction=stuck"`` (``|`` between the pairs too), or
         the states alone joined by ``|``, ``"free|stuck"``.  Automata not
-        named in a mapping or in ``automaton=state`` text keep their initial state."""
+        named in a mapping or in ``automaton=state`` text keep their initial state.
+        A state may be named by one of its automaton's aliases (an old name,
+        ``fr_law=sliding`` for ``fr_law=stuck``); the mode has the state's own name."""
         if isinstance(spec, Mode):
             states = spec.states
         elif isinstance(spec, str) and "=" in spec:
@@ -47,12 +49,7 @@ class ModeSpace:
         if len(states) != len(self.automata):
             raise UnknownNameError(f"mode {spec!r} has {len(states)} state(s) but the model has "
                                    f"{len(self.automata)} automata ({', '.join(self.names)})")
-        for automaton, state in zip(self.automata, states):
-            if state not in automaton.states:
-                raise UnknownNameError(
-                    f"automaton {automaton.name!r} has no state {state!r}; its states are {list(automaton.states)}", state
-                )
-        return Mode(states, self.names)
+        return Mode(tuple(a.state_named(s) for a, s in zip(self.automata, states)), self.names)
 
     def pairs(self, text: str) -> dict:
         """``"a=s, b=t"`` (or ``"a=s|b=t"``) → ``{"a": "s", "b": "t"}``; an automaton named twice is an error."""
@@ -74,6 +71,18 @@ class ModeSpace:
     def example(self) -> str:
         """The initial mode as outputs show it (for messages)."""
         return ", ".join(f"{a.name}={a.initial}" for a in self.automata)
+
+    def junction_words(self, mode) -> dict:
+        """Controlled junction name → the state of the automaton that switches it in ``mode`` (any
+        spelling :meth:`mode` takes), the word the mode shows it by (``{"S1": "closed", "D1":
+        "conducting"}``): what drawings and equations write for the junction's state, so that they say
+        what the run says (``draw_bond_graph(model.graph, model.configuration_of(m),
+        words=model.mode_space.junction_words(m))``).  Only an automaton whose
+        states are the junctions' on and off (a switch, a diode, a clutch: two states, one turning its
+        junctions on, the other off) words them; the others' junctions are on or off (a ball's
+        ``contact=impact`` and ``contact=rest`` both hold the floor's junction on)."""
+        states = self.mode(mode).states
+        return {j: state for a, state in zip(self.automata, states) if _words_on_off(a) for j in a.junctions}
 
     def configuration_of(self, mode: Mode) -> dict:
         """Controlled junction name → on (``True``) or off, as the states of ``mode`` set them."""
@@ -118,3 +127,10 @@ class ModeSpace:
                 condition, text = self.guards[(automaton.name, tr)]
                 out.append((automaton.name, tr, condition, text))
         return out
+
+
+def _words_on_off(automaton) -> bool:
+    """Whether ``automaton``'s states name its junctions' on and off: two states, each turning every
+    junction the same way, one on and one off."""
+    settings = {tuple(set(setting.values())) for setting in automaton.states.values()}
+    return len(automaton.states) == 2 and settings == {(True,), (False,)}

@@ -31,7 +31,7 @@ from bondgraph.errors import (AlgebraicLoopError, CausalityConflictError, Floati
 from bondgraph import budget
 from bondgraph.regularize import floating_limit
 
-from .law_automata import SLIDING, expand_rates, sliding_values
+from .law_automata import expand_rates, law_words, sliding_values
 
 __all__ = ["Mode", "ModeEquations", "SignalForm", "GuardForm"]
 
@@ -123,7 +123,7 @@ class ModeEquations:
             raise prefixed(error, f"mode {mode.describe()}: ", words) from None
         self.jump = jump.substituted(self.values)
         self.restitution = model.restitution_of(mode)
-        sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == SLIDING]
+        sliding = [sw for sw in model.law_switches.values() if mode.state_of(sw.name) == law_words(sw).sliding]
         if sliding:  # σ of each sliding law switch from ṡ = 0 (switching.model.law_automata)
             free = {sw.sigma for sw in sliding}
             self.equations = equations.substituted({k: v for k, v in self.values.items() if k not in free})
@@ -277,7 +277,8 @@ class ModeEquations:
 
     def pretty(self) -> str:
         """A text listing of f, g (when symbolic), the guards and the constraints."""
-        lines = [f"mode {self.mode.describe()}", self.equations.pretty()]
+        words = self.model.mode_space.junction_words(self.mode)  # the junctions as the mode says them
+        lines = [f"mode {self.mode.describe()}", self.equations.pretty(words=words)]
         g = self.g
         if self.jump.is_identity:
             lines.append("  g: identity (no dependent storage)")

@@ -388,6 +388,85 @@ def test_a_switched_off_junction_and_its_bonds_are_drawn_differently():
         off.close()
 
 
+def freewheel():
+    """A switch S1 and a freewheeling diode D1 (models.circuits), built."""
+    from models.circuits import Circuit
+
+    c = Circuit("freewheel")
+    c.V("V", "s", "0", 10.0)
+    c.switch("S1", "s", "n", closed_when="t < 0.5")
+    c.R("R", "n", "m", 1.0)
+    c.L("L", "m", "0", 0.1)
+    c.diode("D1", "0", "n", v_f=0.7)
+    return c.build()
+
+
+def _mark(text) -> str:
+    """The superscript of a junction's label: its state as drawn."""
+    return text.rsplit("^{\\mathrm{", 1)[1].rstrip("}$")
+
+
+def test_controlled_junctions_are_marked_with_the_words_the_mode_says():
+    """Issue 44: a switch is drawn closed or open, a diode conducting or blocking, a clutch engaged or
+    disengaged — what the run says — not on/off; an off junction is still grey and dashed."""
+    from models.mechanics import Mechanism
+
+    model = freewheel()
+    mode = model.mode("S1=open, D1=on")  # an old name of the diode's state reads
+    d = Drawn(model.graph, model.configuration_of(mode), words=model.mode_space.junction_words(mode))
+    try:
+        assert _mark(d.labels["element:S1"].get_text()) == "open"
+        assert _mark(d.labels["element:D1"].get_text()) == "conducting"
+        assert d.labels["element:S1"].get_bbox_patch().get_linestyle() == "--"
+        assert d.ax.get_title() == "freewheel: S1 open, D1 conducting"
+    finally:
+        d.close()
+    drive = Mechanism("drive", "rotational")
+    drive.inertia("J1", "a", 1.0, omega0=1.0)
+    drive.clutch("K", "a", "b", engaged_when="t >= 0.5")
+    drive.inertia("J2", "b", 1.0)
+    model = drive.build()
+    for mode, word in ((model.initial_mode, "disengaged"), (model.mode("K=engaged"), "engaged")):
+        d = Drawn(model.graph, model.configuration_of(mode), words=model.mode_space.junction_words(mode))
+        try:
+            assert _mark(d.labels["element:K"].get_text()) == word
+        finally:
+            d.close()
+
+
+def test_a_junction_whose_automaton_says_more_than_on_or_off_is_drawn_on_or_off():
+    """A ball's contact=impact and contact=rest both hold the floor on: the floor is drawn on/off."""
+    model = models.load("bouncing_ball").build()
+    mode = model.mode("contact=rest")
+    assert model.mode_space.junction_words(mode) == {}
+    d = Drawn(model.graph, model.configuration_of(mode), words=model.mode_space.junction_words(mode))
+    try:
+        assert _mark(d.labels["element:floor"].get_text()) == "on"
+    finally:
+        d.close()
+
+
+def test_hbg_draw_marks_the_junctions_with_the_words_of_the_mode(tmp_path, capsys, monkeypatch):
+    """``hbg draw FILE --mode ...`` of a saved circuit: the labels say open and conducting (the mode
+    given in the old words, ``D1=on``, reads)."""
+    import bondgraph.drawing as drawing
+
+    path = tmp_path / "freewheel.toml"
+    freewheel().save(path)
+    real, seen = drawing.draw_bond_graph, {}
+
+    def drawing_seen(*args, **kwargs):
+        ax = real(*args, **kwargs)
+        seen.update({t.get_gid(): t.get_text() for t in ax.texts}, title=ax.get_title())
+        return ax
+
+    monkeypatch.setattr(drawing, "draw_bond_graph", drawing_seen)
+    status = cli.main(["draw", str(path), "--mode", "S1=open, D1=on", "-o", str(tmp_path / "freewheel.png")])
+    assert status == 0, capsys.readouterr().err
+    assert _mark(seen["element:S1"]) == "open" and _mark(seen["element:D1"]) == "conducting"
+    assert seen["title"] == "freewheel in mode S1=open, D1=conducting"
+
+
 def test_a_bond_between_two_off_junctions_of_one_kind_is_dead():
     model = models.load("falling_rod").build()
     graph = model.graph

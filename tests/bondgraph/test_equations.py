@@ -364,6 +364,13 @@ def test_pretty_and_latex_display():
         assert equality.lhs in eq.rate_symbols.values() or equality.lhs in eq.dependent
 
 
+def test_pretty_writes_each_controlled_junction_by_its_word_where_it_has_one():
+    """A junction's state as a mode says it (issue 44: ``switch closed``), on/off without a word."""
+    eq = switched_rl().equations({"switch": False})
+    assert eq.pretty().splitlines()[0].endswith("[junctions: switch off]")
+    assert eq.pretty(words={"switch": "open"}).splitlines()[0].endswith("[junctions: switch open]")
+
+
 def test_nonlinear_algebraic_loop_without_unique_solution_names_its_elements():
     """switched_rl with a cubic freewheeling resistor: the node voltage solves a cubic."""
     from bondgraph import AlgebraicLoopError

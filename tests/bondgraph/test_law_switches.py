@@ -18,6 +18,7 @@ import pytest
 import sympy as sp
 
 from bondgraph import C, DerivationError, I, One, R, Se, Sf, Zero, BondGraph
+from bondgraph.errors import UnknownNameError
 from bondgraph.law_switches import law_switches
 from switching import Automaton, HybridModel, StiffnessError
 
@@ -114,6 +115,42 @@ def test_sliding_mode_holds_the_block_with_the_static_force():
     assert sp.simplify(static - sp.Symbol("F")) == 0  # the friction force balances the push
 
 
+def test_a_friction_law_says_stuck_and_slipping_and_reads_the_generic_names():
+    """Issue 44: a dry friction law's automaton names its sliding (Filippov) state ``stuck`` and its
+    branches ``slipping_pos``/``slipping_neg``; the generic names it had still read as those states."""
+    model = sign_block()
+    (sw,) = model.law_switches.values()
+    assert sw.friction == 1
+    assert list(model.automata[-1].states) == ["slipping_pos", "slipping_neg", "stuck"]
+    assert model.mode("fr_law=sliding").describe() == "fr_law=stuck"
+    assert model.mode({"fr_law": "positive"}) == model.mode("slipping_pos")
+    assert model.mode("negative").label == "slipping_neg"
+    assert model.mode_equations({"fr_law": "sliding"}) is model.mode_equations("fr_law=stuck")
+    with pytest.raises(UnknownNameError, match="no state 'slipping'.*also read: positive as slipping_pos"):
+        model.mode("fr_law=slipping")
+
+
+def test_a_friction_law_on_minus_its_flow_names_each_branch_by_the_flow():
+    """A Piecewise friction law whose condition is ``f < 0`` switches on ``s = −f``: its positive branch
+    (``s > 0``) slips backwards, and is named so."""
+    mu, N = sp.symbols("mu N")
+    g = friction_graph(law=lambda f: sp.Piecewise((-mu * N, f < 0), (mu * N, True)))
+    model = HybridModel(g, [], {"m": 1.0, "mu": MU, "N": N_FORCE}, initial_state={"p_m": -2.0})
+    (sw,) = model.law_switches.values()
+    assert sw.friction == -1 and sp.simplify(sw.surface + g.flow("fr")) == 0
+    assert model.initial_mode.describe() == "fr_law=slipping_neg"
+    assert model.mode("fr_law=positive").describe() == "fr_law=slipping_neg"  # σ = +1: the generic name
+    (event,) = model.simulate(1.0, "RK45").events
+    assert event.mode_after.describe() == "fr_law=stuck"
+
+
+def test_laws_of_no_known_meaning_keep_the_generic_names():
+    model = bang_bang()
+    (sw,) = model.law_switches.values()
+    assert sw.friction == 0
+    assert list(model.automata[-1].states) == ["positive", "negative", "sliding"] and not model.automata[-1].aliases
+
+
 def test_continuous_laws_are_left_as_written():
     e = sp.Symbol("e")
     orifice = lambda e: sp.Symbol("Cv") * sp.sqrt(sp.Abs(e)) * sp.sign(e)  # noqa: E731
@@ -168,7 +205,7 @@ def test_block_stops_at_the_exact_time_and_distance_then_rests(method):
     tr = sign_block(p0, m).simulate(1.0, method, rtol=1e-6)
     (event,) = tr.events
     assert abs(event.t - t_stop) <= 1e-9
-    assert event.mode_after.label == "sliding"
+    assert event.mode_after.label == "stuck"
     x = tr.state("x")
     assert abs(x[-1] - distance) <= 1e-9 * distance
     after = tr.t > t_stop + 1e-9
@@ -216,9 +253,9 @@ def test_no_chattering_steps_for_the_adaptive_method():
 @pytest.mark.parametrize("F", [3.0, -4.0, 4.9])
 def test_force_below_the_friction_limit_keeps_the_block_stuck(F):
     model = sign_block(p0=0.0, F=F)
-    assert model.initial_mode.label == "sliding"
+    assert model.initial_mode.label == "stuck"
     tr = model.simulate(2.0, "RK45")
-    assert tr.events == [] or all(e.mode_after.label == "sliding" for e in tr.events)
+    assert tr.events == [] or all(e.mode_after.label == "stuck" for e in tr.events)
     assert np.all(tr.state("p_m") == 0.0) and np.all(tr.state("x") == 0.0)
     assert np.allclose(tr.signal("e_fr"), F, rtol=1e-14)  # static friction balances the push
 
@@ -229,7 +266,7 @@ def test_force_above_the_friction_limit_slides_with_the_exact_acceleration(F):
     model = sign_block(p0=0.0, m=m, F=F)
     tr = model.simulate(t_end, "RK45", rtol=1e-10)
     (event,) = tr.events
-    assert event.t == 0.0 and event.mode_after.label == ("positive" if F > 0 else "negative")
+    assert event.t == 0.0 and event.mode_after.label == ("slipping_pos" if F > 0 else "slipping_neg")
     a = (F - math.copysign(MU * N_FORCE, F)) / m
     assert abs(tr.state("p_m")[-1] / m - a * t_end) <= 1e-12 * abs(a * t_end)
     assert abs(tr.state("x")[-1] - a * t_end**2 / 2) <= 1e-10 * abs(a * t_end**2)
@@ -364,14 +401,14 @@ def test_two_blocks_held_by_friction_solve_their_static_forces_together():
     g.connect(s, v2)
     g.connect(s, C("k", "c"))
     model = HybridModel(g, [], {"m": 1, "mu": MU, "N": N_FORCE, "c": 0.01}, initial_state={"q_k": 0.02})
-    assert model.initial_mode.label == "sliding|sliding"
+    assert model.initial_mode.label == "stuck|stuck"
     tr = model.simulate(1.0, "RK45")
     assert tr.events == [] and np.all(tr.state("p_m1") == 0) and np.all(tr.state("p_m2") == 0)
     assert np.allclose(tr.signal("e_fr1"), -2.0, rtol=1e-12) and np.allclose(tr.signal("e_fr2"), 2.0, rtol=1e-12)
     # pulled apart harder than friction holds: both slip away from the stuck state at once
     strong = HybridModel(g, [], {"m": 1, "mu": MU, "N": N_FORCE, "c": 0.01}, initial_state={"q_k": 0.08})
     (event,) = strong.simulate(0.01, "RK45").events
-    assert event.t == 0.0 and event.mode_after.label == "negative|positive"
+    assert event.t == 0.0 and event.mode_after.label == "slipping_neg|slipping_pos"
 
 
 @pytest.mark.parametrize("method, kw, tol", [("rk4", {"dt": 0.1}, 1e-6), ("RK45", {"rtol": 1e-10}, 1e-9)])

@@ -55,7 +55,7 @@ def test_an_inductive_load_on_an_ideal_bridge_carries_the_integral_of_the_rectif
     assert [round(e.t / 0.01) for e in commutations] == [1, 2, 3, 4, 5]
     for event in commutations:
         assert event.t == pytest.approx(round(event.t / 0.01) * 0.01, abs=1e-12)
-        assert event.mode_after.describe() in ("D1=off, D2=on, D3=on, D4=off", "D1=on, D2=off, D3=off, D4=on")
+        assert event.mode_after.describe() in ("D1=blocking, D2=conducting, D3=conducting, D4=blocking", "D1=conducting, D2=blocking, D3=blocking, D4=conducting")
         assert event.mode_after != event.mode_before
         assert any(step.kind == "mythical" for step in event.steps)  # all four on: passed, never entered
 
@@ -127,7 +127,7 @@ def test_a_filtered_bridge_with_line_resistance_runs_as_drawn_and_follows_its_od
     np.testing.assert_allclose(run.signal("v_RL")[(run.t > 1e-4)][::7], reference, rtol=2e-6, atol=1e-6)
     # conduction starts each half period where |v_s| meets v_C: D1, D4 then D2, D3
     conducting = [e.mode_after.describe() for e in run.events if e.t > 1e-3]
-    assert "D1=on, D2=off, D3=off, D4=on" in conducting and "D1=off, D2=on, D3=on, D4=off" in conducting
+    assert "D1=conducting, D2=blocking, D3=blocking, D4=conducting" in conducting and "D1=blocking, D2=conducting, D3=conducting, D4=blocking" in conducting
 
 
 def line_inductance_reference(Ls, r_on, t_end, Vm=325.0, C=1e-3, R=100.0):
@@ -186,7 +186,7 @@ def test_a_filtered_bridge_with_line_inductance_and_r_on_runs_with_the_default_m
     np.testing.assert_allclose(ours, instants[1:], rtol=0, atol=1e-8)
     assert run.signal("v_RL")[-1] == pytest.approx(final, rel=1e-7)
     blocking = run.events[-1]
-    assert blocking.mode_after.describe() == "D1=off, D2=off, D3=off, D4=off"
+    assert blocking.mode_after.describe() == "D1=blocking, D2=blocking, D3=blocking, D4=blocking"
     assert blocking.x_after[0] == 0.0 and not any(step.kind == "mythical" for step in blocking.steps)
 
 
@@ -204,7 +204,7 @@ def test_the_bridge_with_line_inductance_runs_with_every_method_at_its_default_o
     instants, final = line_inductance_reference(1e-3, r_on or 0.0, 0.04)
     assert run.signal("v_RL")[-1] == pytest.approx(final, rel=3e-5)
     blocking = run.events[-1]
-    assert blocking.mode_after.describe() == "D1=off, D2=off, D3=off, D4=off"
+    assert blocking.mode_after.describe() == "D1=blocking, D2=blocking, D3=blocking, D4=blocking"
     assert blocking.t == pytest.approx(instants[1], abs=2e-7)
 
 

@@ -76,13 +76,13 @@ def test_half_wave_rectifier_turns_off_at_tan_wt_equal_minus_wRC_and_on_where_th
     V, w, R, C = 10.0, 2 * math.pi * 50, 1e3, 100e-6
     run = rectifier(V, w, R, C).simulate(0.03, "RK45", **RUN)
     labels = [[s.mode.label for s in e.steps] for e in run.events]
-    assert labels[0] == ["off", "on"] and run.events[0].t < 1e-12   # starts conducting at once
+    assert labels[0] == ["blocking", "conducting"] and run.events[0].t < 1e-12   # starts conducting at once
     t_off = (math.pi - math.atan(w * R * C)) / w                      # tan(w t) = −wRC, second quadrant
-    assert labels[1] == ["on", "off"]
+    assert labels[1] == ["conducting", "blocking"]
     assert run.events[1].t == pytest.approx(t_off, rel=1e-6)
     t_on = brentq(lambda t: V * math.sin(w * t) - V * math.sin(w * t_off) * math.exp(-(t - t_off) / (R * C)),
                   2 * math.pi / w, 2.5 * math.pi / w, xtol=1e-15)
-    assert labels[2] == ["off", "on"]
+    assert labels[2] == ["blocking", "conducting"]
     assert run.events[2].t == pytest.approx(t_on, rel=1e-6)
     off = (run.t > t_off * (1 + 1e-6)) & (run.t < t_on * (1 - 1e-6))
     np.testing.assert_allclose(run.signal("v_C1")[off],
@@ -107,7 +107,7 @@ def test_switched_inductor_freewheels_through_the_diode_as_the_papers_circuit():
     run = freewheel_circuit().build(parameters={"t_open": 0.5}).simulate(1.0, "RK45", t_eval=times, **RUN)
     reference = diode_circuit.build().simulate(1.0, "RK45", t_eval=times, **RUN)
     assert [(s.mode.label, s.kind) for s in run.events[0].steps] == [
-        ("closed|off", "start"), ("open|off", "mythical"), ("open|on", "continuous")]
+        ("closed|blocking", "start"), ("open|blocking", "mythical"), ("open|conducting", "continuous")]
     np.testing.assert_allclose(run.event_times, reference.event_times, rtol=1e-9)
     for name in ("i_L", "v_L", "i_D", "v_D"):
         np.testing.assert_allclose(run.signal(name), reference.signal(name), rtol=1e-7, atol=1e-9)
@@ -140,7 +140,7 @@ def test_pwm_switch_edges_fall_on_the_schedule():
     run = c.build().simulate(1e-3, "RK45", rtol=1e-8, atol=1e-12, max_step=2e-5)
     edges = np.sort(np.concatenate([np.arange(1, 11) * 1e-4, np.arange(0, 10) * 1e-4 + 3e-5]))
     np.testing.assert_allclose(run.event_times, edges, rtol=1e-9)
-    assert [s.mode.label for s in run.events[0].steps][-1] == "open|on"   # the diode takes the current
+    assert [s.mode.label for s in run.events[0].steps][-1] == "open|conducting"   # the diode takes the current
 
 
 def test_buck_converter_in_continuous_conduction_meets_its_mean_output_and_ripple_closed_forms():
@@ -166,7 +166,7 @@ def test_buck_converter_in_continuous_conduction_meets_its_mean_output_and_rippl
     t, index = np.unique(run.t, return_index=True)            # one sample per time
     v, i = run.signal("v_C")[index], run.signal("i_L")[index]
     last_period = run.events[-3:-1]                           # S closes at (periods − 1)·T, opens D·T later
-    assert [e.steps[-1].mode.label for e in last_period] == ["closed|off", "open|on"]
+    assert [e.steps[-1].mode.label for e in last_period] == ["closed|blocking", "open|conducting"]
     np.testing.assert_allclose([e.t for e in last_period], [(periods - 1) * T, (periods - 1 + D) * T], rtol=1e-12)
     assert np.min(i) > 0                                                      # continuous conduction
     mean = simpson(v, x=t) / T
@@ -382,7 +382,8 @@ def test_floating_modes_lists_every_mode_that_floats():
     from models.circuits import floating_modes
 
     model = bridge(allow_floating=True)
-    assert [mode.describe() for mode, _ in floating_modes(model)] == ["D1=off, D2=off, D3=off, D4=off"]
+    assert [mode.describe() for mode, _ in floating_modes(model)] == [
+        "D1=blocking, D2=blocking, D3=blocking, D4=blocking"]
     assert floating_modes(bridge(gmin=1e-12)) == []
 
 
@@ -431,16 +432,17 @@ def ideal_buck(scale=1.0, duty=0.4, period=1e-5):
 @pytest.mark.parametrize("method", ["RK45", "auto"])
 def test_an_ideal_buck_passes_the_shorted_source_as_mythical_and_turns_the_diode_off(method):
     """Closing the switch while the freewheeling diode conducts would short the source: the mode
-    S1=closed, D1=on is passed as mythical, its diode current driven backwards as the limit of a
+    S1=closed, D1=conducting is passed as mythical, its diode current driven backwards as the limit of a
     vanishing resistance (an impulse), so D1 turns off; the current rises by (V − Vo)·D·T/L and falls
     by Vo·(1 − D)·T/L, exactly."""
     V, Vo, L, D, T = 12.0, 4.8, 100e-6, 0.4, 1e-5
     run = ideal_buck().simulate(10 * T, method, max_step=T / 20, rtol=1e-10)
-    closing = [e for e in run.events if e.steps[0].mode.states == ("open", "on")]
+    closing = [e for e in run.events if e.steps[0].mode.states == ("open", "conducting")]
     assert len(closing) >= 9
     for event in closing:
         assert [(s.mode.describe(), s.kind) for s in event.steps] == [
-            ("S1=open, D1=on", "start"), ("S1=closed, D1=on", "mythical"), ("S1=closed, D1=off", "continuous")]
+            ("S1=open, D1=conducting", "start"), ("S1=closed, D1=conducting", "mythical"),
+            ("S1=closed, D1=blocking", "continuous")]
         (turn_off,) = event.steps[1].fired
         # i_D1 → −V/(2ε): the source shorted through the two vanishing resistances of S1 and D1
         assert turn_off.automaton == "D1" and turn_off.comparisons[0].left.impulse == pytest.approx(-V / 2)
@@ -455,7 +457,7 @@ def test_an_ideal_buck_passes_the_shorted_source_as_mythical_and_turns_the_diode
 
 
 def test_an_ideal_bucks_conflicting_mode_is_derived_once_not_at_every_closing(monkeypatch):
-    """Each PWM closing meets the conflicting mode S1=closed, D1=on; its derivation's error is kept and
+    """Each PWM closing meets the conflicting mode S1=closed, D1=conducting; its derivation's error is kept and
     raised again (it was derived anew every period: half of a warm run's time)."""
     import switching.library.mode_library as library
 
@@ -471,7 +473,7 @@ def test_an_ideal_bucks_conflicting_mode_is_derived_once_not_at_every_closing(mo
     model = ideal_buck()
     run = model.simulate(10 * T, "RK45", max_step=T / 20, rtol=1e-10)
     closings = [e for e in run.events if any(s.kind == "mythical" for s in e.steps)]
-    assert len(closings) >= 9 and calls.count("S1=closed, D1=on") == 1
+    assert len(closings) >= 9 and calls.count("S1=closed, D1=conducting") == 1
 
 
 def test_an_ideal_buck_in_other_units_has_the_same_instants_and_modes():
@@ -520,7 +522,9 @@ def test_capacitor_filtered_bridge_switches_at_the_exact_instants_and_no_others(
     assert events[0].t < 1e-12
     np.testing.assert_allclose([e.t for e in events[1:]], exact[1:], rtol=1e-9 if gmin is None else 1e-7)
     ends = [e.steps[-1].mode.label for e in events]
-    assert ends == ["on|off|off|on", "off|off|off|off", "off|on|on|off", "off|off|off|off"] * 2 + ends[8:]
+    cycle = ["conducting|blocking|blocking|conducting", "blocking|blocking|blocking|blocking",
+             "blocking|conducting|conducting|blocking", "blocking|blocking|blocking|blocking"]
+    assert ends == cycle * 2 + ends[8:]
     blocking = (run.t > t_off * (1 + 1e-6)) & (run.t < t_on * (1 - 1e-6))
     np.testing.assert_allclose(run.signal("v_C1")[blocking], [decay(t) for t in run.t[blocking]], rtol=1e-7)
     conducting = (run.t > t_on * (1 + 1e-6)) & (run.t < (t_off + half) * (1 - 1e-6))
@@ -542,7 +546,9 @@ def test_resistive_bridge_commutates_at_the_zero_crossings(gmin):
     if gmin is not None:
         assert {s.name: v for s, v in model.parameter_values.items()}["gmin"] == 1e-12
     run = model.simulate(0.03, "RK45", **RUN)
-    assert [e.steps[-1].mode.label for e in run.events] == ["on|off|off|on", "off|on|on|off", "on|off|off|on"]
+    assert [e.steps[-1].mode.label for e in run.events] == [
+        "conducting|blocking|blocking|conducting", "blocking|conducting|conducting|blocking",
+        "conducting|blocking|blocking|conducting"]
     np.testing.assert_allclose([e.t for e in run.events[1:]], [math.pi / w, 2 * math.pi / w], rtol=1e-9)
     np.testing.assert_allclose(run.signal("v_Rload"), V * np.abs(np.sin(w * run.t)), rtol=1e-7, atol=1e-9)
 

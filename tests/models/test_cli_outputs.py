@@ -105,3 +105,31 @@ def test_the_equations_name_the_junctions_states_as_junctions(capsys):
     assert cli.main(["modes", "bouncing-ball", "--t-end", "0.1"]) == 0
     out = capsys.readouterr().out
     assert "mode contact=flight\nequations of 'bouncing_ball' [junctions: floor off]" in out and "floor=off" not in out
+
+
+def test_the_equations_say_the_junctions_and_law_states_in_the_words_of_the_modes(tmp_path, capsys):
+    """Issue 44: ``hbg modes`` of a saved circuit and of a friction clutch: the mode and the equations'
+    junctions say closed/open, conducting/blocking, engaged, stuck; the old words read as input."""
+    from models.circuits import Circuit
+    from models.mechanics import Mechanism
+
+    c = Circuit("freewheel")
+    c.V("V", "s", "0", 10.0)
+    c.switch("S1", "s", "n", closed_when="t < 0.5")
+    c.R("R", "n", "m", 1.0)
+    c.L("L", "m", "0", 0.1)
+    c.diode("D1", "0", "n", v_f=0.7)
+    c.build().save(tmp_path / "freewheel.toml")
+    assert cli.main(["modes", str(tmp_path / "freewheel.toml"), "--mode", "S1=open, D1=on"]) == 0
+    out = capsys.readouterr().out
+    assert "mode S1=open, D1=conducting\nequations of 'freewheel' [junctions: S1 open, D1 conducting]" in out
+    assert "D1: conducting → blocking when" in out
+    drive = Mechanism("drive", "rotational")
+    drive.inertia("J1", "a", 2.0, omega0=10.0)
+    drive.clutch("K", "a", "b", engaged_when="t >= 0.5", T_max=5.0)
+    drive.inertia("J2", "b", 3.0)
+    drive.build().save(tmp_path / "drive.toml")
+    assert cli.main(["modes", str(tmp_path / "drive.toml"), "--mode", "K=engaged, K_law=sliding"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("mode K=engaged, K_law=stuck\n") and "K_law: stuck → slipping_pos when" in out
+

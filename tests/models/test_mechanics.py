@@ -209,10 +209,16 @@ def test_friction_clutch_slips_with_T_max_then_sticks_losing_the_same_energy():
     d.inertia("J1", "a", J1, omega0=w0)
     d.clutch("C1", "a", "b", engaged_when="t >= t_on", T_max="T_c")
     d.inertia("J2", "b", J2)
-    run = d.build(parameters={"t_on": t_on, "T_c": T_max}).simulate(4.0, "RK45", **RUN)
+    model = d.build(parameters={"t_on": t_on, "T_c": T_max})
+    run = model.simulate(4.0, "RK45", **RUN)
     t_stick = t_on + w0 / (T_max * (1 / J1 + 1 / J2))
     np.testing.assert_allclose(run.event_times, [t_on, t_stick], rtol=1e-9)
-    assert run.events[1].steps[-1].mode.label == "engaged|sliding"   # the law's sliding mode: stuck
+    assert run.events[1].steps[-1].mode.label == "engaged|stuck"   # the law's sliding (Filippov) mode
+    # issue 44: the run says stuck and slipping, and the law's generic names still read
+    summary = run.summary()
+    assert "C1=engaged, C1_law=slipping_pos" in summary and "C1=engaged, C1_law=stuck" in summary
+    assert "sliding" not in summary and "positive" not in summary
+    assert model.mode("C1=engaged, C1_law=sliding").describe() == "C1=engaged, C1_law=stuck"
     slipping = (run.t > t_on) & (run.t < t_stick * (1 - 1e-9))
     np.testing.assert_allclose(run.signal("T_C1")[slipping], T_max, rtol=1e-9)
     np.testing.assert_allclose(run.signal("omega_J2")[slipping], T_max / J2 * (run.t[slipping] - t_on), rtol=TOL)

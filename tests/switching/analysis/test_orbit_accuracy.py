@@ -127,7 +127,7 @@ def test_a_clocked_buck_takes_its_edge_at_the_period_end(f_sw):
     orbit = periodic_orbit(model, period=T, x0=exact * (1 + 1e-3), mode="S=closed, D1=off", max_step=0.05 * T)
     np.testing.assert_allclose(orbit.x0, exact, rtol=1e-8)
     assert orbit.error <= 1e-8 and orbit.trajectory.signal("i_L").min() > 0  # continuous conduction
-    assert orbit.mode_names == ["S=closed, D1=off", "S=open, D1=on", "S=closed, D1=off"]
+    assert orbit.mode_names == ["S=closed, D1=blocking", "S=open, D1=conducting", "S=closed, D1=blocking"]
     edge = orbit.trajectory.events[-1]
     assert T <= edge.t <= T + EDGE_ULPS * np.spacing(T) and orbit.trajectory.t[-1] == edge.t
 

@@ -515,6 +515,10 @@ BROKEN = [
      'a bond is written "tail -> head"'),
     ("transition to an unknown state", 'to = "on"', 'to = "onn"', 'to = "onn"', "transition 2 of automaton 'relay'",
      "unknown state 'onn' (did you mean 'on'?)"),
+    ("alias of an unknown state", 'initial = "on"', 'initial = "on"\naliases = { closed = "onn" }', "aliases",
+     "automaton 'relay'", "unknown state 'onn' (did you mean 'on'?)"),
+    ("alias that is a state", 'initial = "on"', 'initial = "on"\naliases = { off = "on" }', "aliases",
+     "automaton 'relay'", "alias 'off' is the name of a state"),
     ("unknown name in a guard", '"v >= v_hi"', '"v >= v_high"', "v_high", "transition 1 of automaton 'relay'",
      "uses 'v_high', which is not t, a parameter"),
     ("guard that is no condition", '"v >= v_hi"', '"v + v_hi"', "v + v_hi", "transition 1 of automaton 'relay'",
@@ -543,6 +547,65 @@ def test_broken_files_name_file_line_and_culprit(tmp_path, what, old, new, marke
     assert error.culprit == culprit, str(error)
     assert words in str(error)
     assert isinstance(error, HybridBondGraphError) and isinstance(error, ValueError)
+
+
+#: a block held by Coulomb friction, with a signal taken in its law's Filippov state in the generic
+#: word that state had before issue 44 (``sliding``; now ``stuck``)
+OLD_WORDS = """hbg_model_format = 1
+name = "block"
+
+[parameters]
+F = 3.0
+N = 9.81
+m = 1.0
+mu = 0.5
+
+[elements]
+v = { type = "1" }
+push = { type = "Se", value = "F" }
+m = { type = "I", inertance = "m" }
+fr = { type = "R", effort_law = "N*mu*sign(f_fr)" }
+
+[bonds]
+push = "push -> v"
+m = "v -> m"
+fr = "v -> fr"
+
+[signals]
+F_stick = { expression = "e_fr", in_mode = { fr_law = "sliding" } }
+"""
+
+
+def test_a_file_in_the_old_words_reads_and_is_written_in_the_new(tmp_path):
+    """Issue 44: a friction law's automaton says ``stuck``; a file naming it ``sliding`` reads, runs in
+    ``fr_law=stuck`` and is written back with ``stuck``, the same model."""
+    model = _load_text(tmp_path, OLD_WORDS)
+    assert model.cross_signals["F_stick"][1] == {"fr_law": "stuck"}
+    assert model.mode("fr_law=sliding").describe() == "fr_law=stuck"
+    run = model.simulate(0.5, "RK45")
+    assert {m.describe() for m in run.modes} == {"fr_law=stuck"}
+    np.testing.assert_allclose(run.signal("F_stick"), 3.0, rtol=1e-12)  # static friction balances the push
+    text = dumps_model(model)
+    assert 'in_mode = { fr_law = "stuck" }' in text and "sliding" not in text
+    assert loads_model(text).fingerprint == model.fingerprint
+
+
+def test_a_circuits_diode_is_written_in_its_words_with_its_old_names_as_aliases():
+    from models.circuits import Circuit
+
+    c = Circuit("freewheel")
+    c.V("V", "s", "0", 10.0)
+    c.switch("S1", "s", "n", closed_when="t < 0.5")
+    c.R("R", "n", "m", 1.0)
+    c.L("L", "m", "0", 0.1)
+    c.diode("D1", "0", "n", v_f=0.7)
+    model = c.build()
+    text = dumps_model(model)
+    assert 'initial = "blocking"' in text and 'aliases = { on = "conducting", off = "blocking" }' in text
+    assert 'from = "blocking"\nto = "conducting"' in text
+    loaded = loads_model(text)
+    assert loaded.fingerprint == model.fingerprint and loaded.automata[1].aliases == model.automata[1].aliases
+    assert loaded.mode("S1=open, D1=on").describe() == "S1=open, D1=conducting"
 
 
 def test_a_missing_format_key_a_file_that_is_not_utf8_and_a_byte_order_mark(tmp_path):

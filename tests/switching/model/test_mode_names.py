@@ -64,3 +64,46 @@ def test_every_mode_of_a_run_summary_is_accepted_by_modes_and_draw(capsys, tmp_p
         assert cli.main(["modes", "falling-rod", "--mode", name]) == 0, capsys.readouterr().err
         assert f"mode {name}" in capsys.readouterr().out
     assert cli.main(["draw", "falling-rod", "--mode", names[-1], "-o", str(tmp_path / "rod.svg")]) == 0
+
+
+def _relay_with_aliases(**aliases):
+    from bondgraph import C, BondGraph, One, R, Se
+    from switching import Automaton, HybridModel
+
+    g = BondGraph("relay")
+    sw = g.add(One("sw", controlled=True))
+    g.connect(Se("V", "V0"), sw)
+    g.connect(sw, R("R", "R"))
+    g.connect(sw, C("C", "C"))
+    relay = Automaton("relay", {"closed": {"sw": True}, "open": {"sw": False}}, "closed", aliases=aliases)
+    relay.add_transition("closed", "open", "q_C >= 0.5*C*V0")
+    return HybridModel(g, [relay], {"V0": 1.0, "R": 1.0, "C": 1e-3})
+
+
+def test_an_automatons_aliases_read_as_its_states_and_are_never_shown():
+    """Issue 44: a renamed state keeps its old name readable (``on`` for ``closed``) wherever a mode is
+    written as input — text, mapping, tuple, a signal taken in another mode — and the mode shows the
+    state's own name."""
+    from switching import InMode
+
+    model = _relay_with_aliases(on="closed", off="open")
+    assert model.mode("relay=off").describe() == "relay=open"
+    assert model.mode({"relay": "on"}) == model.mode(("closed",)) == model.mode("on")
+    assert model.automata[0].state_named("off") == "open"
+    with pytest.raises(UnknownNameError, match=r"no state 'shut'.*\['closed', 'open'\] \(also read: on as closed"):
+        model.mode("relay=shut")
+    cross = type(model)(model.graph, model.automata, {"V0": 1.0, "R": 1.0, "C": 1e-3},
+                        signals={"i_open": InMode("f_R", relay="off")})
+    assert cross.cross_signals["i_open"][1] == {"relay": "open"}
+
+
+@pytest.mark.parametrize("aliases, message", [
+    ({"open": "closed"}, "alias 'open' is the name of a state"),
+    ({"on": "shut"}, "alias 'on' names unknown state 'shut'"),
+    ({"1on": "closed"}, "invalid alias"),
+])
+def test_an_alias_must_be_another_name_of_a_state(aliases, message):
+    from bondgraph.errors import HybridBondGraphError
+
+    with pytest.raises(HybridBondGraphError, match=message):
+        _relay_with_aliases(**aliases)
