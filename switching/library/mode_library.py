@@ -185,6 +185,8 @@ class ModeLibrary:
         self.symbols_memo: dict = {}
         self.jacobians: dict = {}
         self.gradient_memo: dict = {}
+        #: (mode, signal names) → the generated signal function (:meth:`signal_function`)
+        self.signal_functions: dict = {}
         #: conflicting mode → its guards in the limit of vanishing resistances (:mod:`.conflicts`)
         self.conflicts: dict = {}
         self.preparation_seconds = 0.0
@@ -317,6 +319,9 @@ class ModeLibrary:
         model = self.model
         mode = model.mode(mode)
         names = tuple(names)
+        made = self.signal_functions.get((mode, names))
+        if made is not None:
+            return made
         key = fingerprint(self.fingerprint, "signals", mode.label, *names)
         source = self.cache.load(key)
         if source is None:
@@ -337,7 +342,8 @@ class ModeLibrary:
             self.cache.store(key, source)
         namespace = module_namespace(vectorized=True)
         execute(source, namespace, f"<hbg signals {mode.label}>")
-        return namespace["signals"]
+        made = self.signal_functions[(mode, names)] = namespace["signals"]
+        return made
 
     def guard_tree(self, condition, relations: list):
         """The tree of a guard condition (:func:`switching.library.compiled.condition_tree`),

@@ -27,9 +27,16 @@ __all__ = ["interpolable", "hermite_states", "row_rates", "numbered"]
 def numbered(modes: list) -> tuple[np.ndarray, list]:
     """``(numbers, distinct)``: each row's mode as its place in ``distinct`` (the modes in order of first
     appearance) — the form the functions here take a run's modes in (:meth:`Trajectory.mode_numbers`)."""
+    if not len(modes):
+        return np.zeros(0, dtype=np.int64), []
+    ids = np.fromiter(map(id, modes), dtype=np.int64, count=len(modes))  # (a run shares few mode objects)
+    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
     places: dict = {}
-    numbers = np.fromiter((places.setdefault(m, len(places)) for m in modes), dtype=np.int64, count=len(modes))
-    return numbers, list(places)
+    order = np.argsort(first, kind="stable")
+    number_of = np.empty(len(first), dtype=np.int64)
+    for k in order:  # equal modes that are distinct objects share one number, in order of first appearance
+        number_of[k] = places.setdefault(modes[first[k]], len(places))
+    return number_of[inverse.ravel()], list(places)
 
 
 def interpolable(t: np.ndarray, modes: tuple, event_times: np.ndarray) -> np.ndarray:

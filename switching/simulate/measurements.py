@@ -50,7 +50,7 @@ from bondgraph.elements import OnePort
 from bondgraph.errors import HybridBondGraphError
 
 from .dense_rows import hermite_states, interpolable, row_rates
-from .signal_values import signal_values
+from .signal_values import signal_table
 
 __all__ = ["MEASURES", "GAUSS_NODES", "MeasurementError", "measure", "spectrum", "window_of"]
 
@@ -115,9 +115,14 @@ class _Pieces:
                                    "cannot be told from the flow; run with keep_instants=True to measure",
                                    "keep_instants", False)
         self.modes = trajectory.mode_numbers()
-        usable = interpolable(t, self.modes, trajectory.event_times)
-        rows = np.flatnonzero((t[1:] > a) & (t[:-1] < b) & (t[1:] > t[:-1]))
-        bad = rows[~usable[rows]]
+        first = max(int(np.searchsorted(t, a, side="right")) - 1, 0)  # (only the rows of the window are read)
+        last = min(int(np.searchsorted(t, b, side="left")) + 1, len(t))
+        near = slice(first, last)
+        usable = interpolable(t[near], (self.modes[0][near], self.modes[1]), trajectory.event_times)
+        inside = t[near]
+        rows = np.flatnonzero((inside[1:] > a) & (inside[:-1] < b) & (inside[1:] > inside[:-1]))
+        bad = rows[~usable[rows]] + first
+        rows = rows + first
         if len(bad):
             k = int(bad[0])
             raise MeasurementError(
@@ -162,18 +167,21 @@ class _Pieces:
                                    f"{times[j]:.9g} s (not finite at a row): measure another window",
                                    "window", float(times[j]))
         modes = (self.modes[0][rows], self.modes[1])
-        return {name: signal_values(tr.model, name, times, states, modes) for name in names}
+        return signal_table(tr.model, names, times, states, modes)
 
-    def nodes(self, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def nodes(self, name: str, *others: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(values, weights, times)``: the signal at the Gauss nodes of every piece, the nodes' weights [s]
-        (``Σ w·s = ∫ s dt`` over the window) and times [s]; kept for the next measurement."""
-        if name not in self._nodes:
+        (``Σ w·s = ∫ s dt`` over the window) and times [s]; kept for the next measurement, and so are the
+        ``others`` (evaluated in the same calls)."""
+        missing = [n for n in (name, *others) if n not in self._nodes]
+        if missing:
             x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
             half = 0.5 * (self.hi - self.lo)
             times = ((0.5 * (self.lo + self.hi))[:, None] + half[:, None] * x[None, :]).ravel()
             weights = (half[:, None] * w[None, :]).ravel()
-            values = self.values([name], times, np.repeat(self.row, GAUSS_NODES))[name]
-            self._nodes[name] = values, weights, times
+            found = self.values(missing, times, np.repeat(self.row, GAUSS_NODES))
+            for n in missing:
+                self._nodes[n] = found[n], weights, times
         return self._nodes[name]
 
     def integral(self, name: str, power: int = 1) -> float:
@@ -255,13 +263,14 @@ def _one(pieces: _Pieces, signal, name: str, fundamental: float) -> float:
     span = pieces.b - pieces.a
     if name == "power_factor":
         effort, flow = _element_bond(pieces.trajectory, signal)
-        values = pieces.nodes(effort)[0] * pieces.nodes(flow)[0]
+        values = pieces.nodes(effort, flow)[0] * pieces.nodes(flow)[0]
         power = float(np.dot(pieces.nodes(effort)[1], values))
         return power / float(np.sqrt(pieces.integral(effort, 2) * pieces.integral(flow, 2)))
     if name == "efficiency":
         loads = [signal] if isinstance(signal, str) else list(signal)
         for load in loads:
             _element_bond(pieces.trajectory, load)
+        pieces.nodes("power:supplied", *(f"power:{load}" for load in loads))
         return sum(pieces.integral(f"power:{load}") for load in loads) / pieces.integral("power:supplied")
     if name in ("min", "max", "ripple", "peak", "crest"):
         low, high = pieces.extremes(signal)
