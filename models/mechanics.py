@@ -101,6 +101,26 @@ time-scale abstraction of a soft landing; with ``e > 0`` and ``v_th = 0``
 a node pressed against a stop bounces ever lower, a Zeno accumulation, as
 the bouncing ball with ``v_rest = 0``).
 
+A stop or backlash may act on a node without a mass of its own whose motion
+an inertia sets through gears or levers (the output shaft of a gearbox): the
+impact acts on the inertia reflected through them.  The node's velocity is
+read from that inertia's momentum, ``ω_out = (p_J/J)/n`` across a gear of
+ratio ``n`` from ``J``'s shaft (``n·ω`` from its output side, through any
+chain of gears), so the guards judge ``w = ω_out`` before the jump, and the
+jump reverses it to ``−e·w`` by conservation of state through the ``TF``:
+the motor turns back at ``−e`` times its speed, as an inertia ``J·n²`` on the
+output itself would (energy after = ``e²`` × before; a backlash behind a gear
+conserves ``n·J·ω_m + J_load·ω_load``)::
+
+    >>> from models.mechanics import Mechanism
+    >>> box = Mechanism("gearbox", "rotational")
+    >>> box.inertia("J_m", "m", 2.0, omega0=8.0)   # the motor, 8 rad/s
+    >>> box.gear("G", "m", "out", 4.0)             # the output turns at 2 rad/s
+    >>> box.stop("end", "out", upper=1.0, e=0.5)   # no inertia of its own
+    >>> run = box.build().simulate(1.0, "RK45", rtol=1e-10, atol=1e-12)
+    >>> round(float(run.event_times[0]), 9), float(run.signal("omega_J_m")[-1])
+    (0.5, -4.0)
+
 Example — a mass falling 1 m onto a stop, rebounding at half its speed::
 
     >>> from models.mechanics import Mechanism
@@ -116,11 +136,14 @@ Limitations: two ideal clutches (or stops) that lock the same two nodes at
 once leave the torque split between them undefined: such a mode is refused
 when it is reached with a :class:`~bondgraph.errors.FloatingPartError` that
 names the mode and the elements (give one of them ``T_max``, or merge
-them).  Stops and backlashes need a mass (inertia) on each of their moving
-nodes: their guards judge the velocities before an impact from the masses'
-momenta.  A spring's ``q0`` needs a linear spring.  Friction clutches start
-their law automaton ``<name>_law`` at t = 0 like any law switch (an instant
-at the start, or just after it, when the shafts turn together).
+them).  Stops and backlashes need a mass (inertia) on, or geared to, each
+of their moving nodes: their guards judge the velocities before an impact
+from the masses' momenta, and a node with only springs, dampers or a
+prescribed motion behind it is refused when it is built, naming the node
+(its impact would be of a massless node).  A spring's ``q0`` needs a
+linear spring.  Friction clutches start their law automaton ``<name>_law``
+at t = 0 like any law switch (an instant at the start, or just after it,
+when the shafts turn together).
 """
 
 from __future__ import annotations
@@ -291,7 +314,9 @@ class Mechanism(Netlist):
         """A hard stop on ``node``: its position stays ``<= upper`` and/or
         ``>= lower`` [m or rad]; an impact rebounds with the restitution
         ``e`` (0 ≤ e ≤ 1: ``v⁺ = −e·v``), an approach slower than ``v_th``
-        lands in contact.  Guards: see the module documentation."""
+        lands in contact.  ``node`` carries a mass or is geared to one (the
+        impact then acts on the inertia reflected through the gears).
+        Guards: see the module documentation."""
         if upper is None and lower is None:
             raise InvalidGraphError(f"stop {name!r}: give its position as upper= (the node stays below it) "
                                     "and/or lower= (above it)", [str(name)])
@@ -305,7 +330,8 @@ class Mechanism(Netlist):
         ``[−delta, delta]``, with impacts of restitution ``e`` at both ends
         (a hard stop between two nodes; guards: see the module
         documentation).  ``delta``: a number (the parameter
-        ``<name>_delta``) or a parameter name."""
+        ``<name>_delta``) or a parameter name.  Each node carries a mass or
+        is geared to one (a gearbox's output shaft against its load)."""
         delta = checked_argument(delta, f"the half-width delta of backlash {name!r}")
         if not isinstance(delta, str) and delta <= 0:
             raise ParameterValueError(f"the half-width delta of backlash {name!r} is {delta:g}: give a positive "
@@ -394,6 +420,8 @@ class _Builder(NetlistBuilder):
         self.X, self.V, self.F = KINDS[mechanism.kind]
         self.initial: dict[str, float] = {}
         self.velocity: dict[str, str] = {}  # node → its velocity from its mass's momentum
+        self.gears: list[tuple[str, str, sp.Expr]] = []  # (input node, output node, ratio n) of each gear
+        self.impacts: list[tuple[str, tuple]] = []  # (name, nodes) of each stop and backlash
         self.state_owners: dict[str, tuple] = {}  # state name → (what it is, how to rename it)
 
     # -- names and values
@@ -469,6 +497,7 @@ class _Builder(NetlistBuilder):
         owner = f"gear {name!r}"
         ratio = self.number_or_parameter(part.values["value"], name, f"ratio of {owner}", rename=f"rename {owner}")
         gear = TF(name, 1 / ratio)
+        self.gears.append((a, b, ratio))
         ends = {"in": self.graph.connect(self.node(a), gear, name=self.bond_name(f"{name}_in")),
                 "out": self.graph.connect(gear, self.node(b), name=self.bond_name(f"{name}_out"))}
         self.note(a, ends["in"])
@@ -560,11 +589,7 @@ class _Builder(NetlistBuilder):
         name, values = part.name, part.values
         backlash = isinstance(values["lower"], tuple)
         owner = f"{'backlash' if backlash else 'stop'} {name!r}"
-        massless = [n for n in part.nodes if n != FRAME and n not in self.velocity]
-        if massless:
-            raise InvalidGraphError(f"{name!r} acts on node(s) {', '.join(map(repr, massless))} without a mass: an "
-                                    "impact needs the velocities before it; put a mass (inertia) on each node of a "
-                                    "stop or backlash", [name])
+        self.impacts.append((name, part.nodes))
         x = self.locking(part, owner)
         self.signal(f"{self.X}_{name}", x, owner)
         d, w, force = f"{self.X}_{name}", f"{self.V}_{name}", f"{self.F}_{name}"
@@ -596,14 +621,52 @@ class _Builder(NetlistBuilder):
             automaton.add_transition(*transition)
         self.automata.append(automaton)
 
+    def reflected_velocity(self, node: str) -> str | None:
+        """The velocity of ``node`` read from the momentum of a mass geared to it, as text, or ``None``
+        when no mass is: across a gear of ratio ``n`` from ``a`` to ``b`` (``v_b = v_a/n``), a node's
+        velocity is ``v_a/n`` from its input side and ``n·v_b`` from its output side, through any chain
+        of gears and levers (TFs: rigid in every mode, their moduli continuous at an instant).  The
+        nearest mass by gears is taken (any other gives the same velocity: the gears tie them)."""
+        factor, queue = {node: sp.Integer(1)}, [node]  # v_node = factor[u]·v_u for each node u reached
+        for u in queue:
+            if u in self.velocity:
+                return f"({factor[u]})*({self.velocity[u]})"
+            for a, b, n in self.gears:
+                for near, far, scale in ((a, b, n), (b, a, 1 / n)):  # v_a = n·v_b, v_b = v_a/n
+                    if near == u and far not in factor:
+                        factor[far] = factor[u] * scale
+                        queue.append(far)
+        return None
+
+    def impact_velocities(self) -> None:
+        """Each moving node of a stop or backlash with its velocity before an impact from the momenta:
+        its mass's ``p/m`` or, without a mass of its own, that of a mass geared to it (the inertia
+        reflected through the gears, :meth:`reflected_velocity`): in an impact or contact mode the node's
+        flow is the constraint's, and the guards must see the velocity the jump reverses.  A node with
+        no mass behind it (springs, dampers, prescribed motion only) is refused: its impact would be
+        of a massless node."""
+        for name, nodes in self.impacts:
+            for n in nodes:
+                if n == FRAME or n in self.velocity:
+                    continue
+                reflected = self.reflected_velocity(n)
+                if reflected is None:
+                    raise InvalidGraphError(
+                        f"{name!r} acts on node(s) {n!r} without a mass: no mass (inertia) is on node {n!r} or "
+                        "geared to it, so its impact would be of a massless node (springs, dampers or a "
+                        f"prescribed motion only behind it); put a mass (inertia) on node {n!r}, or on a node "
+                        "it is geared to (gear, lever)", [name])
+                self.velocity[n] = reflected
+
     # -- the model
 
     def model(self, name: str, options: dict) -> HybridModel:
         m = self.mechanism
-        parts = sorted(m._parts.values(), key=lambda part: part.kind != "M")  # masses first: stops need them
+        parts = sorted(m._parts.values(), key=lambda part: part.kind != "M")  # masses first (the elements' order)
         for part in parts:
             {"M": self.mass, "K": self.passive, "B": self.passive, "F": self.source, "S": self.source, "G": self.gear,
              "DC": self.motor, "CL": self.clutch, "ST": self.limit}[part.kind](part)
+        self.impact_velocities()
         for n, junction in self.junctions.items():
             self.graph.displacement(f"{self.X}_{n}", of=junction)
             self.state_owners[f"{self.X}_{n}"] = (f"the position of node {n!r}", f"rename node {n!r}")
