@@ -141,14 +141,16 @@ from bondgraph.errors import (DuplicateNameError, FloatingPartError, InvalidGrap
 from bondgraph.namespace import Owner
 from bondgraph.floating import floating_part
 from switching import Automaton, HybridModel
+from switching.model.source_periods import PERIOD_FRACTION
 
 from ._common import Range
 from .circuit_topology import first_floating_mode
 from .circuit_words import DIODE_ALIASES, OFF, ON, conflict_loop
+from .controllers import Hysteresis, build_controller, controller_values, modulated_duty, signal_resolver
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
-__all__ = ["Circuit", "Input", "PWM", "GROUND", "floating_modes", "FLOATING_CHECK_MODES"]
+__all__ = ["Circuit", "Input", "PWM", "Hysteresis", "GROUND", "floating_modes", "FLOATING_CHECK_MODES"]
 
 #: the ground node (0 V)
 GROUND = REFERENCE
@@ -176,7 +178,12 @@ class PWM:
     parameters ``<switch>_period`` and ``<switch>_duty``) or parameter names.
     The schedule compares the triangle carrier
     ``acos(cos(2π(t − delay)/period − π·duty))/π`` (between 0 and 1, equal to
-    ``duty`` at each edge) with ``duty``: closed while ``carrier <= duty``."""
+    ``duty`` at each edge) with ``duty``: closed while ``carrier <= duty``.
+
+    A ``duty`` that varies — a controller's name (:meth:`Circuit.pid`) or a text of signals and ``t``
+    (``"0.5 + 0.4*sin(2*pi*50*t)"``) — is compared with the fixed carrier
+    ``acos(cos(2π(t − delay)/period))/π``: pulses centred on ``k·period + delay``
+    (:mod:`models.controllers`)."""
 
     period: float | str
     duty: float | str
@@ -187,7 +194,7 @@ class PWM:
         a positive number or a parameter name, ``duty`` one in [0, 1] or a parameter name, ``delay`` a
         finite number; else a :class:`~bondgraph.errors.ParameterValueError` naming ``owner`` and the value."""
         period = checked_argument(self.period, f"the PWM period of {owner}")
-        duty = checked_argument(self.duty, f"the PWM duty of {owner}")
+        duty = checked_argument(self.duty, f"the PWM duty of {owner}", ("number", "name", "expression"))
         delay = checked_number(self.delay, f"the PWM delay of {owner}")
         if not isinstance(period, str) and period <= 0:
             raise ParameterValueError(f"the PWM period of {owner} is {period:g} s: give a positive period",
@@ -263,9 +270,14 @@ class Circuit(Netlist):
         t = 0; by default ``closed_when`` at t = 0 when it depends on time and
         parameters only, else open (a condition on signals then closes it at
         the first instant).  ``r_on`` [Ω]: its resistance while closed (a MOSFET's R_DS(on); none: ideal)."""
+        if isinstance(closed_when, Hysteresis):
+            if open_when is not None:
+                raise InvalidGraphError(f"switch {name!r}: a Hysteresis schedule says when it opens: leave out "
+                                        "open_when", [str(name)])
+            closed_when, open_when = closed_when.checked(f"switch {name!r}").conditions()
         if not isinstance(closed_when, (str, PWM)):
-            raise InvalidGraphError(f"switch {name!r}: closed_when must be a condition as text or a PWM, "
-                                    f"got {closed_when!r}", [str(name)])
+            raise InvalidGraphError(f"switch {name!r}: closed_when must be a condition as text, a PWM or a "
+                                    f"Hysteresis, got {closed_when!r}", [str(name)])
         if open_when is not None and not (isinstance(open_when, str) and isinstance(closed_when, str)):
             raise InvalidGraphError(f"switch {name!r}: open_when must be a condition as text, given with a "
                                     f"closed_when condition (not a PWM), got {open_when!r}", [str(name)])
@@ -359,6 +371,23 @@ class Circuit(Netlist):
         ``ω = k V/(Ra b + k²) (1 − e^{−t/τ})``, ``τ = J/(b + k²/Ra)``."""
         self.gyrator(name, p1, p2, s1, s2, k)
 
+    def pid(self, name: str, measure: str, reference, kp, ki=0.0, kd=0.0, *, limits=None, tracking=None,
+            derivative_filter=None, initial: float = 0.0) -> None:
+        """A PID controller ``name`` (no terminals): its output is the signal ``name``,
+        ``clamp(kp·e + I + D, *limits)`` of the error ``e = reference − measure`` — ``measure`` a text of the
+        circuit's signals (``"v_out"``), ``reference`` a number, a parameter name or a text of ``t`` (a
+        reference step) — with back-calculation anti-windup (``tracking`` [s], default ``kp/ki``), a
+        derivative filtered by ``derivative_filter`` [s] (default ``kd/(10·kp)``) and the integral term
+        starting at ``initial``.  Use its name as a PWM's duty (``PWM(1e-5, "PI1")``), in a source's value
+        or a condition.  The equations and states: :mod:`models.controllers`."""
+        values = controller_values(name, measure, reference, kp, ki, kd, limits, tracking, derivative_filter,
+                                   initial)
+        self._add("PI", name, (), **values)
+
+    def pi(self, name: str, measure: str, reference, kp, ki, **options) -> None:
+        """A PI controller: :meth:`pid` without the derivative."""
+        self.pid(name, measure, reference, kp, ki, 0.0, **options)
+
     # ------------------------------------------------------------ queries
 
     # ------------------------------------------------------------ input checks
@@ -411,7 +440,7 @@ class Circuit(Netlist):
                 raise UnknownNameError(f"node {n!r} of {owner!r} is connected to nothing else (a floating "
                                        f"terminal){hint}", n)
         # galvanic connection to ground: every node must reach it
-        edges = [(p.nodes[0], p.nodes[1], p) for p in parts]
+        edges = [(p.nodes[0], p.nodes[1], p) for p in parts if len(p.nodes) >= 2]  # (a controller has none)
         edges += [(p.nodes[2], p.nodes[3], p) for p in parts if len(p.nodes) == 4]
         reached = _components(nodes, [(a, b) for a, b, _ in edges])
         floating = [n for n in nodes if reached[n] != reached[GROUND]]
@@ -577,6 +606,8 @@ class _Builder(NetlistBuilder):
         self.initial: dict[str, tuple] = {}  # state name → (storage element, its output at t = 0)
         self.gmin = None  # leak conductance across ideal diodes and switches (Circuit.build)
         self.windows: list[float] = []  # the PWM switches' shortest on and off windows [s]
+        #: the controllers' names (a PWM whose duty names one is modulated by it)
+        self.controllers = {p.name for p in circuit._parts.values() if p.kind == "PI"}
 
     # -- names and values
 
@@ -705,7 +736,10 @@ class _Builder(NetlistBuilder):
                                             allowed=Range(f"the on-resistance of {owner}", 0.0))
             extra.append(R(self.internal(f"{name}_resistance"), r_on))
         self.controlled(part, owner, extra)
-        if isinstance(rule, PWM):
+        modulated = modulated_duty(self, rule, self.controllers) if isinstance(rule, PWM) else None
+        if modulated is not None:
+            closing, opening, initial = self.modulated_pwm(part, rule, modulated)
+        elif isinstance(rule, PWM):
             period = self.number_or_parameter(rule.period, f"{name}_period", f"PWM period of {owner}",
                                               allowed=Range(f"the PWM period of {owner}", 0.0, low_open=True,
                                                             required=True))
@@ -740,6 +774,24 @@ class _Builder(NetlistBuilder):
         automaton.add_transition(opened, closed, closing, "a priori")
         automaton.add_transition(closed, opened, opening, "a priori")
         self.automata.append(automaton)
+
+    def modulated_pwm(self, part, rule, duty: str) -> tuple[str, str, bool]:
+        """``(closing, opening, closed at t = 0)`` of a PWM switch whose duty varies: the fixed triangle
+        carrier ``carrier_<name>`` against the duty signal (:mod:`models.controllers`); a step spans at
+        most a sixteenth of the period (:data:`~switching.model.source_periods.PERIOD_FRACTION`)."""
+        name, owner = part.name, f"switch {part.name!r}"
+        period = self.number_or_parameter(rule.period, f"{name}_period", f"PWM period of {owner}",
+                                          allowed=Range(f"the PWM period of {owner}", 0.0, low_open=True,
+                                                        required=True))
+        values = {sp.Symbol(k): v for k, v in {**self.defaults, **self.given}.items() if isinstance(v, numbers.Real)}
+        try:
+            self.windows.append(2.0 * float(period.xreplace(values)) / PERIOD_FRACTION)
+        except (TypeError, ValueError):
+            pass
+        phase = f"t - {float(rule.delay)!r}" if rule.delay else "t"
+        self.signal(f"carrier_{name}", f"acos(cos(2*pi*({phase})/{period}))/pi", owner)
+        closed = part.values["closed"]
+        return f"carrier_{name} < {duty}", f"carrier_{name} > {duty}", True if closed is None else closed
 
     def windings(self, part) -> tuple:
         """The 1-junctions ``<name>_primary`` and ``<name>_secondary`` of a two-port part, in series between
@@ -833,9 +885,10 @@ class _Builder(NetlistBuilder):
 
     def model(self, name: str, options: dict) -> HybridModel:
         self.later = []
-        for part in self.circuit._parts.values():
+        parts = self.circuit._parts.values()
+        for part in parts:
             {"R": self.passive, "C": self.passive, "L": self.passive, "V": self.voltage_source,
-             "I": self.current_source, "D": self.diode, "S": self.switch,
+             "I": self.current_source, "D": self.diode, "S": self.switch, "PI": lambda part: None,
              "T": self.two_port, "G": self.two_port, "K": self.coupled}[part.kind](part)
         if self.gmin is not None:
             self.leaks()
@@ -846,6 +899,11 @@ class _Builder(NetlistBuilder):
             node_signals[f"v_{n}"] = f"e_{bond}"
         for name_, (a, b), owner in self.later:
             self.signal(f"v_{name_}", f"{_node_signal(a)} - {_node_signal(b)}", owner)
+        controllers = [part for part in parts if part.kind == "PI"]
+        if controllers:  # (their states read every other signal)
+            resolve = signal_resolver(self, {**node_signals, **self.signals})
+            for part in controllers:
+                build_controller(self, part, resolve)
         self.claim_graph_names({})
         self.claim_text_names()
         signals = {**node_signals, **self.signals}
