@@ -19,7 +19,7 @@ from .outputs import check_outputs, plot_target
 MAX_RUNS = 1_000_000
 
 
-def _grid_axis(item, defaults) -> tuple[str, list]:
+def grid_axis(item, defaults) -> tuple[str, list]:
     """One ``--grid``: ``name=start:stop:count`` (``count`` equally spaced
     numbers, both ends included) or ``name=v1,v2,...``; checked like ``--set``."""
     if "=" not in item:
@@ -51,7 +51,8 @@ def _grid_axis(item, defaults) -> tuple[str, list]:
             raise UsageError(f"--grid {item}: {n:,} values; a sweep makes at most {MAX_RUNS:,} runs")
         import numpy as np
 
-        return name, [float(v) for v in np.linspace(number(start), number(stop), n)]
+        # (12 significant digits: 0.1:0.5:5 gives 0.3, not linspace's 0.30000000000000004)
+        return name, [float(f"{v:.12g}") for v in np.linspace(number(start), number(stop), n)]
     if ":" in text:
         raise UsageError(f"--grid {item}: write name=start:stop:count (two ':') or name=v1,v2,...")
     return name, [number(v) for v in text.split(",")]
@@ -89,13 +90,13 @@ def _cmd_sweep(args) -> int:
     import contextlib
 
     from switching import simulate_many
-    from switching.sweep.frame import require_pandas, parameter_grid, plot_sweep, to_frame
+    from switching.sweep.frame import FAMILY, parameter_grid, plot_sweep, require_pandas, to_frame
 
     module = model_module(args.model)
     base = parse_sets(args.set or [], module.DEFAULTS)
     axes = {}
     for item in args.grid:
-        name, values = _grid_axis(item, module.DEFAULTS)
+        name, values = grid_axis(item, module.DEFAULTS)
         if name in axes or name in base:
             raise UsageError(f"--grid {item}: {name!r} is already given ({'--grid' if name in axes else '--set'})")
         axes[name] = values
@@ -150,11 +151,13 @@ def _cmd_sweep(args) -> int:
         matplotlib.use("Agg")
         from bondgraph.drawing import pyplot
 
-        ax = plot_sweep(frame, names[0], varying)
+        ax = plot_sweep(frame, names[0], varying, unit=model.annotations.unit)
         ax.set_title(f"{model.name}: {ax.get_title()}", fontsize=10)
         try:
             ax.figure.savefig(args.plot, dpi=110, bbox_inches="tight")
-            print(f"  plot: {plot_target(args.plot)} ({names[0]}, {'line' if len(varying) == 1 else 'heat map'})")
+            family = len(varying) == 2 and len(set(frame[varying[1]])) <= FAMILY < len(set(frame[varying[0]]))
+            kind = "line" if len(varying) == 1 else f"a line per {varying[1]}" if family else "heat map"
+            print(f"  plot: {plot_target(args.plot)} ({names[0]}, {kind})")
         except (OSError, ValueError) as exc:
             print(f"hbg: error: could not write plot {args.plot}: {exc}", file=sys.stderr)
             status = EXIT_FAILED

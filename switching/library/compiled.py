@@ -541,7 +541,7 @@ class CompiledMode:
         with np.errstate(all="ignore"):
             try:
                 self.on_numpy(name)(np.asarray(xs, dtype=float).T, times, model.parameter_array,
-                                    model.input_columns(times), out)
+                                    model.input_signals.columns(times), out)
             except (ArithmeticError, ValueError, TypeError, IndexError):
                 return None
         return out.T.copy()

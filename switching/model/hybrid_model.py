@@ -207,10 +207,6 @@ class HybridModel:
         derivative (:class:`switching.model.inputs.InputValues`)."""
         return self.input_signals.values(t)
 
-    def input_columns(self, times) -> list:
-        """:meth:`input_values` at many times [s]: one array (N,) per input symbol (empty without inputs)."""
-        return self.input_signals.columns(times)
-
     def parameter_values_with_inputs(self, t: float) -> dict:
         values = dict(self.parameter_values)
         values.update(zip(self.input_symbols, self.input_values(t)))

@@ -66,7 +66,7 @@ def _evaluated(model, names: list, t, x, modes) -> dict:
         times = t[mask]
         values = np.empty((len(names), int(mask.sum())))
         try:
-            fn(x[mask].T, times, model.parameter_array, model.input_columns(times), values)
+            fn(x[mask].T, times, model.parameter_array, model.input_signals.columns(times), values)
         except (TypeError, ValueError):  # a branch (step, sign, Piecewise) on arrays: one sample at a time
             for i, (state, tk) in enumerate(zip(x[mask], times)):
                 fn(state, tk, model.parameter_array, model.input_values(tk), values[:, i])

@@ -334,7 +334,7 @@ class Trajectory:
     def _stored_energy(self, x, times) -> np.ndarray:
         model = self._needs_model()
         times = np.atleast_1d(np.asarray(times, dtype=float))
-        inputs = model.input_columns(times)
+        inputs = model.input_signals.columns(times)
         x = np.asarray(x, dtype=float).reshape(len(times), len(model.states))
         return _energy_evaluator(model)(x, times, inputs)
 

@@ -175,11 +175,30 @@ def _axis(values):
     return distinct, np.concatenate([[2 * centres[0] - mid[0]], mid, [2 * centres[-1] - mid[-1]]]), True
 
 
-def plot_sweep(frame, metric: str, parameters, ax=None):
+#: a second parameter with at most this many values is drawn as a family of lines, not a heat map
+FAMILY = 4
+
+
+def _labelled(name: str, unit) -> str:
+    """``name [unit]`` as plain text (a ``$`` stays a character), the metric's signal's unit for a
+    ``KIND:SIGNAL`` metric (none for the ratios)."""
+    from switching.simulate.plotting import plain
+
+    kind, colon, signal = name.partition(":")
+    if colon and kind in ("thd", "crest", "power_factor", "efficiency"):
+        return plain(name)
+    found = unit(signal if colon else name[len(FINAL):] if name.startswith(FINAL) else name) if unit else None
+    return plain(f"{name} [{found}]" if found else name)
+
+
+def plot_sweep(frame, metric: str, parameters, ax=None, unit=None):
     """Plot column ``metric`` of a :func:`to_frame` table over the grid of
     ``parameters`` (one name: a line against it; two: a heat map, the first
-    along x).  Failed runs are marked with a red ×, not plotted as values.
-    Returns the matplotlib Axes."""
+    along x — or, when the second takes at most :data:`FAMILY` values, a
+    line over the first for each of them).  Failed runs are marked with a
+    red ×, not plotted as values.  ``unit(name)`` (a model's
+    ``annotations.unit``): the units shown on the axes.  Returns the
+    matplotlib Axes."""
     from bondgraph.drawing import pyplot
 
     parameters = [parameters] if isinstance(parameters, str) else list(parameters)
@@ -203,13 +222,15 @@ def plot_sweep(frame, metric: str, parameters, ax=None):
     plt = pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(6.4, 4.4))
+    if len(parameters) == 2 and len(set(frame[parameters[1]])) <= FAMILY < len(set(frame[parameters[0]])):
+        return _family(frame, metric, parameters, values, failed, ax, unit)
     xs, x_edges, x_numeric = _axis(frame[parameters[0]])
     xpos = {v: (v if x_numeric else k) for k, v in enumerate(xs)}
     if len(parameters) == 1:
         order = np.argsort([xs.index(v) for v in frame[parameters[0]]], kind="stable")
         x = np.array([xpos[v] for v in frame[parameters[0]]], dtype=float)[order]
         ax.plot(x, values[order], "o-", ms=3, lw=1.2, label=metric)
-        ax.set_ylabel(metric)
+        ax.set_ylabel(_labelled(metric, unit))
         if failed.any():
             ax.plot(x[failed[order]], np.zeros(int(failed.sum())), "x", color="tab:red", ms=7,
                     transform=ax.get_xaxis_transform(), clip_on=False, label="failed")
@@ -223,17 +244,40 @@ def plot_sweep(frame, metric: str, parameters, ax=None):
             grid[ys.index(yv), xs.index(xv)] = value
         ax.set_facecolor("0.88")  # cells without a value (failed runs) stay grey
         mesh = ax.pcolormesh(x_edges, y_edges, np.ma.masked_invalid(grid), shading="flat", cmap="viridis")
-        ax.figure.colorbar(mesh, ax=ax, label=metric)
+        ax.figure.colorbar(mesh, ax=ax, label=_labelled(metric, unit))
         if failed.any():
             fx = [xpos[v] for v, bad in zip(frame[parameters[0]], failed) if bad]
             fy = [ypos[v] for v, bad in zip(frame[parameters[1]], failed) if bad]
             ax.plot(fx, fy, "x", color="tab:red", ms=7, label="failed")
             ax.legend(loc="upper right", fontsize=8)
-        ax.set_ylabel(parameters[1])
+        ax.set_ylabel(_labelled(parameters[1], unit))
         if not y_numeric:
             ax.set_yticks(range(len(ys)), [str(v) for v in ys])
         ax.set_title(f"{metric} over {parameters[0]} × {parameters[1]}", fontsize=10)
-    ax.set_xlabel(parameters[0])
+    ax.set_xlabel(_labelled(parameters[0], unit))
     if not x_numeric:
+        ax.set_xticks(range(len(xs)), [str(v) for v in xs])
+    return ax
+
+
+def _family(frame, metric, parameters, values, failed, ax, unit):
+    """``metric`` over the first parameter, a line for each value of the second (few of them)."""
+    first, second = parameters
+    xs, _, numeric = _axis(frame[first])
+    for level in _axis(frame[second])[0]:
+        rows = (frame[second] == level).to_numpy()
+        order = np.argsort([xs.index(v) for v in frame[first][rows]], kind="stable")
+        x = np.array([v if numeric else xs.index(v) for v in frame[first][rows]], dtype=float)[order]
+        ax.plot(x, values[rows][order], "o-", ms=3, lw=1.2, label=f"{second} = {level:.6g}"
+                if isinstance(level, (int, float, np.number)) else f"{second} = {level}")
+        bad = failed[rows][order]
+        if bad.any():
+            ax.plot(x[bad], np.zeros(int(bad.sum())), "x", color="tab:red", ms=7, transform=ax.get_xaxis_transform(),
+                    clip_on=False)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_xlabel(_labelled(first, unit))
+    ax.set_ylabel(_labelled(metric, unit))
+    ax.set_title(f"{metric} over {first}, a line per {second}", fontsize=10)
+    if not numeric:
         ax.set_xticks(range(len(xs)), [str(v) for v in xs])
     return ax

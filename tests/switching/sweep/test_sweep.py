@@ -285,3 +285,24 @@ def test_hbg_sweep_rejects_bad_input_before_anything_runs(args, message, tmp_pat
     assert status == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_second_parameter_of_few_values_is_a_family_of_lines_with_units():
+    """Two values of a second parameter drew a heat map of two stretched rows; the axes had no units."""
+    from bondgraph.drawing import pyplot
+
+    frame = pd.DataFrame({"e": [0.5, 0.6, 0.7, 0.8, 0.9] * 2, "y0": [1.0] * 5 + [2.0] * 5, "status": ["ok"] * 10,
+                          "max:v": [1.0, 2.0, 3.0, 4.0, 5.0, 2.0, 3.0, 4.0, 5.0, 6.0]})
+    units = {"v": "m/s", "y0": "m", "e": "1"}.get
+    ax = plot_sweep(frame, "max:v", ["e", "y0"], unit=units)
+    lines = [line for line in ax.get_lines() if line.get_label().startswith("y0 = ")]
+    assert [line.get_label() for line in lines] == ["y0 = 1", "y0 = 2"]
+    np.testing.assert_array_equal(lines[1].get_ydata(), [2.0, 3.0, 4.0, 5.0, 6.0])
+    assert ax.get_ylabel() == "max:v [m/s]" and ax.get_xlabel() == "e [1]"
+    pyplot().close(ax.figure)
+
+
+def test_grid_values_print_as_written():
+    from models.cli.sweep import grid_axis
+
+    assert grid_axis("e=0.1:0.5:5", {"e": 0.8})[1] == [0.1, 0.2, 0.3, 0.4, 0.5]
