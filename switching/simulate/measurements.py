@@ -19,7 +19,13 @@ A converter engineer's figures of a signal ``s`` over a window ``[a, b]``
                    of its bond, ``signal`` naming the element
 ``efficiency``     ``∫ P_loads dt / ∫ P_supplied dt``, ``signal`` naming the load
                    elements (a name or a list): the power they take over the
-                   power the sources supply (``power:supplied``)
+                   power the sources connected to them deliver, each source
+                   counted where it delivers on average over the window (a
+                   diode's forward drop, a battery being charged: sinks, not
+                   negative supply; a controller's signal states, apart from
+                   the loads: not counted).  A window over which storage
+                   empties can exceed 1: measure whole periods of a steady
+                   state
 =================  ============================================================
 
 **Exact integrals.**  The integrals are not sums of samples: the run is
@@ -46,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bondgraph.elements import OnePort
+from bondgraph.elements import OnePort, Source
 from bondgraph.errors import HybridBondGraphError
 
 from .dense_rows import hermite_states, interpolable, row_rates
@@ -236,6 +242,18 @@ def _element_bond(trajectory, element: str) -> tuple[str, str]:
     return bond.effort.name, bond.flow.name
 
 
+def _supplying(model, loads) -> list:
+    """The sources in the parts of the bond graph that hold the ``loads`` (a controller's signal states,
+    apart, supply nothing)."""
+    import networkx as nx
+
+    graph = nx.Graph()
+    graph.add_nodes_from(model.graph.elements)
+    graph.add_edges_from((bond.tail, bond.head) for bond in model.graph.bonds.values())
+    reached = set().union(*(nx.node_connected_component(graph, load) for load in loads))
+    return [name for name, element in model.graph.elements.items() if isinstance(element, Source) and name in reached]
+
+
 def measure(trajectory, signal, what="mean", *, t_from=None, t_to=None, periods=None, period=None,
             fundamental=None):
     """The measurement ``what`` (a name of :data:`MEASURES`, or a list of them: a dict) of ``signal`` (a
@@ -280,8 +298,11 @@ def _one(pieces: _Pieces, signal, name: str, fundamental: float) -> float:
         loads = [signal] if isinstance(signal, str) else list(signal)
         for load in loads:
             _element_bond(pieces.trajectory, load)
-        pieces.nodes("power:supplied", *(f"power:{load}" for load in loads))
-        return sum(pieces.integral(f"power:{load}") for load in loads) / pieces.integral("power:supplied")
+        sources = _supplying(pieces.trajectory.model, loads)
+        names = [f"power:{element}" for element in loads + sources]
+        pieces.nodes(names[0], *names[1:])
+        supplied = sum(max(-pieces.integral(f"power:{source}"), 0.0) for source in sources)
+        return sum(pieces.integral(f"power:{load}") for load in loads) / supplied
     if name in ("min", "max", "ripple", "peak", "crest"):
         low, high = pieces.extremes(signal)
         peak = max(abs(low), abs(high))

@@ -127,3 +127,19 @@ def test_a_measurement_does_not_depend_on_the_units():
                                                                        period=1e-3)
     assert scaled["mean"] == pytest.approx(1e3 * volts["mean"], rel=1e-12)
     assert scaled["rms"] == pytest.approx(1e3 * volts["rms"], rel=1e-12)
+
+
+def test_a_forward_drop_is_a_loss_and_a_controller_s_states_supply_nothing():
+    """Through ``r_on`` and a diode's 0.7 V drop into R: the load takes ``R·I²`` of the ``V·I`` the source
+    gives (``I = (V − v_f)/(R + r_on)``); the drop (a source in the bond graph) is counted as the sink it
+    is, and a controller's signal states beside the circuit are not counted at all."""
+    c = Circuit("drop")
+    c.V("V1", "a", 0, 10.0)
+    c.switch("S1", "a", "b", PWM(1e-3, 0.3), r_on=0.5)
+    c.diode("D1", "b", "c", v_f=0.7)
+    c.R("R1", "c", 0, 5.0)
+    c.pi("PI1", "v_c", 1.0, kp=1.0, ki=10.0)
+    run = c.build().simulate(0.01)
+    current = (10.0 - 0.7) / 5.5
+    assert run.measure("R1", "efficiency", periods=5, period=1e-3) == pytest.approx(5.0 * current / 10.0,
+                                                                                    rel=1e-10)
