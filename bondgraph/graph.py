@@ -183,6 +183,15 @@ class BondGraph:
         self._changed()
         return element
 
+    def replace(self, element: Element) -> None:
+        """Put ``element`` in place of the element of its name and kind (a source whose value is known
+        only once the rest is built: a controller's output); its bonds stay."""
+        old = self.elements.get(element.name)
+        if old is None or type(old) is not type(element):
+            raise InvalidGraphError(f"graph {self.name!r} has no {element.kind} named {element.name!r} to replace")
+        self.elements[element.name] = element
+        self._changed()
+
     def _resolve(self, ref) -> str:
         name = ref.name if isinstance(ref, Element) else ref
         if isinstance(ref, Element) and name not in self.elements:

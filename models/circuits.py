@@ -146,7 +146,7 @@ from switching.model.source_periods import PERIOD_FRACTION
 from ._common import Range
 from .circuit_topology import first_floating_mode
 from .circuit_words import DIODE_ALIASES, OFF, ON, conflict_loop
-from .controllers import Hysteresis, build_controller, controller_values, modulated_duty, signal_resolver
+from .controllers import Hysteresis, build_controllers, controller_placeholder, controller_values, modulated_duty
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
@@ -612,7 +612,16 @@ class _Builder(NetlistBuilder):
     # -- names and values
 
     def source_value(self, part) -> sp.Expr:
+        """A source's value; a controller's name drives it with the controller's output (a controlled
+        source, :func:`models.controllers.drive_sources`)."""
+        driven = controller_placeholder(self, part.values["value"])
+        if driven is not None:
+            return driven
         return self.expression_value(part.values["value"], f"source {part.name!r}", part.name)
+
+    def start_unit_state(self, storage, value: float) -> None:
+        """The state of a unit capacity ``storage`` starts at ``value``."""
+        self.initial[storage.state.name] = (storage, value)
 
     def across_and_through(self, part, bond, sign: int, owner: str) -> None:
         """The signals ``v_<name>`` and ``i_<name>`` of a two-terminal part whose element is on
@@ -901,9 +910,7 @@ class _Builder(NetlistBuilder):
             self.signal(f"v_{name_}", f"{_node_signal(a)} - {_node_signal(b)}", owner)
         controllers = [part for part in parts if part.kind == "PI"]
         if controllers:  # (their states read every other signal)
-            resolve = signal_resolver(self, {**node_signals, **self.signals})
-            for part in controllers:
-                build_controller(self, part, resolve)
+            build_controllers(self, controllers, {**node_signals, **self.signals})
         self.claim_graph_names({})
         self.claim_text_names()
         signals = {**node_signals, **self.signals}

@@ -29,11 +29,12 @@ above ``reference + band/2`` (or the reverse), the band keeping the switching fr
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import sympy as sp
 
-from bondgraph import C, Sf, Zero
+from bondgraph import C, Se, Sf, Zero
 from bondgraph.errors import InvalidGraphError
 from bondgraph.symbols import t as TIME
 from switching.language.parsing import parse_expression
@@ -41,7 +42,8 @@ from switching.language.parsing import parse_expression
 from ._common import Range
 from .netlist import NAME, checked_argument, checked_number
 
-__all__ = ["Hysteresis", "controller_values", "build_controller", "modulated_duty", "signal_resolver"]
+__all__ = ["Hysteresis", "controller_values", "build_controller", "build_controllers", "controller_placeholder",
+           "drive_sources", "modulated_duty", "signal_resolver"]
 
 
 @dataclass(frozen=True)
@@ -177,7 +179,35 @@ def _island(builder, storage, initial: float, rate: sp.Expr) -> None:
     builder.graph.connect(Sf(builder.internal(f"{name}_rate"), rate), junction, name=builder.bond_name(f"{name}_in"))
     builder.graph.connect(junction, storage, name=builder.bond_name(f"{name}_out"))
     if initial:
-        builder.initial[storage.state.name] = (storage, initial)
+        builder.start_unit_state(storage, initial)
+
+
+def controller_placeholder(builder, value):
+    """A source's value that names a controller: its output's placeholder symbol (the output itself is
+    put in by :func:`drive_sources` once built); else ``None``."""
+    if isinstance(value, str) and value in builder.controllers:
+        return sp.Symbol(value)
+    return None
+
+
+def drive_sources(builder, outputs: dict) -> None:
+    """Every source whose value holds a controller's placeholder, with the controller's output
+    (``outputs``: name → expression) in its place."""
+    symbols = {sp.Symbol(name): output for name, output in outputs.items()}
+    for element in list(builder.graph.elements.values()):
+        if isinstance(element, (Se, Sf)) and element.value.free_symbols & set(symbols):
+            builder.graph.replace(dataclasses.replace(element, value=element.value.xreplace(symbols)))
+
+
+def build_controllers(builder, parts, signals: dict) -> None:
+    """Every controller of ``parts`` built (:func:`build_controller`, the signals' texts ``signals``) and
+    the sources they drive given their outputs."""
+    resolve = signal_resolver(builder, signals)
+    outputs = {}
+    for part in parts:
+        build_controller(builder, part, resolve)
+        outputs[part.name] = builder.signals[part.name]
+    drive_sources(builder, outputs)
 
 
 def modulated_duty(builder, rule, controllers) -> str | None:

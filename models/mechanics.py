@@ -159,6 +159,7 @@ from bondgraph.errors import (DuplicateNameError, InvalidGraphError, MissingPara
 from switching import Automaton, HybridModel
 
 from .circuits import Input
+from .controllers import build_controllers, controller_placeholder, controller_values
 from ._common import Range
 from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
                       checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
@@ -339,6 +340,21 @@ class Mechanism(Netlist):
         self._add("ST", name, (n1, n2), upper=delta, lower=("-", delta),
                   **_impact_values(e, v_th, f"backlash {name!r}"))
 
+    def pid(self, name: str, measure: str, reference, kp, ki=0.0, kd=0.0, *, limits=None, tracking=None,
+            derivative_filter=None, initial: float = 0.0) -> None:
+        """A PID controller ``name`` (no node): its output is the signal ``name``, ``clamp(kp·e + I + D,
+        *limits)`` of the error ``e = reference − measure`` (``measure`` a text of the mechanism's signals,
+        ``"omega_load"``), with back-calculation anti-windup; give its name as a motor's voltage ``V`` or a
+        force's or torque's value to close the loop (a speed loop around a DC motor).  The equations:
+        :mod:`models.controllers`, as :meth:`Circuit.pid`."""
+        values = controller_values(name, measure, reference, kp, ki, kd, limits, tracking, derivative_filter,
+                                   initial)
+        self._add("PI", name, (), **values)
+
+    def pi(self, name: str, measure: str, reference, kp, ki, **options) -> None:
+        """A PI controller: :meth:`pid` without the derivative."""
+        self.pid(name, measure, reference, kp, ki, 0.0, **options)
+
     # ------------------------------------------------------------ input checks
 
     def _value(self, value, what: str, name: str):
@@ -423,6 +439,8 @@ class _Builder(NetlistBuilder):
         self.gears: list[tuple[str, str, sp.Expr]] = []  # (input node, output node, ratio n) of each gear
         self.impacts: list[tuple[str, tuple]] = []  # (name, nodes) of each stop and backlash
         self.state_owners: dict[str, tuple] = {}  # state name → (what it is, how to rename it)
+        #: the controllers' names (a source or motor voltage naming one is driven by its output)
+        self.controllers = {p.name for p in mechanism._parts.values() if p.kind == "PI"}
 
     # -- names and values
 
@@ -485,9 +503,15 @@ class _Builder(NetlistBuilder):
                                         "deflection of a linear spring, or start the law's spring relaxed", [name])
             self.initial[storage.state.name] = (None, sign * part.values["q0"])
 
+    def start_unit_state(self, storage, value: float) -> None:
+        """The state of a unit capacity ``storage`` starts at ``value``."""
+        self.initial[storage.state.name] = (None, value)
+
     def source(self, part):
         name, (n,) = part.name, part.nodes
-        value = self.expression_value(part.values["value"], repr(name), name)
+        value = controller_placeholder(self, part.values["value"])
+        if value is None:
+            value = self.expression_value(part.values["value"], repr(name), name)
         bond = self.graph.connect((Se if part.kind == "F" else Sf)(name, value), self.node(n))
         self.note(n, bond)
         self.force_and_speed(name, bond, 1, f"{'force' if part.kind == 'F' else 'prescribed velocity'} {name!r}")
@@ -510,7 +534,9 @@ class _Builder(NetlistBuilder):
         name, (n,), values = part.name, part.nodes, part.values
         owner = f"motor {name!r}"
         k = self.number_or_parameter(values["k"], f"{name}_k", f"constant k of {owner}")
-        voltage = self.expression_value(values["V"], owner, f"{name}_V")
+        voltage = controller_placeholder(self, values["V"])
+        if voltage is None:
+            voltage = self.expression_value(values["V"], owner, f"{name}_V")
         armature = self.graph.add(One(self.internal(f"{name}_armature")))
         self.graph.connect(Se(self.internal(f"{name}_V"), voltage), armature)
         resistance = self.number_or_parameter(values["R"], f"{name}_R", f"armature resistance R of {owner}",
@@ -665,7 +691,7 @@ class _Builder(NetlistBuilder):
         parts = sorted(m._parts.values(), key=lambda part: part.kind != "M")  # masses first (the elements' order)
         for part in parts:
             {"M": self.mass, "K": self.passive, "B": self.passive, "F": self.source, "S": self.source, "G": self.gear,
-             "DC": self.motor, "CL": self.clutch, "ST": self.limit}[part.kind](part)
+             "DC": self.motor, "CL": self.clutch, "ST": self.limit, "PI": lambda part: None}[part.kind](part)
         self.impact_velocities()
         for n, junction in self.junctions.items():
             self.graph.displacement(f"{self.X}_{n}", of=junction)
@@ -675,6 +701,9 @@ class _Builder(NetlistBuilder):
             self.names.claim(f"{self.V}_{n}", Owner(f"signal '{self.V}_{n}' (the velocity of node {n!r})",
                                                     f"rename node {n!r}", "signal"))
             signals[f"{self.V}_{n}"] = self.velocity.get(n, f"f_{bond}")
+        controllers = [part for part in parts if part.kind == "PI"]
+        if controllers:  # (their states read every other signal)
+            build_controllers(self, controllers, {**signals, **self.signals})
         signals.update(self.signals)
         self.claim_graph_names(self.state_owners)
         self.claim_text_names()

@@ -137,3 +137,35 @@ def test_a_pi_without_gain_to_set_its_tracking_time_asks_for_it():
     c.pi("PI1", "v_in", 1.0, kp=0.0, ki=1.0, limits=(0.0, 1.0))
     with pytest.raises(HybridBondGraphError, match="tracking time"):
         c.build()
+
+
+def test_a_source_driven_by_a_controller_holds_its_output_at_the_reference():
+    """A voltage source driven by ``PI1`` through R into C ‖ R_L: at rest ``v_out = reference`` and the
+    source gives ``reference·(R + R_L)/R_L`` — all of it the integral term, the error being 0."""
+    c = Circuit("driven")
+    c.V("Vs", "s", 0, "PI1")
+    c.R("R1", "s", "out", 1.0)
+    c.C("C1", "out", 0, 1e-3)
+    c.R("RL", "out", 0, 4.0)
+    c.pi("PI1", "v_out", 5.0, kp=0.5, ki=200.0)
+    run = c.build().simulate(0.3, rtol=1e-10, atol=1e-12)
+    assert run.signal("v_out")[-1] == pytest.approx(5.0, rel=1e-8)
+    assert run.signal("v_Vs")[-1] == pytest.approx(5.0 * 5.0 / 4.0, rel=1e-8)
+    assert run.signal("q_PI1_I")[-1] == pytest.approx(6.25, rel=1e-8)
+
+
+def test_a_speed_loop_around_a_dc_motor_settles_at_its_reference_under_load():
+    """``J·dω/dt = k·i − b·ω − T_l``, ``L·di/dt = u − R·i − k·ω``, ``u = PI1``: at rest ``ω = ω_ref`` and
+    ``u = k·ω_ref + R·(b·ω_ref + T_l)/k``."""
+    from models.mechanics import Mechanism
+
+    k, R, b, T_l, w_ref = 0.1, 1.0, 0.001, 0.05, 100.0
+    m = Mechanism("speed_loop", kind="rotational")
+    m.inertia("J", "shaft", 0.01)
+    m.damper("b", "shaft", 0, b)
+    m.motor("M1", "shaft", k, V="PI1", R=R, L=1e-3)
+    m.torque("T_load", "shaft", -T_l)
+    m.pi("PI1", "omega_shaft", w_ref, kp=0.5, ki=20.0, limits=(-48.0, 48.0))
+    run = m.build().simulate(12.0, rtol=1e-10, atol=1e-12)
+    assert run.signal("omega_shaft")[-1] == pytest.approx(w_ref, rel=1e-8)
+    assert run.signal("PI1")[-1] == pytest.approx(k * w_ref + R * (b * w_ref + T_l) / k, rel=1e-7)
