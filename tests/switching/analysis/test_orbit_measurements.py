@@ -85,3 +85,35 @@ def test_the_dense_orbit_holds_every_signal_at_its_samples(orbit):
     rows = dense.without_instants()
     exact = np.array([exact_v(tau, x0) for tau in rows.t])
     np.testing.assert_allclose(rows.signal("v_C"), exact, rtol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def smooth_buck_orbit():
+    """A buck with little ripple (100 µF into 2 Ω at 100 kHz: 0.06 % of its output), its duty the parameter
+    ``S_duty``: the averaged model's regime."""
+    c = Circuit("smooth_buck")
+    c.V("Vin", "in", 0, VIN)
+    c.switch("S", "in", "sw", PWM(1e-5, D))
+    c.diode("D1", 0, "sw")
+    c.L("L", "sw", "out", L)
+    c.C("C", "out", 0, 100e-6)
+    c.R("Rl", "out", 0, 2.0)
+    model = c.build()
+    warm = model.simulate(0.01, "RK45-jit")
+    return periodic_orbit(model, period=1e-5, x0=warm.x[-1], max_step=5e-7)
+
+
+@pytest.mark.parametrize("f", [10.0, 100.0, 1000.0])
+def test_the_period_map_s_duty_to_output_gain_is_the_averaged_model_s_at_low_frequency(smooth_buck_orbit, f):
+    """The orbit's small-signal period map with the duty as input, ``H(z) = C (zI − A)⁻¹ B``, at
+    ``z = e^(jωT)`` against the textbook's averaged model ``Vin / (LC s² + (L/R) s + 1)``: the same gain
+    (to the ripple's share, the map sampling the output at the period's start) and the half period of
+    delay of that sampling (``e^(−jωT/2)``)."""
+    system = smooth_buck_orbit.small_signal(inputs=["S_duty"], outputs=["v_C"])
+    period = 1e-5
+    z = np.exp(2j * np.pi * f * period)
+    mapped = (system.C @ np.linalg.solve(z * np.eye(len(system.A)) - system.A, system.B) + system.D)[0, 0]
+    s = 2j * np.pi * f
+    averaged = VIN / (L * 100e-6 * s**2 + L / 2.0 * s + 1)
+    assert abs(mapped) == pytest.approx(abs(averaged), rel=1e-3)
+    assert np.angle(mapped / averaged) == pytest.approx(-np.pi * f * period, abs=1e-3)
