@@ -59,24 +59,48 @@ def _periods(expr: sp.Expr, values: dict) -> list[float]:
 
 def source_periods(model) -> list[float]:
     """The periods [s] of the sinusoids of time in ``model``'s source values and expression inputs."""
-    values = {sp.Symbol(k) if isinstance(k, str) else k: sp.Float(v) for k, v in model.parameter_values.items()}
-    periods = []
-    for element in model.graph.elements.values():
-        if isinstance(element, Source):
-            periods += _periods(sp.sympify(element.value), values)
-    for function in model.input_signals.functions.values():
-        expression = getattr(function, "expression", None)
-        if expression is not None:
-            parameters = {sp.Symbol(k): sp.Float(v) for k, v in getattr(function, "parameters", {}).items()}
-            periods += _periods(sp.sympify(expression), {**values, **parameters})
+    timed = _timed_sources(model)
+    inputs = [(function.expression, getattr(function, "parameters", {}))
+              for function in model.input_signals.functions.values()
+              if getattr(function, "expression", None) is not None]
+    if not timed and not inputs:
+        return []
+    values = _values(model)
+    periods = [period for expression in timed for period in _periods(expression, values)]
+    for expression, given in inputs:
+        parameters = {sp.Symbol(k): sp.Float(v) for k, v in given.items()}
+        periods += _periods(sp.sympify(expression), {**values, **parameters})
     return periods
+
+
+def _values(model) -> dict:
+    """Symbol → value of every parameter, as sympy numbers (built only where a sinusoid needs them)."""
+    return {sp.Symbol(k) if isinstance(k, str) else k: sp.Float(v) for k, v in model.parameter_values.items()}
+
+
+#: mode space → the sources' values that hold a sinusoid of time (they depend on the structure alone)
+_SOURCES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _timed_sources(model) -> list:
+    """The source values of ``model`` with a ``sin``, ``cos`` or ``tan`` of time, once per structure."""
+    found = _SOURCES.get(model.mode_space)
+    if found is None:
+        found = [element.value for element in model.graph.elements.values()
+                 if isinstance(element, Source) and element.value.has(TIME)
+                 and element.value.has(sp.sin, sp.cos, sp.tan)]
+        _SOURCES[model.mode_space] = found
+    return found
 
 
 def guard_periods(model) -> list[float]:
     """The periods [s] of the sinusoids of time in ``model``'s guards and in the signals they name (a
     PWM carrier ``acos(cos(2π·f_sw·t − π·D))/π`` read by ``carrier <= D``)."""
-    values = {sp.Symbol(k) if isinstance(k, str) else k: sp.Float(v) for k, v in model.parameter_values.items()}
-    return [period for expression in _timed_guards(model) for period in _periods(expression, values)]
+    timed = _timed_guards(model)
+    if not timed:
+        return []
+    values = _values(model)
+    return [period for expression in timed for period in _periods(expression, values)]
 
 
 #: mode space → the expressions of time its guards read (they depend on the structure alone)
