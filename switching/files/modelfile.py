@@ -257,8 +257,15 @@ class ModelFile:
         self.__doc__ = settings["description"] or f"model file {self.path}"
         self.DEFAULTS = self._loaded.defaults
         run = dict(settings["run"])
+        #: why the run's ``t_end`` is what it is when the file gives none (else None): the command line says it
+        self.t_end_chosen = None
         signals = run.pop("signals", None)
-        self.RUN = {"t_end": 1.0, **run}  # (a method only if the file names one: hbg run chooses, else)
+        if "t_end" not in run:  # (a file without a run: its time scales choose, and say how)
+            from .run_defaults import suggested_t_end
+
+            t_end, self.t_end_chosen = suggested_t_end(self.build())
+            run["t_end"] = float(f"{t_end:.6g}")
+        self.RUN = run  # (a method only if the file names one: hbg run chooses, else)
         self.SIGNALS = tuple(signals) if signals is not None else tuple(
             name for name in self._loaded.part.signals)
 
@@ -293,7 +300,14 @@ def save_model(model, path, *, run: dict | None = None, description: str | None 
     """Write ``model`` to the model file ``path`` (see :func:`dumps_model`
     for ``run`` and ``description``); the text is checked to read back to the
     same model before the file is written.  ``models.load(path)`` reads it back.
-    Also ``model.save(path, ...)``."""
+    Also ``model.save(path, ...)``.  Without ``run`` (and not read from a file that has one) the file's
+    ``[run]`` is the model's last run, else a ``t_end`` its time scales suggest
+    (:func:`switching.files.run_defaults.default_run`): never a file without a run."""
+    from .build import file_info
+    from .run_defaults import default_run
+
+    if run is None and (file_info(model) is None or not file_info(model).run):
+        run = default_run(model)[0]
     text = dumps_model(model, run=run, description=description, display=str(path))
     Path(path).write_text(text, encoding="utf-8")
 

@@ -140,6 +140,10 @@ def simulate(
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
     options = checked_options(model, t_end, method, keywords)
+    #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
+    model.last_run = {"t_end": float(t_end), "method": method,
+                      **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol), "atol": float(atol)}),
+                      **({"max_step": float(max_step)} if np.isfinite(max_step) else {})}
     if options.stepping.dt is None and max_step == np.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
