@@ -46,6 +46,10 @@ def _cmd_run(args) -> int:
     states: dict = {}
     parameters = parse_sets(args.set or [], module.DEFAULTS, states)
     t_end, method, options = run_settings(args, module, "auto")
+    chosen = getattr(module, "t_end_chosen", None)
+    if chosen and args.t_end is None:  # (a model file without a t_end: never a silent choice)
+        print(f"hbg: {args.model} gives no t_end: running {t_end:g} s, {chosen}; give --t-end to choose",
+              file=sys.stderr)
     window = window_options(args)
     if args.measure and args.samples not in (None, 0):
         raise UsageError(f"--measure measures the run's own steps (its flow integrated piece by piece), which "

@@ -58,3 +58,13 @@ def test_a_file_without_a_run_is_run_for_the_suggested_time_and_says_why(tmp_pat
 def test_a_model_without_a_time_scale_gets_one_second_and_is_told_so():
     t_end, why = suggested_t_end(bouncing_ball.build())
     assert t_end == 1.0 and "no time scale" in why
+
+
+def test_the_command_line_says_the_t_end_it_chose(tmp_path, capsys):
+    from models import cli
+
+    path = tmp_path / "buck.toml"
+    buck().save(path, run={"signals": ["v_out"]})
+    assert cli.main(["run", str(path), "--quiet"]) == cli.EXIT_OK
+    err = capsys.readouterr().err
+    assert "gives no t_end: running 0.002 s, 5 times its slowest time constant" in err
