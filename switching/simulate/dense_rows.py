@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["interpolable", "hermite_states", "row_rates", "numbered"]
+__all__ = ["interpolable", "hermite_states", "hermite_nodes", "row_rates", "numbered"]
 
 
 def numbered(modes: list) -> tuple[np.ndarray, list]:
@@ -89,6 +89,31 @@ def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: tuple, usable: np
         if len(compiled.dependent):  # the dependent states from the independent ones (the mode's constraints)
             states[members] = compiled.complete_at(states[members], times[kept][members])
     return rows, states, kept
+
+
+def hermite_nodes(model, t: np.ndarray, x: np.ndarray, modes: tuple, rows: np.ndarray, s: np.ndarray,
+                  rates: np.ndarray) -> np.ndarray:
+    """The interpolant at ``k`` points of each of ``P`` intervals at once: ``rows`` (P,) the intervals'
+    first rows, ``s`` (P, k) the points as fractions of each interval, ``rates`` the rows' flows
+    (:func:`row_rates`) → states (P·k, n), the points of one interval together.  The cubic in Horner
+    form, ``x = x_k + s·(c₁ + s·(c₂ + s·c₃))`` with ``c₁ = h·f_k``, ``c₂ = 3Δ − h·(2f_k + f_{k+1})``,
+    ``c₃ = h·(f_k + f_{k+1}) − 2Δ``, ``Δ = x_{k+1} − x_k`` — the module docstring's polynomial, its
+    coefficients formed once an interval; the dependent states completed as there."""
+    h = (t[rows + 1] - t[rows])[:, None]
+    x0, f0, f1 = x[rows], rates[rows], rates[rows + 1]
+    delta = x[rows + 1] - x0
+    c1, c2, c3 = h * f0, 3 * delta - h * (2 * f0 + f1), h * (f0 + f1) - 2 * delta
+    points = s.shape[1]
+    s = s[:, :, None]
+    states = (x0[:, None, :] + s * (c1[:, None, :] + s * (c2[:, None, :] + s * c3[:, None, :]))).reshape(
+        len(rows) * points, x.shape[1])
+    node_rows = np.repeat(rows, points)
+    for mode, members in by_mode(modes, node_rows):
+        compiled = model.compiled_mode(mode)
+        if len(compiled.dependent):
+            times = (t[node_rows] + (t[node_rows + 1] - t[node_rows]) * s.reshape(-1))[members]
+            states[members] = compiled.complete_at(states[members], times)
+    return states
 
 
 def by_mode(modes: tuple, rows: np.ndarray):

@@ -55,7 +55,7 @@ import numpy as np
 from bondgraph.elements import OnePort, Source
 from bondgraph.errors import HybridBondGraphError
 
-from .dense_rows import hermite_states, interpolable, row_rates
+from .dense_rows import hermite_nodes, interpolable, row_rates
 from .signal_values import signal_table
 
 __all__ = ["MEASURES", "GAUSS_NODES", "MeasurementError", "measure", "mean_product", "spectrum", "window_of"]
@@ -161,19 +161,23 @@ class _Pieces:
             self._rates = row_rates(tr.model, tr.t, tr.x, self.modes, np.flatnonzero(needed))
         return self._rates
 
-    def values(self, names, times, rows) -> dict:
-        """Each named signal at ``times`` [s] inside the pieces starting after ``rows`` (the interpolated
-        states, in each row's mode)."""
+    def values(self, names, pieces: np.ndarray, times: np.ndarray) -> dict:
+        """Each named signal at ``times`` (P, k) [s], ``k`` points inside each of the pieces ``pieces``
+        (indices), the states interpolated in each piece's row interval and mode → name → (P·k,)."""
         tr = self.trajectory
-        _, states, kept = hermite_states(tr.model, tr.t, tr.x, self.modes, None, times, rows=rows, rates=self.rates)
-        if len(kept) != len(times):
-            j = int(np.setdiff1d(np.arange(len(times)), kept)[0])
+        rows = self.row[pieces]
+        rates = self.rates
+        bad = ~(np.isfinite(rates[rows]).all(axis=1) & np.isfinite(rates[rows + 1]).all(axis=1))
+        if bad.any():
+            j = int(np.flatnonzero(bad)[0])
             mode = self.modes[1][self.modes[0][rows[j]]]
             raise MeasurementError(f"the flow of mode {mode.describe()} cannot be evaluated near t = "
-                                   f"{times[j]:.9g} s (not finite at a row): measure another window",
-                                   "window", float(times[j]))
-        modes = (self.modes[0][rows], self.modes[1])
-        return signal_table(tr.model, names, times, states, modes)
+                                   f"{tr.t[rows[j]]:.9g} s (not finite at a row): measure another window",
+                                   "window", float(tr.t[rows[j]]))
+        start, length = tr.t[rows][:, None], (tr.t[rows + 1] - tr.t[rows])[:, None]
+        states = hermite_nodes(tr.model, tr.t, tr.x, self.modes, rows, (times - start) / length, rates)
+        node_rows = np.repeat(rows, times.shape[1])
+        return signal_table(tr.model, names, times.ravel(), states, (self.modes[0][node_rows], self.modes[1]))
 
     def nodes(self, name: str, *others: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(values, weights, times)``: the signal at the Gauss nodes of every piece, the nodes' weights [s]
@@ -183,11 +187,11 @@ class _Pieces:
         if missing:
             x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
             half = 0.5 * (self.hi - self.lo)
-            times = ((0.5 * (self.lo + self.hi))[:, None] + half[:, None] * x[None, :]).ravel()
+            times = (0.5 * (self.lo + self.hi))[:, None] + half[:, None] * x[None, :]
             weights = (half[:, None] * w[None, :]).ravel()
-            found = self.values(missing, times, np.repeat(self.row, GAUSS_NODES))
+            found = self.values(missing, np.arange(len(self.lo)), times)
             for n in missing:
-                self._nodes[n] = found[n], weights, times
+                self._nodes[n] = found[n], weights, times.ravel()
         return self._nodes[name]
 
     def integral(self, name: str, power: int = 1) -> float:
@@ -200,7 +204,7 @@ class _Pieces:
         :data:`REFINED` pieces of each extreme zoomed on (:data:`ZOOM_ROUNDS`)."""
         grid = np.linspace(0.0, 1.0, 5)
         times = self.lo[:, None] + (self.hi - self.lo)[:, None] * grid[None, :]
-        sampled = self.values([name], times.ravel(), np.repeat(self.row, len(grid)))[name].reshape(times.shape)
+        sampled = self.values([name], np.arange(len(self.lo)), times)[name].reshape(times.shape)
         low, high = float(np.min(sampled)), float(np.max(sampled))
         for sign in (1.0, -1.0):
             score = sign * sampled
@@ -217,11 +221,11 @@ class _Pieces:
         step = (hi - lo) / (scores.shape[1] - 1)
         centre = lo + step * np.argmax(scores, axis=1)
         best = float(np.max(scores))
-        rows, ends = self.row[pieces], np.arange(len(pieces))
+        ends = np.arange(len(pieces))
         for _ in range(ZOOM_ROUNDS):
             left, right = np.maximum(centre - step, lo), np.minimum(centre + step, hi)
             grid = left[:, None] + (right - left)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
-            values = sign * self.values([name], grid.ravel(), np.repeat(rows, 9))[name].reshape(grid.shape)
+            values = sign * self.values([name], pieces, grid)[name].reshape(grid.shape)
             centre, step = grid[ends, np.argmax(values, axis=1)], (right - left) / 8.0
             best = max(best, float(np.max(values)))
         return sign * best
