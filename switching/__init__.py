@@ -54,6 +54,7 @@ from .model.expression_input import ExpressionInput as ExpressionInput
 from .files.modelfile import ModelFileError as ModelFileError
 from .files.modelfile import load_model as load_model
 from .files.modelfile import save_model as save_model
+from .files.fmu import to_fmu as to_fmu
 from .simulate.trajectory import Trajectory as Trajectory
 from .analysis.sensitivity import Sensitivities as Sensitivities
 from .analysis.fitting import FitError as FitError

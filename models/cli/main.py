@@ -11,6 +11,7 @@ from bondgraph import HybridBondGraphError
 
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_USAGE, MODEL_HELP, SET_HELP, UsageError
 from .files import cmd_draw, cmd_equations, cmd_graphs, cmd_list, cmd_save
+from .fmu import add_fmu
 from .modes import add_exploration, cmd_codegen, cmd_modes, cmd_verify
 from .orbit import add_orbit
 from .run import add_run
@@ -82,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep(sub)
     add_orbit(sub)
+    add_fmu(sub)
 
     sub.add_parser("graphs", help="list the shipped plain bond graphs").set_defaults(run=cmd_graphs)
     p = sub.add_parser("equations", help="equations of a shipped plain bond graph")
