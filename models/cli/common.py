@@ -40,11 +40,16 @@ def plain_text(rst: str) -> str:
 
 def model_module(name):
     """The shipped model's module, or for a path the :class:`switching.files.modelfile.ModelFile`
-    (same interface); a bad file raises its ModelFileError (file, line, culprit)."""
+    (same interface), or for a SPICE netlist (``.cir``, ``.sp``, ``.net``, …) its
+    :class:`models.spice.SpiceNetlist` (same interface); a bad file raises its ModelFileError (file,
+    line, culprit) or SpiceNetlistError (line, card)."""
     from switching.files.modelfile import is_model_path
 
     from .. import resolve
+    from ..spice import SUFFIXES, read
 
+    if str(name).lower().endswith(SUFFIXES):  # a SPICE netlist: its .tran is the run
+        return read(os.fspath(name))
     if is_model_path(name) or (name.replace("-", "_") not in MODELS and os.path.isfile(name)):
         return resolve(name)
     try:
@@ -198,7 +203,8 @@ def check_samples(model, samples) -> None:
 
 
 #: what every command's MODEL argument may be
-MODEL_HELP = "a shipped model's name (hbg list shows them) or the path of a model file (.toml)"
+MODEL_HELP = ("a shipped model's name (hbg list shows them), the path of a model file (.toml) or of a SPICE netlist "
+              "(.cir, .sp, .net: its .tran is the run)")
 
 
 #: what --set may set
