@@ -388,6 +388,13 @@ class Circuit(Netlist):
         """A PI controller: :meth:`pid` without the derivative."""
         self.pid(name, measure, reference, kp, ki, 0.0, **options)
 
+    def to_spice(self, run=None, **options) -> str:
+        """This circuit as a SPICE netlist ngspice runs (:func:`models.spice.write`; ``run``: the ``.tran``
+        settings, ``{"t_end": …, "max_step": …}``)."""
+        from .spice_writer import write
+
+        return write(self, run, **options)
+
     # ------------------------------------------------------------ queries
 
     # ------------------------------------------------------------ input checks

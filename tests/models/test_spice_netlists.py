@@ -748,3 +748,16 @@ def test_hbg_runs_a_netlist_with_its_tran(tmp_path):
     untimed.write_text("no tran\nV1 a 0 1\nR1 a 0 1\n.end\n")
     out = _hbg("run", str(untimed))
     assert out.returncode == 2 and "no .tran card" in out.stderr
+
+
+def test_a_circuit_writes_itself_as_spice():
+    """``Circuit.to_spice`` is :func:`models.spice.write`."""
+    from models.circuits import Circuit
+    from models.spice import write
+
+    c = Circuit("rc")
+    c.V("V1", "a", 0, 1.0)
+    c.R("R1", "a", "b", 1e3)
+    c.C("C1", "b", 0, 1e-6)
+    assert c.to_spice(run={"t_end": 1e-3}) == write(c, {"t_end": 1e-3})
+    assert ".tran" in c.to_spice(run={"t_end": 1e-3})
