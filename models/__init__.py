@@ -64,10 +64,15 @@ def component_library() -> dict:
 
 def resolve(reference: str | os.PathLike):
     """What ``hbg`` runs for ``reference``: the module of a shipped model
-    (by name), or a :class:`switching.files.modelfile.ModelFile` for a path to a
-    model file.  Both have ``DEFAULTS``, ``RUN``, ``SIGNALS`` and ``build(**parameters)``."""
+    (by name), a :class:`switching.files.modelfile.ModelFile` for a path to a
+    model file, or a :class:`models.spice.SpiceNetlist` for a SPICE netlist (``.cir``, ``.sp``, …).
+    All have ``DEFAULTS``, ``RUN``, ``SIGNALS`` and ``build(**parameters)``."""
     from switching.files.modelfile import ModelFile, is_model_path
 
+    from .spice import SUFFIXES, read
+
+    if str(reference).lower().endswith(SUFFIXES):  # a SPICE netlist: its .tran is the run
+        return read(os.fspath(reference))
     if is_model_path(reference):
         return ModelFile(reference, component_library())
     key = str(reference).replace("-", "_")
@@ -82,7 +87,7 @@ def resolve(reference: str | os.PathLike):
 
 def load(name: str | os.PathLike, **parameters):
     """The module of a shipped model by name (``-`` and ``_`` are
-    interchangeable), or — for a path to a model file (``.toml``) — the
+    interchangeable), or — for a path to a model file (``.toml``) or a SPICE netlist (``.cir``, …) — the
     :class:`~switching.model.hybrid_model.HybridModel` it holds, with its parameter values
     overridden by ``parameters``.  A bad file raises
     :class:`switching.files.modelfile.ModelFileError` naming the file, line and culprit."""

@@ -46,11 +46,10 @@ def model_module(name):
     from switching.files.modelfile import is_model_path
 
     from .. import resolve
-    from ..spice import SUFFIXES, read
+    from ..spice import SUFFIXES
 
-    if str(name).lower().endswith(SUFFIXES):  # a SPICE netlist: its .tran is the run
-        return read(os.fspath(name))
-    if is_model_path(name) or (name.replace("-", "_") not in MODELS and os.path.isfile(name)):
+    if str(name).lower().endswith(SUFFIXES) or is_model_path(name) or (
+            name.replace("-", "_") not in MODELS and os.path.isfile(name)):
         return resolve(name)
     try:
         return load(name)

@@ -761,3 +761,13 @@ def test_a_circuit_writes_itself_as_spice():
     c.C("C1", "b", 0, 1e-6)
     assert c.to_spice(run={"t_end": 1e-3}) == write(c, {"t_end": 1e-3})
     assert ".tran" in c.to_spice(run={"t_end": 1e-3})
+
+
+def test_models_load_reads_a_netlist(tmp_path):
+    import models
+
+    path = tmp_path / "rc.cir"
+    path.write_text("rc\nV1 a 0 DC 1\nR1 a b 1k\nC1 b 0 1u\n.tran 1u 1m\n.end\n")
+    model = models.load(path)
+    run = model.simulate(1e-3, atol=1e-15)  # (a charge of a microfarad: atol in coulombs)
+    assert run.signal("v_b")[-1] == pytest.approx(1 - np.exp(-1.0), rel=1e-5)
