@@ -5,6 +5,7 @@
                   [--plot FILE.png] [--csv FILE] [--npz FILE] [--signals a,b,...]
                   [--samples N] [--with-instants] [--no-keep-instants] [--on-zeno {raise,stop}]
                   [--no-stiffness-check] [--max-steps N] [--progress | --quiet]
+                  [--measure SIGNAL:KIND,KIND ...] [--period T [--periods N] | --window FROM:TO]
     hbg modes MODEL [--mode LABEL] [--latex] [--state-space] [--t-end T]
                                               f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
@@ -13,18 +14,23 @@
     hbg save MODEL [--set name=value ...] -o FILE.toml   the model as a model file
     hbg sweep MODEL --grid name=start:stop:count --grid name=v1,v2 [--set ...] [--method M] [--t-end T]
                   [--scheduler ADDRESS | --workers N] --csv FILE [--plot FILE.png] [--metric NAME ...]
-                  [--on-zeno {raise,stop}]
+                  [--period T [--periods N] | --window FROM:TO] [--on-zeno {raise,stop}]
                                               one run per grid point on Dask, a CSV row each, a plot
     hbg orbit MODEL [--set ...] (--period T | --section AUTOMATON:SOURCE->TARGET [--period GUESS])
-                  [--continue NAME=START:STOP:COUNT] [--csv FILE] [--plot FILE.png] [--signal NAME]
+                  [--continue NAME=START:STOP:COUNT] [--csv FILE] [--plot FILE.png] [--signal NAME,NAME]
+                  [--samples N] [--measure SIGNAL:KIND,KIND ...]
                                               a periodic orbit (period, start, multipliers, stability), or
                                               its continuation in one parameter
+    hbg fmu MODEL [--set ...] -o FILE.fmu [--method M] [--dt DT | --rtol R]   an FMI 2.0 co-simulation FMU
     hbg graphs | hbg equations NAME           plain bond graphs and their equations
 
 Model names accept ``-`` or ``_`` (``falling-rod``).  Wherever a command
 takes a MODEL it also takes the path of a model file (``hbg run my.toml``;
 see :mod:`switching.files.modelfile`); ``--set`` then overrides the file's
-parameters, and the file's ``[run]`` table gives the default run.
+parameters, and the file's ``[run]`` table gives the default run (a file
+without a ``t_end`` runs for the time its time scales suggest, said on
+stderr).  A SPICE netlist (``hbg run buck.cir``: :mod:`models.spice`) runs
+for its ``.tran``.
 
 Output of ``hbg run``: ``--samples N`` (default 500, at least 2) runs
 ``simulate(..., samples=N)``: the ``N`` equally spaced times
