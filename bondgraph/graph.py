@@ -184,10 +184,8 @@ class BondGraph:
         return element
 
     def replace(self, element: Element) -> None:
-        """Put ``element`` in place of the element of its name and kind (a source whose value is known
-        only once the rest is built: a controller's output); its bonds stay."""
-        old = self.elements.get(element.name)
-        if old is None or type(old) is not type(element):
+        """Put ``element`` in place of the element of its name and kind (its bonds stay)."""
+        if type(self.elements.get(element.name)) is not type(element):
             raise InvalidGraphError(f"graph {self.name!r} has no {element.kind} named {element.name!r} to replace")
         self.elements[element.name] = element
         self._changed()

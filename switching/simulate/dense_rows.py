@@ -54,41 +54,26 @@ def interpolable(t: np.ndarray, modes: tuple, event_times: np.ndarray) -> np.nda
 
 
 def hermite_states(model, t: np.ndarray, x: np.ndarray, modes: tuple, usable: np.ndarray,
-                   times: np.ndarray, rows: np.ndarray | None = None,
-                   rates: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(rows, states, kept)`` at ``times`` [s] strictly inside the usable intervals (module docstring;
     ``modes``: :func:`numbered`): ``rows[j]`` the interval's first row, ``states[j]`` the interpolated
-    state (n,), ``kept`` the indices into ``times`` that were interpolated (the others fall on a row or an
-    interval left out).  Given ``rows`` (one per time, each time in ``[t_row, t_row+1]``, ends included),
-    those intervals are used; given ``rates`` (:func:`row_rates` of the rows used), they are not computed
-    again."""
+    state (n,), ``kept`` the indices into ``times`` that were interpolated (the others fall on a row, in
+    an interval left out, or beside a row whose flow is not finite)."""
     times = np.asarray(times, dtype=float)
-    if rows is None:
-        k = np.searchsorted(t, times, side="right") - 1
-        valid = (k >= 0) & (k < len(t) - 1)
-        k_safe = np.clip(k, 0, max(len(t) - 2, 0))
-        valid &= usable[k_safe] if len(usable) else False
-        valid &= times > t[k_safe]
-        kept = np.flatnonzero(valid)
-        rows = k[kept]
-    else:
-        rows, kept = np.asarray(rows, dtype=np.int64), np.arange(len(times))
-    if rates is None:
-        needed = np.zeros(len(t), dtype=bool)
-        needed[rows] = needed[rows + 1] = True
-        rates = row_rates(model, t, x, modes, np.flatnonzero(needed))
+    k = np.searchsorted(t, times, side="right") - 1
+    valid = (k >= 0) & (k < len(t) - 1)
+    k_safe = np.clip(k, 0, max(len(t) - 2, 0))
+    valid &= usable[k_safe] if len(usable) else False
+    valid &= times > t[k_safe]
+    kept = np.flatnonzero(valid)
+    rows = k[kept]
+    needed = np.zeros(len(t), dtype=bool)
+    needed[rows] = needed[rows + 1] = True
+    rates = row_rates(model, t, x, modes, np.flatnonzero(needed))
     finite = np.isfinite(rates[rows]).all(axis=1) & np.isfinite(rates[rows + 1]).all(axis=1)
     kept, rows = kept[finite], rows[finite]
-    h = (t[rows + 1] - t[rows])[:, None]
-    s = (times[kept][:, None] - t[rows][:, None]) / h
-    s2, s3 = s * s, s * s * s
-    states = ((2 * s3 - 3 * s2 + 1) * x[rows] + (s3 - 2 * s2 + s) * h * rates[rows]
-              + (3 * s2 - 2 * s3) * x[rows + 1] + (s3 - s2) * h * rates[rows + 1])
-    for mode, members in by_mode(modes, rows):
-        compiled = model.compiled_mode(mode)
-        if len(compiled.dependent):  # the dependent states from the independent ones (the mode's constraints)
-            states[members] = compiled.complete_at(states[members], times[kept][members])
-    return rows, states, kept
+    s = ((times[kept] - t[rows]) / (t[rows + 1] - t[rows]))[:, None]
+    return rows, hermite_nodes(model, t, x, modes, rows, s, rates), kept
 
 
 def hermite_nodes(model, t: np.ndarray, x: np.ndarray, modes: tuple, rows: np.ndarray, s: np.ndarray,

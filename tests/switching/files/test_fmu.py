@@ -28,7 +28,10 @@ def fmpy():
     """FMPy, and pythonfmu with its FMI library for this platform (Linux x86-64, Windows 64-bit)."""
     builder = pytest.importorskip("pythonfmu.builder", reason=REASON)
     if not builder.FmuBuilder.has_binary():
-        pytest.skip("pythonfmu has no FMI library for this platform")
+        import platform
+
+        pytest.skip(f"pythonfmu ships its FMI library for Linux x86-64 and Windows 64-bit only, not for "
+                    f"{platform.system()} {platform.machine()}: FMUs cannot be built here")
     fmpy = pytest.importorskip("fmpy", reason=REASON)
     pytest.importorskip("fmpy.validation", reason=REASON)
     return fmpy
