@@ -147,8 +147,8 @@ from ._common import Range
 from .circuit_topology import first_floating_mode
 from .circuit_words import DIODE_ALIASES, OFF, ON, conflict_loop
 from .controllers import Hysteresis, build_controllers, controller_placeholder, controller_values, modulated_duty
-from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
-                      checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
+from .netlist import (REFERENCE, BuiltFrom, Netlist, NetlistBuilder, Part, checked_argument, checked_name,
+                      checked_node, checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Circuit", "Input", "PWM", "Hysteresis", "GROUND", "floating_modes", "FLOATING_CHECK_MODES"]
 
@@ -526,7 +526,8 @@ class Circuit(Netlist):
                     f"circuit {self.name!r} floats in mode {mode.describe()}: {error} Build it with "
                     "gmin=1e-12 (a leak across every diode and switch), or with allow_floating=True if no run "
                     "reaches such a mode.", error.elements, error.cut, error.configuration, error.kind)
-        return model
+        return BuiltFrom.record(model, self, parameters, inputs,
+                                {"gmin": gmin, "allow_floating": allow_floating, **options})
 
 
 #: the most modes :func:`floating_modes` checks (beyond, the check is skipped)

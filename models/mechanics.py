@@ -161,8 +161,8 @@ from switching import Automaton, HybridModel
 from .circuits import Input
 from .controllers import build_controllers, controller_placeholder, controller_values
 from ._common import Range
-from .netlist import (REFERENCE, Netlist, NetlistBuilder, Part, checked_argument, checked_name, checked_node,
-                      checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
+from .netlist import (REFERENCE, BuiltFrom, Netlist, NetlistBuilder, Part, checked_argument, checked_name,
+                      checked_node, checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
 
 __all__ = ["Mechanism", "Input", "FRAME", "KINDS"]
 
@@ -422,7 +422,8 @@ class Mechanism(Netlist):
         (default: the mechanism's name); other ``options`` go to
         :class:`~switching.HybridModel` (``tolerance``, …)."""
         self._check()
-        return _Builder(self, dict(parameters or {}), dict(inputs or {})).model(name or self.name, options)
+        model = _Builder(self, dict(parameters or {}), dict(inputs or {})).model(name or self.name, options)
+        return BuiltFrom.record(model, self, parameters, inputs, options)
 
 
 class _Builder(NetlistBuilder):

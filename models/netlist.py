@@ -11,6 +11,7 @@ expression of ``t`` as text (parsed, never evaluated), or a declared input.
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 import re
@@ -30,8 +31,9 @@ from switching.language.parsing import FUNCTIONS, parse_condition, parse_express
 
 from ._common import Range
 
-__all__ = ["NAME", "NODE", "REFERENCE", "Netlist", "NetlistBuilder", "Part", "checked_argument", "checked_name",
-           "checked_node", "checked_number", "holds_at_start", "parameter_name", "source_value", "units_by_prefix"]
+__all__ = ["NAME", "NODE", "REFERENCE", "BuiltFrom", "Netlist", "NetlistBuilder", "Part", "checked_argument",
+           "checked_name", "checked_node", "checked_number", "holds_at_start", "parameter_name", "source_value",
+           "units_by_prefix"]
 
 #: a component's (and a parameter's) name
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -177,6 +179,27 @@ class Netlist:
     def components(self) -> tuple:
         """The components' names, in the order added."""
         return tuple(self._parts)
+
+
+@dataclass(frozen=True)
+class BuiltFrom:
+    """What a model built from a netlist was built from (``model.built_from``): a copy of the
+    :class:`Circuit` or :class:`Mechanism` as it stood at the build, the ``parameters`` given to
+    ``build`` and its other keyword ``options`` (``gmin``, ``allow_floating``, the model's options);
+    ``inputs`` names the inputs given as Python functions (which no file can hold)."""
+
+    netlist: Netlist
+    parameters: dict
+    options: dict
+    inputs: tuple = ()
+
+    @classmethod
+    def record(cls, model, netlist: Netlist, parameters, inputs, options: dict):
+        """``model`` with its ``built_from`` set (a deep copy of ``netlist``: later additions to the
+        netlist do not change what the model was built from)."""
+        model.built_from = cls(copy.deepcopy(netlist), dict(parameters or {}), dict(options),
+                               tuple(sorted(inputs or {})))
+        return model
 
 
 class NetlistBuilder:

@@ -580,3 +580,15 @@ def test_closed_switches_in_parallel_share_the_current_as_vanishing_resistances_
     run = c.build().simulate(1e-3, "RK45")
     np.testing.assert_allclose(run.signal("i_S1"), 5.0 / 11.0 / 2, rtol=1e-12)
     np.testing.assert_allclose(run.signal("i_S2"), 5.0 / 11.0 / 2, rtol=1e-12)
+
+
+def test_a_built_model_records_the_netlist_and_arguments_it_was_built_from():
+    from models.netlists import ideal_buck
+
+    circuit = ideal_buck()
+    model = circuit.build({"R1": 10.0}, gmin=1e-9)
+    circuit.R("R9", "out", "0", 1.0)  # a later addition does not change what the model was built from
+    assert model.built_from.netlist.components == ("V1", "S1", "D1", "L1", "C1", "R1")
+    assert model.built_from.parameters == {"R1": 10.0}
+    assert model.built_from.options == {"gmin": 1e-9, "allow_floating": False}
+    assert model.built_from.inputs == ()
