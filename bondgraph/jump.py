@@ -19,8 +19,12 @@ which in terms of the constraint ``x_d = K x_i + c`` (``K = ∂φ/∂x_i``,
 
     (I + M_i Kᵀ M_d⁻¹ K) x_i⁺ = x_i + M_i Kᵀ M_d⁻¹ (x_d − c),   x_d⁺ = K x_i⁺ + c.
 
-Only the independent storage states that appear in a constraint take part;
-every other state (and every displacement) is unchanged.  ``g`` is the
+Only the independent storage states that appear in a constraint *and* that
+the impulses reach through the junction structure take part (their implicit
+rates hold a dependent state's rate); a state a constraint reads only through
+a modulated source's value stays, the source taking the impulse (an ideal
+buffer charging a hold capacitor leaves the capacitor it measures alone).
+Every other state (and every displacement) is unchanged.  ``g`` is the
 identity on states already on the constraints.  For nonlinear storage the
 balance ``x_i⁺ − x_i + Aᵀ(φ(x_i⁺) − x_d) = 0`` is solved numerically
 (:meth:`JumpMap.apply`).
@@ -139,7 +143,9 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     constraints = equations.constraints
     storage_states = set(storage)
     constrained = set().union(*(constraints[d].free_symbols for d in dependent))
-    participating = tuple(x for x in equations.independent if x in storage_states and x in constrained)
+    reached = _reached_by_impulses(equations)
+    participating = tuple(x for x in equations.independent
+                          if x in storage_states and x in constrained and x in reached)
     phi = sp.Matrix([constraints[d] for d in dependent])
     K = phi.jacobian(list(participating)) if participating else sp.zeros(len(dependent), 0)
     metrics = {x: _metric(storage[x], x) for x in (*participating, *dependent)}
@@ -158,6 +164,16 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
         False,
         _numeric=_nonlinear_jump(graph, equations, participating, dependent, phi, storage),
     )
+
+
+def _reached_by_impulses(equations) -> set:
+    """The independent states whose implicit rate holds a dependent state's rate (``∂F_i/∂ẋ_d ≠ 0``):
+    those an impulse into the dependent storage reaches through the junction structure.  A state
+    that a constraint reads only through a modulated source's value (a controlled source, a
+    sample-and-hold's buffer) is not among them: the source takes the impulse, the state it reads
+    stays (its value enters ``c``)."""
+    rates = [equations.rate_symbols[d] for d in equations.dependent]
+    return {x for x, rate in equations.implicit_rates.items() if any(rate.has(r) for r in rates)}
 
 
 def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:

@@ -80,3 +80,22 @@ def test_nonlinear_capacitor_jump_is_solved_numerically():
     e1 = plus[0] + 0.5 * plus[0] ** 3
     assert e1 == pytest.approx(plus[1] / 2.0, rel=1e-10)  # equal voltages after
     assert np.allclose(jm.apply(plus, 0.0, params), plus, rtol=1e-10)
+
+
+def test_a_hold_capacitor_charged_by_a_source_that_reads_another_takes_its_value_and_leaves_it():
+    """An ideal buffer (an effort source whose value is the measured capacitor's voltage ``q_M/M``)
+    switched onto a hold capacitor ``H``: the buffer takes the impulse, so ``q_H⁺ = H·q_M/M`` and the
+    measured charge stays — not the charge sharing ``(q_M + q_H)``-conserving projection."""
+    M, H = sp.symbols("M H")
+    q_M, q_H = sp.symbols("q_M q_H")
+    g = BondGraph("sample_and_hold")
+    measured, hold, switch = g.add(Zero("measured")), g.add(Zero("hold")), g.add(One("sample", controlled=True))
+    g.connect(measured, C("M", M))
+    g.connect(Sf("i_in", "i_in"), measured)
+    g.connect(Se("buffer", q_M / M), switch)
+    g.connect(switch, hold)
+    g.connect(hold, C("H", H))
+    jm = g.jump_map({"sample": True})
+    assert jm.participating == ()
+    assert sp.simplify(jm.expressions[q_H] - H * q_M / M) == 0
+    assert jm.expressions[q_M] == q_M
