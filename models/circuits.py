@@ -372,16 +372,18 @@ class Circuit(Netlist):
         self.gyrator(name, p1, p2, s1, s2, k)
 
     def pid(self, name: str, measure: str, reference, kp, ki=0.0, kd=0.0, *, limits=None, tracking=None,
-            derivative_filter=None, initial: float = 0.0) -> None:
+            derivative_filter=None, initial: float = 0.0, sample_period=None, sample_delay=None) -> None:
         """A PID controller ``name`` (no terminals): its output is the signal ``name``,
         ``clamp(kp·e + I + D, *limits)`` of the error ``e = reference − measure`` — ``measure`` a text of the
         circuit's signals (``"v_out"``), ``reference`` a number, a parameter name or a text of ``t`` (a
         reference step) — with back-calculation anti-windup (``tracking`` [s], default ``kp/ki``), a
         derivative filtered by ``derivative_filter`` [s] (default ``kd/(10·kp)``) and the integral term
         starting at ``initial``.  Use its name as a PWM's duty (``PWM(1e-5, "PI1")``), in a source's value
-        or a condition.  The equations and states: :mod:`models.controllers`."""
+        or a condition.  The equations and states: :mod:`models.controllers`.  ``sample_period`` [s] makes it a
+        digital controller sampled at ``k·sample_period + sample_delay``, its output held between samples
+        and computed a sample before it is applied (:mod:`models.sampled_controllers`)."""
         values = controller_values(name, measure, reference, kp, ki, kd, limits, tracking, derivative_filter,
-                                   initial)
+                                   initial, sample_period, sample_delay)
         self._add("PI", name, (), **values)
 
     def pi(self, name: str, measure: str, reference, kp, ki, **options) -> None:

@@ -41,6 +41,7 @@ from switching.language.parsing import parse_expression
 
 from ._common import Range
 from .netlist import NAME, checked_argument, checked_number
+from .sampled_controllers import build_sampled_controller, sample_values
 
 __all__ = ["Hysteresis", "controller_values", "build_controller", "build_controllers", "controller_placeholder",
            "drive_sources", "modulated_duty", "signal_resolver"]
@@ -76,9 +77,10 @@ class Hysteresis:
 
 
 def controller_values(name: str, measure, reference, kp, ki, kd, limits, tracking, derivative_filter,
-                      initial) -> dict:
+                      initial, sample_period=None, sample_delay=None) -> dict:
     """A PID controller's arguments checked (the module docstring): gains and times numbers or parameter
-    names, ``limits`` ``(lo, hi)`` with ``lo < hi`` (either ``None``), ``measure`` a text."""
+    names, ``limits`` ``(lo, hi)`` with ``lo < hi`` (either ``None``), ``measure`` a text; a sampled
+    controller's clock (:func:`models.sampled_controllers.sample_values`)."""
     owner = f"controller {name!r}"
     if not isinstance(measure, str) or not measure.strip():
         raise InvalidGraphError(f"{owner}: give what it measures as a text of the signals ('v_out')", [name])
@@ -95,6 +97,7 @@ def controller_values(name: str, measure, reference, kp, ki, kd, limits, trackin
         raise InvalidGraphError(f"{owner}: its limits ({lo:g}, {hi:g}) leave no range; give (lo, hi) with "
                                 "lo < hi", [name])
     values["limits"] = (lo, hi)
+    values.update(sample_values(name, sample_period, sample_delay, derivative_filter))
     return values
 
 
@@ -136,6 +139,9 @@ def build_controller(builder, part, resolve) -> None:
     ki = parameter("ki", "the integral gain ki", Range(f"the integral gain of {owner}", 0.0))
     reference = builder.expression_value(v["reference"], f"the reference of {owner}", f"{name}_ref")
     error = reference - resolve(builder.user_text(v["measure"]))
+    if v.get("sample_period") is not None:
+        _sampled(builder, part, error, kp, ki, parameter)
+        return
     derivative = 0
     if v["kd"] != 0:
         kd = parameter("kd", "the derivative gain kd", Range(f"the derivative gain of {owner}", 0.0))
@@ -147,8 +153,7 @@ def build_controller(builder, part, resolve) -> None:
     storage = C(builder.internal(f"{name}_I"), 1)
     integral = storage.state
     raw = kp * error + integral + derivative
-    lo, hi = (None if value is None else builder.number_or_parameter(
-        value, f"{name}_{side}", f"the {side} output limit of {owner}") for value, side in zip(v["limits"], ("min", "max")))
+    lo, hi = _limits(builder, v, name, owner)
     output = raw if lo is None else sp.Max(raw, lo)
     output = output if hi is None else sp.Min(output, hi)
     rate = ki * error
@@ -156,6 +161,28 @@ def build_controller(builder, part, resolve) -> None:
         rate += (output - raw) / _time(builder, v, "tracking", f"{name}_tt", owner, kp / ki)
     _island(builder, storage, v["initial"], rate)
     builder.signal(name, output, owner)
+
+
+def _sampled(builder, part, error, kp, ki, parameter) -> None:
+    """The sampled controller ``part`` (:mod:`models.sampled_controllers`) and its output signal."""
+    name, v = part.name, part.values
+    owner = f"controller {name!r}"
+    kd = 0
+    if v["kd"] != 0:
+        kd = parameter("kd", "the derivative gain kd", Range(f"the derivative gain of {owner}", 0.0))
+    lo, hi = _limits(builder, v, name, owner)
+    tracking = None
+    if lo is not None or hi is not None:
+        tracking = _time(builder, v, "tracking", f"{name}_tt", owner, kp / ki)
+    output = build_sampled_controller(builder, part, error, {"kp": kp, "ki": ki, "kd": kd}, (lo, hi), tracking)
+    builder.signal(name, output, owner)
+
+
+def _limits(builder, values, name: str, owner: str) -> tuple:
+    """The output limits ``(lo, hi)`` as parameters ``<name>_min``, ``<name>_max`` (``None`` where not given)."""
+    return tuple(None if value is None else builder.number_or_parameter(
+        value, f"{name}_{side}", f"the {side} output limit of {owner}")
+        for value, side in zip(values["limits"], ("min", "max")))
 
 
 def _time(builder, values, key, default_name, owner, default):

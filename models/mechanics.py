@@ -341,14 +341,15 @@ class Mechanism(Netlist):
                   **_impact_values(e, v_th, f"backlash {name!r}"))
 
     def pid(self, name: str, measure: str, reference, kp, ki=0.0, kd=0.0, *, limits=None, tracking=None,
-            derivative_filter=None, initial: float = 0.0) -> None:
+            derivative_filter=None, initial: float = 0.0, sample_period=None, sample_delay=None) -> None:
         """A PID controller ``name`` (no node): its output is the signal ``name``, ``clamp(kp·e + I + D,
         *limits)`` of the error ``e = reference − measure`` (``measure`` a text of the mechanism's signals,
         ``"omega_load"``), with back-calculation anti-windup; give its name as a motor's voltage ``V`` or a
         force's or torque's value to close the loop (a speed loop around a DC motor).  The equations:
-        :mod:`models.controllers`, as :meth:`Circuit.pid`."""
+        :mod:`models.controllers`, as :meth:`Circuit.pid` (``sample_period``: a digital controller,
+        :mod:`models.sampled_controllers`)."""
         values = controller_values(name, measure, reference, kp, ki, kd, limits, tracking, derivative_filter,
-                                   initial)
+                                   initial, sample_period, sample_delay)
         self._add("PI", name, (), **values)
 
     def pi(self, name: str, measure: str, reference, kp, ki, **options) -> None:
