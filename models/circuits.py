@@ -146,6 +146,7 @@ from switching.model.source_periods import PERIOD_FRACTION
 from ._common import Range
 from .circuit_topology import first_floating_mode
 from .circuit_words import DIODE_ALIASES, OFF, ON, conflict_loop
+from .carriers import CARRIERS, sawtooth_pwm
 from .controllers import Hysteresis, build_controllers, controller_placeholder, controller_values, modulated_duty
 from .netlist import (REFERENCE, BuiltFrom, Netlist, NetlistBuilder, Part, checked_argument, checked_name,
                       checked_node, checked_number, holds_at_start, parameter_name, source_value, units_by_prefix)
@@ -183,11 +184,14 @@ class PWM:
     A ``duty`` that varies — a controller's name (:meth:`Circuit.pid`) or a text of signals and ``t``
     (``"0.5 + 0.4*sin(2*pi*50*t)"``) — is compared with the fixed carrier
     ``acos(cos(2π(t − delay)/period))/π``: pulses centred on ``k·period + delay``
-    (:mod:`models.controllers`)."""
+    (:mod:`models.controllers`); with ``carrier="sawtooth"``, with the ramp ``(t − delay)/period mod 1``:
+    pulses from ``k·period + delay`` to where the ramp reaches the duty (trailing-edge modulation,
+    :mod:`models.carriers`).  A fixed duty's pulses are the same with either carrier."""
 
     period: float | str
     duty: float | str
     delay: float = 0.0
+    carrier: str = "triangle"
 
     def checked(self, owner: str) -> "PWM":
         """This schedule with its values checked (:func:`~models.netlist.checked_argument`): ``period``
@@ -202,7 +206,10 @@ class PWM:
         if not isinstance(duty, str) and not 0.0 <= duty <= 1.0:
             raise ParameterValueError(f"the PWM duty of {owner} is {duty:g}: give a duty between 0 and 1",
                                       "duty", duty)
-        return PWM(period, duty, delay)
+        if self.carrier not in CARRIERS:
+            raise ParameterValueError(f"the PWM carrier of {owner} is {self.carrier!r}: give one of {CARRIERS}",
+                                      "carrier", self.carrier)
+        return PWM(period, duty, delay, self.carrier)
 
 
 class Circuit(Netlist):
@@ -807,6 +814,8 @@ class _Builder(NetlistBuilder):
             self.windows.append(2.0 * float(period.xreplace(values)) / PERIOD_FRACTION)
         except (TypeError, ValueError):
             pass
+        if rule.carrier == "sawtooth":
+            return sawtooth_pwm(self, part, rule, period, duty)
         phase = f"t - {float(rule.delay)!r}" if rule.delay else "t"
         self.signal(f"carrier_{name}", f"acos(cos(2*pi*({phase})/{period}))/pi", owner)
         closed = part.values["closed"]
