@@ -397,6 +397,14 @@ class Circuit(Netlist):
         """A PI controller: :meth:`pid` without the derivative."""
         self.pid(name, measure, reference, kp, ki, 0.0, **options)
 
+    def draw(self, mode=None):
+        """The circuit's schematic (:func:`models.schematic.draw_circuit`), its diodes and switches in the
+        states of ``mode`` — a mode of a model built from it, or ``"S1=closed, D1=blocking"`` — or at t = 0:
+        ``.svg()``, ``.save(path)``, shown inline in notebooks."""
+        from .schematic import draw_circuit
+
+        return draw_circuit(self, mode)
+
     def to_spice(self, run=None, **options) -> str:
         """This circuit as a SPICE netlist ngspice runs (:func:`models.spice.write`; ``run``: the ``.tran``
         settings, ``{"t_end": …, "max_step": …}``)."""

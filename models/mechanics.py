@@ -356,6 +356,14 @@ class Mechanism(Netlist):
         """A PI controller: :meth:`pid` without the derivative."""
         self.pid(name, measure, reference, kp, ki, 0.0, **options)
 
+    def draw(self, mode=None):
+        """The mechanism's lumped diagram (:func:`models.lumped_diagram.draw_mechanism`), its clutches, stops
+        and backlashes in the states of ``mode`` — a mode of a model built from it, or ``"K=engaged"`` — or
+        at t = 0: ``.svg()``, ``.save(path)``, shown inline in notebooks."""
+        from .lumped_diagram import draw_mechanism
+
+        return draw_mechanism(self, mode)
+
     # ------------------------------------------------------------ input checks
 
     def _value(self, value, what: str, name: str):
