@@ -10,7 +10,9 @@
                                               f, g, h and guards (or A, B, C, D) of the visited modes (or one)
     hbg verify MODEL [--samples N]            static divergence-of-time check
     hbg codegen MODEL -o DIR [--t-end T]      export the generated per-mode functions
-    hbg draw MODEL [--mode LABEL] -o FILE.png|FILE.svg   the bond graph of a mode, drawn as textbooks do
+    hbg draw MODEL [--mode LABEL] -o FILE.png|FILE.svg [--schematic FILE | --no-schematic]
+                                              the bond graph of a mode, drawn as textbooks do; a model built
+                                              from a netlist also its schematic (lumped diagram) in that mode
     hbg save MODEL [--set name=value ...] -o FILE.toml   the model as a model file
     hbg sweep MODEL --grid name=start:stop:count --grid name=v1,v2 [--set ...] [--method M] [--t-end T]
                   [--scheduler ADDRESS | --workers N] --csv FILE [--plot FILE.png] [--metric NAME ...]
@@ -79,7 +81,7 @@ Exit status:
     130  interrupted (Ctrl-C); what was computed is saved
 
 The package: one module per command (:mod:`.run`, :mod:`.modes` — with ``verify`` and ``codegen`` —,
-:mod:`.files` — ``list``, ``save``, ``draw``, ``graphs``, ``equations`` —, :mod:`.sweep`, :mod:`.orbit`),
+:mod:`.files` — ``list``, ``save``, ``graphs``, ``equations`` —, :mod:`.draw`, :mod:`.sweep`, :mod:`.orbit`),
 what they share (:mod:`.common`: the model, ``--set``, the run's options; :mod:`.outputs`: the files) and
 :mod:`.main` (the parser and ``main``).
 """

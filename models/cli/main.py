@@ -10,7 +10,8 @@ import warnings
 from bondgraph import HybridBondGraphError
 
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_USAGE, MODEL_HELP, SET_HELP, UsageError
-from .files import cmd_draw, cmd_equations, cmd_graphs, cmd_list, cmd_save
+from .draw import add_draw
+from .files import cmd_equations, cmd_graphs, cmd_list, cmd_save
 from .fmu import add_fmu
 from .modes import add_exploration, cmd_codegen, cmd_modes, cmd_verify
 from .orbit import add_orbit
@@ -71,15 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="FILE.toml", help="the model file written")
     p.set_defaults(run=cmd_save)
 
-    p = _model_command(sub, "draw", help="draw the bond graph of a mode as textbooks do: half-arrows, causal strokes, "
-                       "controlled junctions boxed and marked with their state as the mode names it (closed, "
-                       "engaged, ...; PNG, SVG, PDF by the extension)")
-    p.add_argument("--mode", metavar="MODE", help="the mode drawn, as outputs show it ('contact=free, friction=stuck') "
-                   "or its states joined by | (default: the initial mode)")
-    p.add_argument("--no-legend", action="store_true", dest="no_legend", help="leave out the line explaining the marks")
-    p.add_argument("-o", "--output", required=True, metavar="FILE.png|FILE.svg",
-                   help="the picture; its extension picks the format (png, svg, pdf, ...)")
-    p.set_defaults(run=cmd_draw)
+    add_draw(sub)
 
     add_sweep(sub)
     add_orbit(sub)

@@ -37,6 +37,7 @@ from .automaton import Automaton
 from ..errors import ModelDefinitionError
 from . import definition
 from .definition import InMode
+from .drawn import ShownAsBondGraph
 from .modes import Mode, ModeEquations
 from .initial_state import InitialStateProjected
 from . import initial_state
@@ -78,7 +79,7 @@ class Tolerance:
     jump_atol: float = 0.0
 
 
-class HybridModel:
+class HybridModel(ShownAsBondGraph):
     """A bond graph with controlled junctions driven by local automata.
 
     The model is the definition (graph, automata, parameters, signals,

@@ -1,5 +1,5 @@
 """Mechanisms' lumped diagrams (models/lumped_diagram.py): one symbol (or block) per component, labelled;
-connectivity read off the drawing; clutches and stops drawn in a mode's states; SVG output."""
+connectivity read off the drawing; clutches and stops drawn in a mode's states; SVG output; the CLI."""
 
 import random
 from xml.etree import ElementTree
@@ -8,6 +8,7 @@ import pytest
 from drawing_checks import check_connectivity, check_no_overlap, svg_texts
 from schemdraw import elements as elm
 
+from models.cli import main
 from models.lumped_diagram import Clutch, Stop
 from models.mechanics import Mechanism
 
@@ -128,8 +129,14 @@ def test_a_stop_in_contact_is_drawn_touching():
         drop.draw("floor=upper")
 
 
-def test_a_mechanism_shows_as_svg_in_notebooks():
+def test_a_mechanism_shows_as_svg_in_notebooks_and_hbg_draw_writes_its_diagram(tmp_path, capsys, monkeypatch):
     mechanism = two_masses()
     svg = mechanism._repr_svg_()
     assert ElementTree.fromstring(svg).tag.endswith("svg")
     assert all(name in svg_texts(svg) for name in mechanism.components)
+    model = drivetrain().build()  # as a model file of the mechanism would give it
+    monkeypatch.setattr("models.cli.draw.build_model", lambda args: (None, model))
+    assert main(["draw", "drivetrain", "--mode", "K=engaged, B=free", "-o", str(tmp_path / "drive.svg")]) == 0
+    diagram = tmp_path / "drive-schematic.svg"
+    assert "K engaged" in svg_texts(diagram.read_text())
+    assert "lumped diagram of mechanism 'drivetrain'" in capsys.readouterr().out

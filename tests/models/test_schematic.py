@@ -1,5 +1,5 @@
 """Circuits' schematics (models/schematic.py, models/schematic_layout.py): one symbol per component,
-labelled; connectivity read off the drawing; switches drawn in a mode's states; SVG output."""
+labelled; connectivity read off the drawing; switches drawn in a mode's states; SVG output; the CLI."""
 
 import random
 from xml.etree import ElementTree
@@ -9,6 +9,7 @@ from drawing_checks import check_connectivity, check_no_overlap, svg_texts
 from schemdraw import elements as elm
 
 from models.circuits import PWM, Circuit
+from models.cli import main
 from models.netlists import bridges, ideal_buck, parallel_switches
 from models.schematic import ClosedSwitch
 from models.spice import read
@@ -202,9 +203,39 @@ def test_a_state_a_switch_has_not_or_a_component_without_states_is_refused_by_na
         ideal_buck().draw("S1=on")
 
 
-def test_a_circuit_shows_as_svg_in_notebooks():
+def test_the_circuit_the_model_and_the_mechanism_show_as_svg_in_notebooks():
     circuit = ideal_buck()
     svg = circuit._repr_svg_()
     root = ElementTree.fromstring(svg)
     assert root.tag.endswith("svg")
     assert all(name in svg_texts(svg) for name in circuit.components)
+    graph_svg = circuit.build()._repr_svg_()
+    texts = svg_texts(graph_svg)
+    assert ElementTree.fromstring(graph_svg).tag.endswith("svg")
+    assert "L1" in texts and "S1" in texts and "closed" in texts  # the switch's junction, as its mode says
+
+
+def test_hbg_draw_writes_a_circuits_schematic_beside_the_bond_graph(tmp_path, capsys):
+    netlist = tmp_path / "buck.cir"
+    netlist.write_text(ideal_buck().to_spice({"t_end": 1e-4, "max_step": 1e-6}))
+    out = tmp_path / "buck.svg"
+    assert main(["draw", str(netlist), "--mode", "S1=open, D1=conducting", "-o", str(out)]) == 0
+    schematic = tmp_path / "buck-schematic.svg"
+    assert out.exists() and schematic.exists()
+    texts = svg_texts(schematic.read_text())
+    assert "S1 open" in texts and "D1 conducting" in texts and "L1" in texts
+    assert f"wrote {schematic}" in capsys.readouterr().out
+    assert main(["draw", str(netlist), "-o", str(tmp_path / "b.png")]) == 0
+    assert (tmp_path / "b-schematic.png").read_bytes().startswith(b"\x89PNG")  # the picture's format
+    chosen = tmp_path / "elsewhere.svg"
+    assert main(["draw", str(netlist), "-o", str(tmp_path / "c.svg"), "--schematic", str(chosen)]) == 0
+    assert chosen.exists() and not (tmp_path / "c-schematic.svg").exists()
+    assert main(["draw", str(netlist), "-o", str(tmp_path / "d.svg"), "--no-schematic"]) == 0
+    assert not (tmp_path / "d-schematic.svg").exists()
+
+
+def test_hbg_draw_of_a_bond_graph_model_draws_no_schematic_and_refuses_one(tmp_path, capsys):
+    assert main(["draw", "diode-circuit", "-o", str(tmp_path / "d.svg")]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["d.svg"]
+    assert main(["draw", "diode-circuit", "-o", str(tmp_path / "e.svg"), "--schematic", str(tmp_path / "s.svg")]) == 2
+    assert "was not built from a circuit or a mechanism" in capsys.readouterr().err
