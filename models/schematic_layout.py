@@ -66,9 +66,6 @@ class Layout:
     pieces: dict
     reference: str
 
-    def slot_of(self, name: str) -> int:
-        return next(k for k, slot in enumerate(self.slots) if name in slot)
-
     def interval(self, name: str) -> tuple:
         """The tracks a piece spans, ``(low, high)`` (a one-node piece: half a gap to its side)."""
         return _interval(self.pieces[name], self.tracks, self.along)
@@ -392,7 +389,7 @@ def _search(order, score) -> list:
                     best, choice = s, trial
             if choice is not None:
                 order, improved = choice, True
-        if not improved or best[:2] == (0, 0) and len(order) > 3 * NEAR:
+        if not improved or (best[:2] == (0, 0) and len(order) > 3 * NEAR):
             break
     return order
 
