@@ -203,7 +203,7 @@ def test_a_state_a_switch_has_not_or_a_component_without_states_is_refused_by_na
         ideal_buck().draw("S1=on")
 
 
-def test_the_circuit_the_model_and_the_mechanism_show_as_svg_in_notebooks():
+def test_a_circuit_and_its_model_show_as_svg_in_notebooks_the_model_as_its_bond_graph():
     circuit = ideal_buck()
     svg = circuit._repr_svg_()
     root = ElementTree.fromstring(svg)
