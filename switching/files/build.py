@@ -34,7 +34,7 @@ from .read import InModeSpec, Part
 from .source import did_you_mean
 from ..language.parsing import parse_condition
 
-__all__ = ["LoadedModel", "FileInfo", "file_info", "used_parameters"]
+__all__ = ["LoadedModel", "FileInfo", "file_info", "keep_file_info", "used_parameters"]
 
 
 @dataclass
@@ -56,6 +56,13 @@ _FILE_INFO: "weakref.WeakKeyDictionary[HybridModel, FileInfo]" = weakref.WeakKey
 def file_info(model: HybridModel) -> FileInfo | None:
     """The :class:`FileInfo` of a model loaded from a model file (None otherwise)."""
     return _FILE_INFO.get(model)
+
+
+def keep_file_info(model: HybridModel, info: FileInfo) -> HybridModel:
+    """``model`` with ``info`` kept as its :func:`file_info` (a file of another form, read by its form:
+    :mod:`switching.files.forms`)."""
+    _FILE_INFO[model] = info
+    return model
 
 
 def _free_names(expr) -> set:
@@ -154,6 +161,11 @@ class LoadedModel:
         return kept
 
     # ------------------------------------------------------------ values
+
+    @property
+    def signal_names(self) -> tuple:
+        """The names of the file's signals, in order."""
+        return tuple(self.part.signals)
 
     @property
     def defaults(self) -> dict:

@@ -150,16 +150,30 @@ Writing
 that the text reads back to the same fingerprint.  Inputs given as Python
 functions cannot be written (use :class:`~switching.model.expression_input.ExpressionInput`),
 nor laws with functions outside the grammar: both raise :class:`ModelFileError`.
+
+Other forms
+===========
+
+A layer above :mod:`switching` may register another form of model file
+(:mod:`switching.files.forms`): :mod:`models` saves a model built by
+``Circuit`` or ``Mechanism`` as its netlist — a ``[circuit]`` or
+``[mechanism]`` table, one line a component (:mod:`models.netlist_files`).
+:func:`save_model` writes a model in its own form when a registered form holds
+it; :class:`ModelFile`, :func:`load_model` and :func:`loads_model` read a file
+of a registered form with that form's reader.  :func:`dumps_model` always
+writes the bond graph (what an FMU carries).
 '''
 
 from __future__ import annotations
 
+import importlib
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from ..model.expression_input import ExpressionInput
 from .build import FileInfo, LoadedModel, file_info
+from .forms import dumps_in_form, form_of
 from .errors import (
     MAX_DEPTH,
     MAX_ELEMENTS,
@@ -251,7 +265,9 @@ class ModelFile:
     def __init__(self, path, components: Mapping[str, Callable] | None = None):
         self.path = Path(path)
         self.components = dict(components or {})
-        self._loaded = LoadedModel(Reader(self.components).read_path(self.path))
+        self._loaded, form = _loaded(Reader(self.components), lambda reader: reader.top_source(self.path))
+        #: the module that registers the file's form (:mod:`switching.files.forms`; "" for a bond graph's file)
+        self.form_module = form.module if form is not None else ""
         settings = self._loaded.settings
         self.name = settings["name"]
         self.__doc__ = settings["description"] or f"model file {self.path}"
@@ -266,17 +282,18 @@ class ModelFile:
             t_end, self.t_end_chosen = suggested_t_end(self.build())
             run["t_end"] = float(f"{t_end:.6g}")
         self.RUN = run  # (a method only if the file names one: hbg run chooses, else)
-        self.SIGNALS = tuple(signals) if signals is not None else tuple(
-            name for name in self._loaded.part.signals)
+        self.SIGNALS = tuple(signals) if signals is not None else self._loaded.signal_names
 
     def build(self, **parameters):
         """A :class:`~switching.model.hybrid_model.HybridModel` with the file's values overridden by ``parameters``."""
         return self._loaded.build(**parameters)
 
     def __getstate__(self):
-        return {"path": self.path.resolve(), "components": self.components}
+        return {"path": self.path.resolve(), "components": self.components, "form_module": self.form_module}
 
     def __setstate__(self, state):
+        if state.get("form_module"):  # (a file of another form: its layer registers the form when imported)
+            importlib.import_module(state["form_module"])
         self.__init__(state["path"], state["components"])
 
     def __repr__(self) -> str:
@@ -293,12 +310,23 @@ def loads_model(text: str, components: Mapping[str, Callable] | None = None, dir
                 name: str = "<text>", **parameters):
     """The model of a model file given as ``text`` (sub-model files are looked
     for in ``directory``; ``name`` is shown in error messages)."""
-    return LoadedModel(Reader(components).read_text(text, name, directory)).build(**parameters)
+    loaded, _ = _loaded(Reader(components), lambda reader: reader.text_source(text, name, directory))
+    return loaded.build(**parameters)
+
+
+def _loaded(reader: Reader, source) -> tuple:
+    """``(loaded, form)`` of the top file ``source(reader)``: a :class:`LoadedModel` (form None), or what
+    its form's reader gives for a file of a registered form (:mod:`switching.files.forms`)."""
+    src = source(reader)
+    form = form_of(src.data)
+    return (form.load(src) if form is not None else LoadedModel(reader.read_top(src))), form
 
 
 def save_model(model, path, *, run: dict | None = None, description: str | None = None) -> None:
     """Write ``model`` to the model file ``path`` (see :func:`dumps_model`
-    for ``run`` and ``description``); the text is checked to read back to the
+    for ``run`` and ``description``): in its own form when a registered form
+    holds it (a model built by ``Circuit`` or ``Mechanism``: its netlist,
+    :mod:`switching.files.forms`), else as its bond graph; the text is checked to read back to the
     same model before the file is written.  ``models.load(path)`` reads it back.
     Also ``model.save(path, ...)``.  Without ``run`` (and not read from a file that has one) the file's
     ``[run]`` is the model's last run, else a ``t_end`` its time scales suggest
@@ -308,6 +336,8 @@ def save_model(model, path, *, run: dict | None = None, description: str | None 
 
     if run is None and (file_info(model) is None or not file_info(model).run):
         run = default_run(model)[0]
-    text = dumps_model(model, run=run, description=description, display=str(path))
+    text = dumps_in_form(model, run=run, description=description, display=str(path))
+    if text is None:  # (no registered form holds it: its bond graph)
+        text = dumps_model(model, run=run, description=description, display=str(path))
     Path(path).write_text(text, encoding="utf-8")
 

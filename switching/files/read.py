@@ -47,6 +47,7 @@ from bondgraph.jump import JUMP_LAWS
 
 from ..errors import GuardSyntaxError
 from ..language.exprtext import as_doubles
+from .forms import UNREGISTERED
 from .errors import (
     MAX_DEPTH,
     MAX_EXPRESSION_CHARS,
@@ -61,7 +62,7 @@ from .part import LAW_NAMES, InModeSpec, Part, build_part
 from .source import Source, did_you_mean, is_number, kind_of
 from ..language.parsing import parse_condition, parse_expression
 
-__all__ = ["FORMAT_KEY", "FORMAT_VERSION", "Part", "InModeSpec", "Reader", "read_text"]
+__all__ = ["FORMAT_KEY", "FORMAT_VERSION", "Part", "InModeSpec", "Reader", "read_text", "run_settings"]
 
 #: The key every model file starts with, and the version this toolkit writes and reads.
 FORMAT_KEY = "hbg_model_format"
@@ -94,17 +95,31 @@ class Reader:
 
     def read_path(self, path) -> Part:
         """The part of the file at ``path`` (the top file of a load)."""
-        path = Path(path)
-        resolved = self._check_file(path, str(path))
-        self.root = resolved.parent
-        return self._read_file(resolved, str(path), 0)
+        return self.read_top(self.top_source(path))
 
     def read_text(self, text: str, display: str = "<text>", directory=None) -> Part:
         """The part of a model given as text; sub-model paths are relative to ``directory``."""
+        return self.read_top(self.text_source(text, display, directory))
+
+    def top_source(self, path) -> Source:
+        """The top file of a load at ``path``: read, checked (size, UTF-8) and its TOML parsed;
+        :meth:`read_top` reads its tables (a file of another form is read by its form:
+        :mod:`switching.files.forms`)."""
+        path = Path(path)
+        resolved = self._check_file(path, str(path))
+        self.root = resolved.parent
+        return Source(resolved, self._text_of(resolved, str(path)), str(path))
+
+    def text_source(self, text: str, display: str = "<text>", directory=None) -> Source:
+        """A model given as text, as :meth:`top_source` gives a file (sub-model paths relative to ``directory``)."""
         self.root = Path(directory).resolve() if directory is not None else None
         if len(text.encode("utf-8", "surrogatepass")) > MAX_FILE_BYTES:
             raise ModelFileError(f"the model text is larger than {MAX_FILE_BYTES} bytes", display)
-        return self._read_part(Source(None, text, display), 0)
+        return Source(None, text, display)
+
+    def read_top(self, src: Source) -> Part:
+        """The part of the top file ``src`` (from :meth:`top_source` or :meth:`text_source`)."""
+        return self._read_part(src, 0) if src.path is None else self._read_source(src, 0)
 
     @staticmethod
     def _check_file(path: Path, display: str) -> Path:
@@ -121,6 +136,10 @@ class Reader:
             return self.parts[resolved]
         if len(self.parts) >= MAX_FILES:
             raise ModelFileError(f"this load reads more than {MAX_FILES} files; refusing to read more", display)
+        return self._read_source(Source(resolved, self._text_of(resolved, display), display), depth)
+
+    @staticmethod
+    def _text_of(resolved: Path, display: str) -> str:
         try:
             with open(resolved, "rb") as handle:
                 raw = handle.read(MAX_FILE_BYTES + 1)
@@ -131,16 +150,18 @@ class Reader:
                 f"the file is larger than {MAX_FILE_BYTES} bytes, the limit for a model file; "
                 "a model this large is better split into sub-model files", display)
         try:
-            text = raw.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is dropped
+            return raw.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is dropped
         except UnicodeDecodeError as exc:
             line = raw[: exc.start].count(b"\n") + 1
             raise ModelFileError(f"not UTF-8 text (byte {exc.start}); save the file as UTF-8", display, line) from None
-        self.stack.append(resolved)
+
+    def _read_source(self, src: Source, depth: int) -> Part:
+        self.stack.append(src.path)
         try:
-            part = self._read_part(Source(resolved, text, display), depth)
+            part = self._read_part(src, depth)
         finally:
             self.stack.pop()
-        self.parts[resolved] = part
+        self.parts[src.path] = part
         return part
 
     # -------------------------------------------------------------- expressions
@@ -201,6 +222,12 @@ class Reader:
             newer = "a newer version of the toolkit" if version > FORMAT_VERSION else "an unknown version"
             raise src.error(f"the file has format {version}, from {newer}; this toolkit reads format "
                             f"{FORMAT_VERSION}", (FORMAT_KEY,))
+        for table, what in UNREGISTERED.items():  # (a registered form's file never comes here at the top)
+            if table in data:
+                raise src.error(f"holds a [{table}] table, {what}" if depth == 0 else
+                                f"holds a [{table}] table (a netlist), which cannot be placed as a sub-model; "
+                                "place a model file of its bond graph (switching.files.modelfile.dumps_model)",
+                                (table,))
         src.table(data, (), "a model file", allowed=(FORMAT_KEY,) + _TOP_KEYS)
         part = Part(src, BondGraph("model"))
         part.settings = self._settings(src, data)
@@ -234,30 +261,12 @@ class Reader:
             if not is_number(value) or not math.isfinite(value) or value < 0:
                 raise src.error(f"{key} must be a finite number ≥ 0, not {value!r}", ("tolerance", key))
         settings["tolerance"] = {k: float(v) for k, v in tolerance.items()}
-        settings["run"] = self._run(src, data.get("run", {}))
+        settings["run"] = run_settings(src, data.get("run", {}))
         units = src.table(data.get("units", {}), ("units",), "[units]", example='theta = "rad"')
         for key, unit in units.items():
             src.text_value(unit, ("units", key), "a unit", f"unit of {key!r}")
         settings["units"] = dict(units)
         return settings
-
-    def _run(self, src: Source, run) -> dict:
-        from ..simulate.driver import METHODS
-
-        run = src.table(run, ("run",), "[run]", allowed=("method", "signals") + _RUN_NUMBERS)
-        out = {}
-        for key, value in run.items():
-            keys = ("run", key)
-            if key == "method":
-                if value not in METHODS:
-                    raise src.error(f"method must be one of {', '.join(METHODS)}, not {value!r}", keys)
-            elif key == "signals":
-                if not isinstance(value, list) or not all(isinstance(s, str) for s in value):
-                    raise src.error("signals must be an array of signal names, e.g. [\"v\", \"i_L\"]", keys)
-            elif not is_number(value) or not math.isfinite(value) or value <= 0:
-                raise src.error(f"{key} must be a finite positive number, not {value!r}", keys)
-            out[key] = value
-        return out
 
     # -------------------------------------------------------------- sub-models
 
@@ -329,6 +338,27 @@ class Reader:
             where = f"{src.display}:{src.lines.line(keys)}"
             raise ModelFileError(f"{exc.message}\n  (in the sub-model file placed as {culprit} at {where})",
                                  exc.path, exc.line, exc.culprit) from None
+
+
+def run_settings(src: Source, run) -> dict:
+    """A file's ``[run]`` table checked: ``method`` one of the methods, ``signals`` an array of names,
+    the numbers finite and positive."""
+    from ..simulate.driver import METHODS
+
+    run = src.table(run, ("run",), "[run]", allowed=("method", "signals") + _RUN_NUMBERS)
+    out = {}
+    for key, value in run.items():
+        keys = ("run", key)
+        if key == "method":
+            if value not in METHODS:
+                raise src.error(f"method must be one of {', '.join(METHODS)}, not {value!r}", keys)
+        elif key == "signals":
+            if not isinstance(value, list) or not all(isinstance(s, str) for s in value):
+                raise src.error("signals must be an array of signal names, e.g. [\"v\", \"i_L\"]", keys)
+        elif not is_number(value) or not math.isfinite(value) or value <= 0:
+            raise src.error(f"{key} must be a finite positive number, not {value!r}", keys)
+        out[key] = value
+    return out
 
 
 #: what the names of an element law may be
