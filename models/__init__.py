@@ -25,7 +25,9 @@ gears, motors, clutches, stops and backlash), :mod:`models.components` (sub-mode
 
 A model file is loaded with :func:`load` (``models.load("relay.toml")``), its
 sub-model instances may place the components of :mod:`models.components` by
-name (``component = "msd_cell"``).
+name (``component = "msd_cell"``).  A model built by ``Circuit`` or ``Mechanism`` saves
+as its netlist (one line a component: :mod:`models.netlist_files`), a form
+``import models`` registers with :mod:`switching.files.forms`.
 """
 
 from __future__ import annotations
@@ -83,6 +85,30 @@ def resolve(reference: str | os.PathLike):
             f"unknown model {reference!r}; shipped models: {', '.join(MODELS)} (a model file is a path ending "
             "in .toml)", str(reference))
     return importlib.import_module(f"models.{key}")
+
+
+def _register_netlist_form() -> None:
+    """Model files of netlists (``[circuit]``, ``[mechanism]``: :mod:`models.netlist_files`), written by
+    ``model.save`` for a model built by ``Circuit`` or ``Mechanism`` and read wherever model files are
+    (:mod:`switching.files.forms`); the module is imported when a file of the form is first met."""
+    from switching.files.forms import FileForm, register_form
+
+    def dumps(model, **options):
+        if getattr(model, "built_from", None) is None:
+            return None
+        from .netlist_files import dumps_netlist
+
+        return dumps_netlist(model, **options)
+
+    def load(source):
+        from .netlist_files import NetlistFile
+
+        return NetlistFile(source)
+
+    register_form(FileForm("netlist", ("circuit", "mechanism"), dumps, load, module=__name__))
+
+
+_register_netlist_form()
 
 
 def load(name: str | os.PathLike, **parameters):
