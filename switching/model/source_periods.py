@@ -22,6 +22,7 @@ was stepped over without it.
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 
@@ -39,22 +40,43 @@ PERIOD_FRACTION = 16
 
 def _periods(expr: sp.Expr, values: dict) -> list[float]:
     """The periods [s] of the sinusoids of ``t`` in ``expr`` (arguments affine in ``t``, their
-    coefficients numbers once ``values`` are substituted)."""
+    coefficients numbers once ``values`` — symbol → a number as the model holds it — are substituted)."""
     periods = []
+    for turn, rate, symbols in _sinusoids(expr):
+        period = _period(turn, rate, tuple((s, type(values[s]), values[s]) for s in symbols if s in values))
+        if period is not None:
+            periods.append(period)
+    return periods
+
+
+@functools.lru_cache(maxsize=1024)
+def _sinusoids(expr: sp.Expr) -> tuple:
+    """``(turn, rate, symbols)`` of each ``sin``, ``cos`` or ``tan`` of time in ``expr``: its period's
+    angle (``2π``, ``π`` for ``tan``), its argument's rate ``dθ/dt`` and the symbols that rate reads
+    (derived once per expression: a warm run evaluates them only)."""
+    found = []
     for function in expr.atoms(sp.sin, sp.cos, sp.tan):
         argument = function.args[0]
-        if not argument.has(TIME):
-            continue
-        rate = sp.diff(argument, TIME).xreplace(values)
-        if rate.has(TIME) or not rate.is_number:
-            continue
-        try:
-            omega = abs(float(rate))
-        except (TypeError, ValueError):
-            continue
-        if omega > 0 and math.isfinite(omega):
-            periods.append((math.pi if isinstance(function, sp.tan) else 2 * math.pi) / omega)
-    return periods
+        if argument.has(TIME):
+            rate = sp.diff(argument, TIME)
+            found.append((math.pi if isinstance(function, sp.tan) else 2 * math.pi, rate,
+                          tuple(sorted(rate.atoms(sp.Symbol), key=sp.default_sort_key))))
+    return tuple(found)
+
+
+@functools.lru_cache(maxsize=4096)
+def _period(turn: float, rate: sp.Expr, values: tuple) -> float | None:
+    """``turn / |rate|`` [s] with ``values`` ``((symbol, type, number), …)`` substituted (as sympy numbers),
+    or ``None`` where the rate is no positive finite number (it reads time, or a symbol without a value):
+    computed once per rate and values, so that a parameter study pays it only for the values it moves."""
+    number = rate.xreplace({symbol: sp.Float(value) for symbol, _, value in values})
+    if number.has(TIME) or not number.is_number:
+        return None
+    try:
+        omega = abs(float(number))
+    except (TypeError, ValueError):
+        return None
+    return turn / omega if omega > 0 and math.isfinite(omega) else None
 
 
 def source_periods(model) -> list[float]:
@@ -68,14 +90,14 @@ def source_periods(model) -> list[float]:
     values = _values(model)
     periods = [period for expression in timed for period in _periods(expression, values)]
     for expression, given in inputs:
-        parameters = {sp.Symbol(k): sp.Float(v) for k, v in given.items()}
+        parameters = {sp.Symbol(k): v for k, v in given.items()}
         periods += _periods(sp.sympify(expression), {**values, **parameters})
     return periods
 
 
 def _values(model) -> dict:
-    """Symbol → value of every parameter, as sympy numbers (built only where a sinusoid needs them)."""
-    return {sp.Symbol(k) if isinstance(k, str) else k: sp.Float(v) for k, v in model.parameter_values.items()}
+    """Symbol → value of every parameter (made sympy numbers only where a rate reads them: :func:`_period`)."""
+    return {sp.Symbol(k) if isinstance(k, str) else k: v for k, v in model.parameter_values.items()}
 
 
 #: mode space → the sources' values that hold a sinusoid of time (they depend on the structure alone)

@@ -73,3 +73,34 @@ def test_a_clock_only_guards_read_bounds_the_step():
     window = dict(periods=10, period=1 / f_sw)
     assert default.measure("v_C", "mean", **window) == pytest.approx(bounded.measure("v_C", "mean", **window),
                                                                      rel=1e-6)
+
+
+def test_the_periods_are_derived_once_and_follow_the_values():
+    """A warm run evaluates the rates only, once per value of the parameters they read (a parameter
+    study moving another parameter pays nothing); the periods are those of the expression's own
+    substitution, to the bit."""
+    import sympy as sp
+
+    from bondgraph.symbols import t
+    from models import boost_converter
+    from switching.model import source_periods as sp_module
+
+    model = boost_converter.build()
+    model.simulate(1e-4, "RK45")  # (the run bounds its step with them)
+    values = {symbol: value for symbol, value in model.parameter_values.items()}
+    expected = []
+    for expression in sp_module._timed_guards(model):  # the direct computation
+        for function in expression.atoms(sp.sin, sp.cos, sp.tan):
+            rate = sp.diff(function.args[0], t)
+            number = float(abs(rate.xreplace({s: sp.Float(v) for s, v in values.items()})))
+            expected.append(2 * math.pi / number)
+    assert sp_module.guard_periods(model) == expected
+    before = sp_module._period.cache_info()
+    names = {s.name: v for s, v in values.items()}
+    for load in (10.0, 20.0, 30.0):  # a sweep of the load: the carrier's rate reads f_sw only
+        model.set_parameter_values({**names, "R_load": load})
+        assert sp_module.guard_periods(model) == expected
+    after = sp_module._period.cache_info()
+    assert after.misses == before.misses and after.hits > before.hits
+    model.set_parameter_values({**names, "f_sw": 20e3})
+    assert sp_module.guard_periods(model) == [pytest.approx(1 / 20e3, rel=1e-12)] * 2
