@@ -15,6 +15,7 @@ from .flow_failures import FlowFailure, nonfinite_message, overflow_message, ste
 from .integrators import StiffnessDetected
 from .methods import METHOD_CLASSES
 from .preflight import nonfinite_at_start
+from .recorder import REQUESTED, STATE
 from .resolution import CompiledInstant
 
 __all__ = ["run_kernel"]
@@ -23,10 +24,14 @@ _KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
 
 
 def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False,
-               auto=None):
+               auto=None, instants_pass=None):
     """Calls of the compiled kernel from ``(t, mode, x)``: flows, events and
     restarts in compiled code, each instant recorded (and checked) by
     ``after_event``; with ``initial``, the instant at ``t`` is resolved first.
+    ``instants_pass(times, count)``: would the ``count`` instants of a call,
+    the run's checks seeing those at ``times``, all pass ``after_event``?
+    When it says so (having taken them) the call's samples and instants are
+    recorded at once (:meth:`~switching.simulate.recorder.Recorder.block`).
     ``auto`` (a :class:`~switching.library.jit_model.AutoChoice` on the
     compiled path): the kernel flows with RK45 or RODAS4P per mode, each mode
     judged before the call that may enter it; a mode where RK45's stiffness
@@ -53,9 +58,16 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         if initial and KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
             return None, t, x, mode, 0, "initial"
         steps += result.steps
-        saved = 0
+        saved, at_once = 0, False
         keep = recorder.requested if dense is not None else functools.partial(recorder.sample, force=True)
-        if result.n_events:
+        if (result.n_events or result.n_saved) and instants_pass is not None:
+            arrays = result.arrays()
+            times = arrays.t_events.tolist()
+            if instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
+                recorder.block(arrays, compiled.modes, REQUESTED if dense is not None else STATE,
+                               _instants(model, compiled.modes, times, arrays))
+                saved, at_once = result.n_saved, True
+        if result.n_events and not at_once:
             for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
                 for sample in result.samples(saved, at):
                     keep(*sample)
@@ -129,3 +141,11 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         else:
             message = nonfinite_message(model, mode, t, x)
         raise FlowFailure(NonFiniteStateError, message, t, x, steps, mode)
+
+
+def _instants(model, modes, times, arrays) -> list:
+    """The records of a kernel call's events (:class:`~switching.library.jit_model.KernelArrays`), their
+    states rows of copies of the call's."""
+    return [CompiledInstant(model, t, modes[before], x_before, modes[after], x_after)
+            for t, before, x_before, after, x_after in zip(times, arrays.before.tolist(), arrays.x_before.copy(),
+                                                            arrays.after.tolist(), arrays.x_after.copy())]

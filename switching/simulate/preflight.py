@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..library.compiled import condition_tree
+from ..library.compiled import condition_tree, decide_tree
 from .real_values import complex_law_message
 
-__all__ = ["nonfinite_at_start"]
+__all__ = ["nonfinite_at_start", "nonfinite_sides_at_start"]
 
 
 def _comparisons(tree, out: list) -> list:
@@ -44,6 +44,23 @@ def _parameters_read(model, expr) -> str:
         return ""
     text = ", ".join(f"{s.name} = {values[s]:g}" for s in suspicious + rest)
     return f"; it reads {text}"
+
+
+def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str | None:
+    """Where the compiled kernel starts a run at ``x`` (n,), ``t`` [s] in the mode of ``cm``: unless a guard
+    holds there (the kernel then resolves the instant first), :func:`nonfinite_at_start` with
+    ``rates=False`` — a guard whose side is not finite would never fire.  The sides are evaluated once,
+    and only a side that is not finite asks whether a guard holds (with the guard tolerances ``rtol``,
+    ``atol``): where all are finite there is nothing to tell either way."""
+    if not cm.n_sides:
+        return None
+    sides = cm.sides(x, t)
+    with np.errstate(all="ignore"):
+        if np.isfinite(np.asarray(sides, dtype=float)).all():
+            return None
+    if any(decide_tree(g["tree"], sides, rtol, atol) for g in cm.guards):
+        return None
+    return nonfinite_at_start(model, cm, x, t, rates=False)
 
 
 def nonfinite_at_start(model, cm, x, t, rates: bool = True) -> str | None:

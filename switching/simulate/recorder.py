@@ -13,6 +13,10 @@ from it by the run's sampling (:meth:`Recorder.rows`):
 * ``"samples"`` (``samples=N``): the requested times and every instant's
   before and after rows, in time order.
 
+A kernel call's samples and instants arrive at once (:meth:`Recorder.block`) and are
+kept as arrays, joined into the trajectory's columns when it is made: a warm compiled
+run spends no time per row in Python.
+
 A requested time ``τ`` at an instant's time ``t_k`` gets the state after
 the instant (the trajectory is right-continuous there, as scipy's
 ``solve_ivp`` samples a restarted solution): its row follows the instant's
@@ -56,18 +60,77 @@ class Recorder:
         self.t_eval = None if t_eval is None else np.asarray(sorted(t_eval), dtype=float)
         self.sampling = "steps" if t_eval is None else "samples" if with_instants else "times"
         self.eval_pos = 0
-        self.t: list = []
-        self.x: list = []
-        self.modes: list = []
-        self.kinds: list = []
+        self._pieces: list = []  # rows recorded at once, in order: (t (k,), x (k, n), modes [k], kinds (k,))
+        self._in_pieces = 0  # how many
+        self._t: list = []  # the rows recorded one at a time after the pieces
+        self._x: list = []
+        self._modes: list = []
+        self._kinds: list = []
         self.events: list = []
         self.event_index: list = []
 
+    @property
+    def t(self) -> list:
+        """The time [s] of every sample recorded."""
+        self._join()
+        return self._t
+
+    @property
+    def x(self) -> list:
+        """The state (n,) of every sample recorded."""
+        self._join()
+        return self._x
+
+    @property
+    def modes(self) -> list:
+        """The mode of every sample recorded."""
+        self._join()
+        return self._modes
+
+    @property
+    def kinds(self) -> list:
+        """The kind (:data:`STATE`, :data:`REQUESTED`, :data:`BEFORE`, :data:`AFTER`) of every sample recorded."""
+        self._join()
+        return self._kinds
+
+    @property
+    def n_rows(self) -> int:
+        """How many samples are recorded."""
+        return self._in_pieces + len(self._t)
+
     def _append(self, t, x, mode, kind):
-        self.t.append(float(t))
-        self.x.append(x)
-        self.modes.append(mode)
-        self.kinds.append(kind)
+        self._t.append(float(t))
+        self._x.append(x)
+        self._modes.append(mode)
+        self._kinds.append(kind)
+
+    def _close(self) -> None:
+        """The rows recorded one at a time made a piece (a block follows them)."""
+        if self._t:
+            n = len(self.model.states)
+            self._pieces.append((np.array(self._t, dtype=float), np.array(self._x).reshape(len(self._x), n),
+                                 self._modes, np.array(self._kinds, dtype=np.int64)))
+            self._in_pieces += len(self._t)
+            self._t, self._x, self._modes, self._kinds = [], [], [], []
+
+    def _join(self) -> None:
+        """The pieces made rows of the lists again (read one by one: a run that failed or stopped)."""
+        if self._pieces:
+            t, x, modes, kinds = self.columns()
+            self._pieces, self._in_pieces = [], 0
+            self._t, self._x, self._modes, self._kinds = t.tolist(), list(x), modes, kinds.tolist()
+
+    def columns(self) -> tuple:
+        """``(t (N,), x (N, n), modes [N], kinds (N,))`` of every sample recorded, in order."""
+        self._close()
+        pieces = self._pieces
+        if len(pieces) == 1:
+            t, x, modes, kinds = pieces[0]
+            return t, x, list(modes), kinds
+        if not pieces:
+            return np.zeros(0), np.zeros((0, len(self.model.states))), [], np.zeros(0, dtype=np.int64)
+        return (np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces]),
+                [mode for p in pieces for mode in p[2]], np.concatenate([p[3] for p in pieces]))
 
     def sample(self, t, x, mode, force=False):
         """A state of the run (a step, or with ``force`` its start, end or where it stopped)."""
@@ -113,7 +176,60 @@ class Recorder:
         self._append(instant.t, instant.x_before.copy(), instant.mode_before, BEFORE)
         self._append(instant.t, instant.x_after.copy(), instant.mode_after, AFTER)
         self.events.append(instant)
-        self.event_index.append(len(self.t) - 1)
+        self.event_index.append(self.n_rows - 1)
+
+    def block(self, arrays, modes: list, kind: int, instants: list) -> None:
+        """One kernel call's samples and instants at once, recorded as :meth:`sample` (forced; ``kind`` STATE)
+        or :meth:`requested` (``kind`` REQUESTED) of each sample and :meth:`event` of each instant would
+        record them, in order: ``arrays`` a :class:`~switching.library.jit_model.KernelArrays` (modes as
+        their numbers in ``modes``; read, not kept), ``instants`` the records of its events.  The rows recorded one at a
+        time since the last piece (the run's start) begin the piece they make."""
+        self.n_events += len(instants)
+        if instants:
+            self.last_instant = instants[-1]
+            self._flowed_through(arrays.t_events.tolist(), arrays.before.tolist(), modes)
+        pairs = len(instants) if self.keep_instants else 0
+        lead, n = len(self._t), arrays.x.shape[1]
+        size = lead + len(arrays.t) + 2 * pairs
+        if size == lead:
+            return
+        if not (lead or pairs):
+            t, x, numbers = arrays.t.copy(), arrays.x.copy(), arrays.modes
+            kinds = np.full(size, kind, dtype=np.int64)
+        else:
+            t, x = np.empty(size), np.empty((size, n))
+            numbers, kinds = np.empty(size, dtype=np.int64), np.full(size, kind, dtype=np.int64)
+            samples = np.arange(len(arrays.t))
+            if pairs:
+                before = lead + arrays.at + 2 * np.arange(pairs)  # the rows of the states before the instants
+                after = before + 1
+                samples += 2 * np.searchsorted(arrays.at, samples, side="right")  # (after the instants at or before)
+                t[before] = t[after] = arrays.t_events
+                x[before], x[after] = arrays.x_before, arrays.x_after
+                numbers[before], numbers[after] = arrays.before, arrays.after
+                kinds[before], kinds[after] = BEFORE, AFTER
+                self.event_index.extend((self._in_pieces + after).tolist())
+                self.events.extend(instants)
+            samples += lead
+            t[samples], x[samples], numbers[samples] = arrays.t, arrays.x, arrays.modes
+            if lead:
+                t[:lead], x[:lead], kinds[:lead] = self._t, np.array(self._x).reshape(lead, n), self._kinds
+        self._pieces.append((t, x, self._modes + [modes[k] for k in numbers[lead:].tolist()], kinds))
+        self._in_pieces += size
+        self._t, self._x, self._modes, self._kinds = [], [], [], []
+
+    def _flowed_through(self, times: list, before: list, modes: list) -> None:
+        """:meth:`_flowed` to each instant at ``times`` [s] from the mode numbered ``before`` (into ``modes``),
+        in order: the same sums, each mode hashed once."""
+        boundary, spent = self.boundary, {}
+        for t, number in zip(times, before):
+            if boundary is not None and t > boundary:
+                spent[number] = spent[number] if number in spent else self.mode_time.get(modes[number], 0.0)
+                spent[number] += t - boundary
+            boundary = max(boundary if boundary is not None else t, t)
+        self.boundary = boundary
+        for number, total in spent.items():
+            self.mode_time[modes[number]] = total
 
     def _flowed(self, t, mode):
         if self.boundary is not None and t > self.boundary:
@@ -127,17 +243,22 @@ class Recorder:
         them (empty when the rows hold no instants: ``t_eval``).  A run that
         is not ``complete`` (it stopped before ``t_end``) also keeps its last
         recorded state when it is later than the last row."""
-        n = len(self.t)
         if self.sampling == "steps":
-            return list(range(n)), list(self.event_index)
+            return list(range(self.n_rows)), list(self.event_index)
+        t, _, _, kinds = self.columns()
+        rows, event_index = self._rows(t, kinds, complete)
+        return rows.tolist(), event_index
+
+    def _rows(self, t: np.ndarray, kinds: np.ndarray, complete: bool) -> tuple:
+        """:meth:`rows` of the recorded columns ``t`` and ``kinds``, the rows as an array."""
+        n = len(t)
         wanted = (REQUESTED,) if self.sampling == "times" else (REQUESTED, BEFORE, AFTER)
-        rows = [k for k in range(n) if self.kinds[k] in wanted]
-        if not complete and n and (not rows or self.t[n - 1] > self.t[rows[-1]]):
-            rows.append(n - 1)
+        rows = np.flatnonzero(np.isin(kinds, wanted))
+        if not complete and n and (not len(rows) or t[n - 1] > t[rows[-1]]):
+            rows = np.append(rows, n - 1)
         if self.sampling == "times":
             return rows, []
-        position = {k: j for j, k in enumerate(rows)}
-        return rows, [position[k] for k in self.event_index]
+        return rows, np.searchsorted(rows, self.event_index).tolist()
 
     def trajectory(self, stopped=None, stats=None, complete=False, all_rows=False):
         """The :class:`Trajectory` of the run so far: the rows of its sampling
@@ -145,16 +266,15 @@ class Recorder:
         the run reached ``t_end``."""
         stats = dict(stats or {})
         stats["instants"] = self.n_events
-        n = len(self.model.states)
-        if all_rows or self.sampling == "steps":  # every sample recorded: the lists as they are
-            times, xs, modes, event_index = self.t, self.x, self.modes, list(self.event_index)
-        else:
-            rows, event_index = self.rows(complete)
-            times, xs, modes = [self.t[k] for k in rows], [self.x[k] for k in rows], [self.modes[k] for k in rows]
-        x = np.array(xs).reshape(len(xs), n) if xs else np.zeros((0, n))
+        times, x, modes, kinds = self.columns()
         mode_time = dict(self.mode_time)
-        if self.t and self.boundary is not None and self.t[-1] > self.boundary:
-            mode_time[self.modes[-1]] = mode_time.get(self.modes[-1], 0.0) + (self.t[-1] - self.boundary)
+        if len(times) and self.boundary is not None and times[-1] > self.boundary:
+            mode_time[modes[-1]] = mode_time.get(modes[-1], 0.0) + (float(times[-1]) - self.boundary)
+        if all_rows or self.sampling == "steps":  # every sample recorded
+            event_index = list(self.event_index)
+        else:
+            rows, event_index = self._rows(times, kinds, complete)
+            times, x, modes = times[rows], x[rows], [modes[k] for k in rows.tolist()]
         return Trajectory(self.model, times, x, modes, self.events, event_index, stopped, stats,
                           mode_time=mode_time, instants_kept=self.keep_instants, initial_projection=self.projection,
                           sampling=self.sampling)

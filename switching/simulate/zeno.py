@@ -29,6 +29,23 @@ class ZenoWatch:
         self.min_gap = min_gap
         self.times: list[float] = []
 
+    def quiet(self, times: list) -> bool:
+        """Would :meth:`add` of each of ``times`` [s] (in order) find nothing?  It does where each gap
+        is at least ``min_gap`` and above round-off (both are needed for Zeno): then the times are
+        added, as :meth:`add` would, and True returned; else nothing changes (False: add them one by
+        one, which decides).  A kernel call's instants, checked at once."""
+        previous = self.times[-1] if self.times else None
+        for t in times:
+            if previous is not None:
+                gap = t - previous
+                if not (gap >= self.min_gap and gap > 16 * math.ulp(abs(t) + 1.0)):
+                    return False
+            previous = t
+        if times:
+            self.times.extend(times)
+            del self.times[:-(self.window + 2)]
+        return True
+
     def add(self, t: float):
         """Return the estimated accumulation time if Zeno behaviour is seen
         (plain floats: this runs at every event)."""

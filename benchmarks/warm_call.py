@@ -1,0 +1,141 @@
+"""The cost of a compiled call around its kernel: a warm ``simulate`` against the kernel alone.
+
+    python benchmarks/warm_call.py [--repeats N] [--calls N] [--no-cold]
+
+A parameter study, a fit, a sensitivity sweep or a Monte Carlo ensemble call the same model
+thousands of times, so what a warm call spends outside the kernel (checking the options, setting the
+run up, recording, building the trajectory) is their whole overhead (issue 46).  Rows:
+
+  call         ``model.simulate(t_end, "RK45-jit", ...)`` on a model that has run before (warm);
+  kernel       the same run's kernel calls alone (``CompiledModel.run`` with the very arguments the
+               call gave it, captured from one call and replayed);
+  ratio        call / kernel: the target is 1.5 on the bouncing ball;
+  overhead     call − kernel.
+
+Cases:
+  ball          the bouncing ball, 20 bounces (t_end 4.02 s), rtol 1e-8, every step kept;
+  ball events   the same, ``output="events"`` (the start, the instants, the end);
+  ball sweep    the same as ``ball`` with another restitution each call (a parameter study);
+  boost         the boost converter, 10 periods (1 ms, 20 instants), rtol 1e-8.
+
+Each figure is the least of ``--repeats`` rounds (the least disturbed on a shared machine) of the mean
+of ``--calls`` calls; the rounds interleave the call and its kernel, so a change of load moves both.
+``--no-cold`` skips the first calls in new processes (a warm disk cache: imports, build, first call).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from models import boost_converter, bouncing_ball  # noqa: E402
+from switching.library.jit_model import CompiledModel  # noqa: E402
+
+BALL_END = 4.02  # 20 bounces
+
+
+def captured_kernel(run):
+    """The kernel calls ``run()`` makes, as a function replaying them with the same arguments."""
+    calls = []
+    original = CompiledModel.run
+
+    def spy(self, *args, **kwargs):
+        calls.append((self, args, kwargs))
+        return original(self, *args, **kwargs)
+
+    CompiledModel.run = spy
+    try:
+        run()
+    finally:
+        CompiledModel.run = original
+
+    def kernel():
+        for compiled, args, kwargs in calls:
+            original(compiled, *args, **kwargs)
+    return kernel
+
+
+def cases():
+    ball = bouncing_ball.build()
+    boost = boost_converter.build()
+    swept = bouncing_ball.build()
+    values = {symbol.name: value for symbol, value in swept.parameter_values.items()}
+    restitutions = itertools.cycle(np.linspace(0.8, 0.82, 101))
+
+    def sweep():
+        swept.set_parameter_values({**values, "e": next(restitutions)})
+        return swept.simulate(BALL_END, "RK45-jit", rtol=1e-8)
+
+    return [
+        ("ball", lambda: ball.simulate(BALL_END, "RK45-jit", rtol=1e-8)),
+        ("ball events", lambda: ball.simulate(BALL_END, "RK45-jit", rtol=1e-8, output="events")),
+        ("ball sweep", sweep),
+        ("boost", lambda: boost.simulate(1e-3, "RK45-jit", rtol=1e-8)),
+    ]
+
+
+def least_mean(fns, calls: int, repeats: int) -> list:
+    """The least over ``repeats`` interleaved rounds of the mean time [s] of ``calls`` calls of each."""
+    best = [np.inf] * len(fns)
+    for _ in range(repeats):
+        for k, fn in enumerate(fns):
+            started = time.perf_counter()
+            for _ in range(calls):
+                fn()
+            best[k] = min(best[k], (time.perf_counter() - started) / calls)
+    return best
+
+
+COLD = """
+import sys, time
+sys.path.insert(0, {root!r})
+started = time.perf_counter()
+from models import bouncing_ball
+imported = time.perf_counter()
+ball = bouncing_ball.build()
+built = time.perf_counter()
+ball.simulate({t_end}, "RK45-jit", rtol=1e-8)
+first = time.perf_counter()
+ball.simulate({t_end}, "RK45-jit", rtol=1e-8)
+second = time.perf_counter()
+print(imported - started, built - imported, first - built, second - first)
+"""
+
+
+def cold() -> str:
+    """The first and second call in a new process (the disk caches warm from the runs above)."""
+    out = subprocess.run([sys.executable, "-c", COLD.format(root=str(ROOT), t_end=BALL_END)], capture_output=True,
+                         text=True, check=True).stdout.split()
+    imported, built, first, second = map(float, out)
+    return (f"ball in a new process: import {imported:.2f} s, build {built * 1e3:.1f} ms, first call "
+            f"{first * 1e3:.2f} ms, second call {second * 1e6:.0f} µs")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--calls", type=int, default=500)
+    parser.add_argument("--no-cold", action="store_true", help="skip the first calls in new processes")
+    args = parser.parse_args(argv)
+    print(f"{'case':<12} {'call':>9} {'kernel':>9} {'ratio':>6} {'overhead':>9}")
+    for name, call in cases():
+        call()  # warm: modes compiled or loaded, the kernel's buffers allocated
+        kernel = captured_kernel(call)
+        call_time, kernel_time = least_mean([call, kernel], args.calls, args.repeats)
+        print(f"{name:<12} {call_time * 1e6:>7.1f}µs {kernel_time * 1e6:>7.1f}µs {call_time / kernel_time:>6.2f} "
+              f"{(call_time - kernel_time) * 1e6:>7.1f}µs")
+    if not args.no_cold:
+        print(cold())
+
+
+if __name__ == "__main__":
+    main()
