@@ -276,8 +276,9 @@ def export_settings(model: HybridModel, method: str = "RK45", rtol=None, atol=No
         raise OptionValueError(f"method {method!r} compiles the inputs as expressions of t, but an FMU holds its inputs "
                                f"({', '.join(model.graph.inputs)}) at the values the master sets: choose a Python method "
                                f"({'euler, rk4' if cls.fixed_step else 'RK45, Radau, ...'})", "method", method)
-    options = {"dt": dt} if cls.fixed_step else {"rtol": 1e-6 if rtol is None else rtol,
-                                                  "atol": 1e-9 if atol is None else atol}
+    options = {"dt": dt} if cls.fixed_step else {"rtol": 1e-6 if rtol is None else rtol}
+    if atol is not None and not cls.fixed_step:  # (without: each state's own, as simulate's default)
+        options["atol"] = atol
     if max_step is not None and not cls.fixed_step:
         options["max_step"] = max_step
     if cls.fixed_step and (rtol, atol, max_step) != (None, None, None):

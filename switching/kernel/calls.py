@@ -84,6 +84,7 @@ Model = namedtuple("Model", [
     "jfns",  # int64[modes]: address of each mode's compiled Jacobian (MODE_SIGNATURE, op 6); 0: none
     "implicit",  # int64[modes]: 1 where method "auto" flows with the implicit method (kind 3), 0 with RK45
     "driven",  # int64: 1 when inputs drive the flow (the implicit method then needs ∂f/∂t)
+    "atol",  # float64[n]: each state's absolute tolerance (switching.simulate.state_tolerances)
 ])
 Model.__doc__ = """A model as the kernel sees it (see :func:`switching.library.jit_model.CompiledModel.record`)."""
 

@@ -111,15 +111,24 @@ def interp(kind, t_old, h, A, tau, out):
             out[i] = nearer_end(y_old[i] + h * acc, y_old[i], y_new[i], abs(y_old[i]) + abs(h) * terms)
 
 
+@inline
+def state_atol(M, m, i):
+    """The absolute tolerance of component ``i`` of mode ``m``'s flow: its ``i``-th independent state's
+    (``M.atol``, :mod:`switching.simulate.state_tolerances`); 1 for the dummy of a flow with none."""
+    if i < M.lengths[0][m]:
+        return M.atol[M.tables[0][m, i]]
+    return 1.0
+
+
 @jit
-def initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, M, tmp, f1):
-    """scipy.integrate._ivp.common.select_initial_step (order 4)."""
+def initial_step(m, k, t0, y, f, t_end, rtol, max_step, M, tmp, f1):
+    """scipy.integrate._ivp.common.select_initial_step (order 4), each state's ``atol`` its own."""
     interval = abs(t_end - t0)
     ke = y.shape[0]
     d0 = 0.0
     d1 = 0.0
     for i in range(ke):
-        sc = atol + abs(y[i]) * rtol
+        sc = state_atol(M, m, i) + abs(y[i]) * rtol
         d0 += (y[i] / sc) ** 2
         d1 += (f[i] / sc) ** 2
     d0 = math.sqrt(d0 / ke)
@@ -134,7 +143,7 @@ def initial_step(m, k, t0, y, f, t_end, rtol, atol, max_step, M, tmp, f1):
     fun(m, t0 + h0, tmp, k, M, f1)
     d2 = 0.0
     for i in range(ke):
-        sc = atol + abs(y[i]) * rtol
+        sc = state_atol(M, m, i) + abs(y[i]) * rtol
         d2 += ((f1[i] - f[i]) / sc) ** 2
     d2 = math.sqrt(d2 / ke) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
@@ -203,7 +212,7 @@ def fixed_step(kind, m, k, t, t_end, dt, streak, history, check, A, W, M, info):
 
 
 @inline
-def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
+def adaptive_step(m, k, t, t_end, h_abs, rtol, max_step, A, W, M):
     """One accepted step of RK45 from ``(t, y)``, trying ``h_abs`` first (bounded by ``max_step`` and ten
     spacings of floating-point numbers at ``t``), with scipy's error norm and step factors (0.2 to 10, safety
     0.9; no growth right after a rejection; a trial whose stages leave the reals is rejected with 0.2): the
@@ -254,7 +263,7 @@ def adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M):
             acc = 0.0
             for j in range(7):
                 acc += K[j, i] * RK_E[j]
-            sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+            sc = state_atol(M, m, i) + max(abs(y[i]), abs(y_new[i])) * rtol
             err[i] = acc * h / sc
         error_norm = _rms(err)
         if error_norm != error_norm:

@@ -65,6 +65,7 @@ from ..rules.rosenbrock import D as RD
 from ..rules.rosenbrock import GAMMA, H as RH
 from ..rules.rosenbrock import GAMMA_C as RG
 from .calls import finite, fun, jac
+from .flow import state_atol
 from .compiler import dispatch, inline, rodas_control, stamp_with_rules
 
 __all__ = ["implicit_workspaces", "jacobian", "lu_factor", "lu_solve", "rosenbrock_step"]
@@ -340,7 +341,7 @@ def jacobian(m, k, t, y, f, M, L, tmp, f1):
 
 
 @inline
-def _stages(m, k, t, h, rtol, atol, A, W, L, M):
+def _stages(m, k, t, h, rtol, A, W, L, M):
     """The six stages of a step of size ``h`` (``E_SS``'s LU factors in ``L[1]``) into ``K[0:6]``, ``y₁``
     into ``y_new``; returns the error norm."""
     y, f, y_new, f_new, Q = A
@@ -365,13 +366,13 @@ def _stages(m, k, t, h, rtol, atol, A, W, L, M):
     total = 0.0
     for c in range(ke):
         y_new[c] = tmp[c] + K[5, c]
-        sc = atol + max(abs(y[c]), abs(y_new[c])) * rtol
+        sc = state_atol(M, m, c) + max(abs(y[c]), abs(y_new[c])) * rtol
         total += (K[5, c] / sc) ** 2
     return math.sqrt(total / ke)
 
 
 @inline
-def _damped_motion(jbuf, ke, gh, y, y_new, rtol, atol):
+def _damped_motion(jbuf, ke, gh, y, y_new, rtol, M, m):
     """``‖(I − γh·J)·Δ‖`` (root mean square, each state over ``atol + rtol·max(|y|, |y₁|)``) of the step's
     motion ``Δ = y₁ − y`` with the Jacobian ``J`` in ``jbuf``: how much the implicit stages damp that motion."""
     total = 0.0
@@ -379,13 +380,13 @@ def _damped_motion(jbuf, ke, gh, y, y_new, rtol, atol):
         acc = y_new[i] - y[i]
         for j in range(ke):
             acc -= gh * jbuf[i * ke + j] * (y_new[j] - y[j])
-        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+        sc = state_atol(M, m, i) + max(abs(y[i]), abs(y_new[i])) * rtol
         total += (acc / sc) ** 2
     return math.sqrt(total / max(ke, 1))
 
 
 @dispatch
-def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
+def rosenbrock_step(m, k, t, t_end, h_abs, rtol, max_step, A, W, L, M):
     """One accepted RODAS4P step from ``(t, y)``, trying ``h_abs`` first (see the module docstring): ``y₁``
     in ``y_new`` with its rates ``f_new``, the continuous extension's coefficients in ``Q``.  Returns ``(ok,
     t_new, h, h_abs)``: not ok when the step size collapsed, or (``h_abs`` NaN) when the error is not a number;
@@ -419,7 +420,7 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
         h = t_new - t
         h_abs = abs(h)
         factored = _factor(jbuf, lu, piv, order, int(ctl[2]), ke, 1.0 / (GAMMA * h))
-        error = _stages(m, k, t, h, rtol, atol, A, W, L, M) if factored else np.inf
+        error = _stages(m, k, t, h, rtol, A, W, L, M) if factored else np.inf
         if error != error:
             if not finite(f):  # NaN rates where the step starts: never loop on
                 return False, t, h, np.nan
@@ -431,9 +432,9 @@ def rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M):
         h_next, h_acc, err_acc = rodas_control(error, h_abs, ctl[0], ctl[1], rejected)
         if error <= 1.0:
             fun(m, t_new, y_new, k, M, f_new)
-            start = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, atol)
+            start = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, M, m)
             jacobian(m, k, t_new, y_new, f_new, M, L, tmp, err)
-            end = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, atol)
+            end = _damped_motion(jbuf, ke, GAMMA * h, y, y_new, rtol, M, m)
             if start > 1.0 and start > DAMPING_RATIO * end:  # (NaN compares False: the step stands)
                 jacobian(m, k, t, y, f, M, L, tmp, f_new)
                 rejected = True

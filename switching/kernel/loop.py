@@ -228,8 +228,8 @@ def run(M, ints, floats, x0, te, out, work, implicit):
           sorted; those consumed are counted in the returned ``n_te``), max_steps (step cap of this call),
           resolve_first (1: resolve the instant at t0 first), stiffness_check (0: no stiffness test, the
           flow goes on whatever the step's |h·λ|);
-    floats[11]: t0, t_end, dt, rtol, atol, max_step, first_step (0: select) [s, -]; rtol_g, atol_g, jrtol,
-          jatol: the guards' and the jump's tolerances;
+    floats[11]: t0, t_end, dt, rtol, (unused: each state's atol is M.atol's), max_step, first_step (0:
+          select) [s, -]; rtol_g, atol_g, jrtol, jatol: the guards' and the jump's tolerances;
     out = (out_t[N], out_x[N, n], out_m[N], ev_f[E, 1 + 2n], ev_i[E, 3], info[5 + n]): saved steps, or the
           samples at te (N ≥ len(te) when save is 2); each event's time, state before, after; its mode before,
           mode after, samples saved before it; stiffness |h·λ| and h, 1 if the first event is the initial
@@ -307,7 +307,7 @@ def _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC):
     """The flow's start in mode m at t: ``y`` from the template, its rates, the requested output times at t (the
     state itself, after the instant if any), the guards at the start (no previous step yet), RK45's first step
     size (``first_step``, or scipy's selection; also RODAS4P's).  Returns ``(h_abs, pos, n_saved)``."""
-    t_end, dt, rtol, atol, max_step, first_step, rtol_g, atol_g = F
+    t_end, dt, rtol, _, max_step, first_step, rtol_g, atol_g = F
     kind, samples, max_steps, save = setting
     y, f, y_new, f_new, Q = A
     template, z, dbuf, s, tmp = E
@@ -334,18 +334,18 @@ def _start(m, k, t, F, setting, te, pos, n_saved, out, A, E, M, PT, SC):
         if first_step > 0.0:
             h_abs = min(first_step, abs(t_end - t))
         else:
-            h_abs = initial_step(m, k, t, y, f, t_end, rtol, atol, max_step, M, tmp, f_new)
+            h_abs = initial_step(m, k, t, y, f, t_end, rtol, max_step, M, tmp, f_new)
     return h_abs, pos, n_saved
 
 
 @dispatch
 def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A, E, W, L, M, PT, SC):
     """The flow in mode m from t (the state in the template) until an event, ``t_end`` or a stop: steps of the
-    method (``setting = (kind, samples, max_steps, save)``; ``F = (t_end, dt, rtol, atol, max_step, first_step,
-    rtol_g, atol_g)``), the guards on each, the outputs.  Returns ``(code, t, steps, pos, n_saved)``: ``code``
+    method (``setting = (kind, samples, max_steps, save)``; ``F = (t_end, dt, rtol, —, max_step, first_step,
+    rtol_g, atol_g)``, each state's atol in ``M.atol``), the guards on each, the outputs.  Returns ``(code, t, steps, pos, n_saved)``: ``code``
     -1 for an event at ``t`` (its a priori state in ``x_out``), else the status of a stop at ``t`` with the
     state in ``z``."""
-    t_end, dt, rtol, atol, max_step, first_step, rtol_g, atol_g = F
+    t_end, dt, rtol, _, max_step, first_step, rtol_g, atol_g = F
     kind, samples, max_steps, save = setting
     if kind == 4:  # auto: the method of this mode
         kind = 3 if M.implicit[m] != 0 else 2
@@ -378,12 +378,12 @@ def flow_in_mode(m, t, steps, pos, n_saved, F, setting, check, te, out, x_out, A
             if L is None:  # (never: the implicit kinds are run with their workspaces)
                 full(m, y, k, t, E, M)
                 return COLLAPSED, t, steps, pos, n_saved
-            ok, t_new, h, h_abs = rosenbrock_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, L, M)
+            ok, t_new, h, h_abs = rosenbrock_step(m, k, t, t_end, h_abs, rtol, max_step, A, W, L, M)
             if not ok:
                 full(m, y, k, t, E, M)
                 return (NONFINITE if h_abs != h_abs else COLLAPSED), t, steps, pos, n_saved
         else:
-            ok, t_new, h, h_abs = adaptive_step(m, k, t, t_end, h_abs, rtol, atol, max_step, A, W, M)
+            ok, t_new, h, h_abs = adaptive_step(m, k, t, t_end, h_abs, rtol, max_step, A, W, M)
             if not ok:
                 full(m, y, k, t, E, M)
                 return (NONFINITE if h_abs != h_abs else COLLAPSED), t, steps, pos, n_saved

@@ -875,7 +875,7 @@ class CompiledModel:
                                                                                               - len(self.jacobians)),
                               dtype=np.int64),
                 implicit=np.array([int(bool(self.implicit.get(m))) for m in self.modes], dtype=np.int64),
-                driven=int(bool(self.model.input_symbols)))
+                driven=int(bool(self.model.input_symbols)), atol=np.full(len(self.model.states), 1e-9))
         return self._record
 
     def buffers(self, save, capacity: int = 4096, event_capacity: int = 256) -> tuple:
@@ -924,10 +924,13 @@ class CompiledModel:
             mode_code = 1 if save else 0
             buffers = self._buffers.get(mode_code) or self.buffers(mode_code)
         record = self.record
+        if record.atol is not atol:  # each state's absolute tolerance: an array in the states' order, or a number
+            atol = _kernel_array(np.broadcast_to(atol, (len(model.states),)) if np.ndim(atol) == 0 else atol)
+            record = self._record = record._replace(atol=atol)
         work = self._workspaces.get((samples, max_instant)) or self.workspace(samples, max_instant)
         ints = np.array([kind, self.ids[mode], samples, max_instant, mode_code, max_steps, bool(resolve_first),
                          bool(stiffness_check)], dtype=np.int64)
-        floats = np.array([t, t_end, dt or 0.0, rtol, atol, max_step, first_step or 0.0, tol.rtol, tol.atol,
+        floats = np.array([t, t_end, dt or 0.0, rtol, 0.0, max_step, first_step or 0.0, tol.rtol, tol.atol,
                            tol.jump_rtol, tol.jump_atol], dtype=float)
         status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
             record, ints, floats, np.array(x, dtype=float), te, buffers, work,

@@ -7,7 +7,11 @@ SIMULATE_DOC = """Simulate from the initial state (or ``x0=``) to ``t_end``; ret
 
 ``method``: ``"euler"`` or ``"rk4"`` with step ``dt=``; ``"RK45"``,
 ``"RK23"``, ``"DOP853"``, ``"Radau"``, ``"BDF"``, ``"LSODA"`` with
-``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``);
+``rtol=``, ``atol=`` (and ``max_step=``, ``first_step=``; ``atol`` in
+the states' units, the same for all, or by default each state's own:
+1e-9 in its storage's output's units — V, A, m/s, N — times the
+storage's capacity, :mod:`switching.simulate.state_tolerances`, so
+``rtol`` holds on a 10 pF capacitor as on a 1 kg mass);
 ``"euler-jit"``, ``"rk4-jit"``, ``"RK45-jit"``: the same in one
 compiled kernel (numba; compiled once per installation, each mode's
 functions compiled on first use), see :meth:`compiled_model`

@@ -61,6 +61,7 @@ from .python_flow import flow_python
 from .real_values import ComplexValueError, complex_failure
 from .recorder import Recorder
 from .run_options import DEFAULT_MAX_STEPS, checked_options
+from .state_tolerances import state_tolerances
 from .trajectory import Trajectory
 from .zeno import ZenoWatch
 
@@ -113,7 +114,7 @@ def simulate(
     *,
     dt: float | None = None,
     rtol: float = 1e-6,
-    atol: float = 1e-9,
+    atol: float | None = None,
     t0: float = 0.0,
     x0=None,
     mode=None,
@@ -142,7 +143,8 @@ def simulate(
     options = checked_options(model, t_end, method, keywords)
     #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
     model.last_run = {"t_end": float(t_end), "method": method,
-                      **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol), "atol": float(atol)}),
+                      **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol)}),
+                      **({"atol": float(atol)} if dt is None and atol is not None else {}),
                       **({"max_step": float(max_step)} if np.isfinite(max_step) else {})}
     if options.stepping.dt is None and max_step == np.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
@@ -189,6 +191,9 @@ class HybridRun:
         self.x = model.initial_state() if start.x0 is None else start.x0
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
+        if stepping.dt is None:  # each state's absolute tolerance (switching.simulate.state_tolerances)
+            stepping = dataclasses.replace(stepping, atol=state_tolerances(model, self.x, stepping.atol))
+            self.options = options = dataclasses.replace(options, stepping=stepping)
         if METHOD_CLASSES[method].chooses:  # auto: compiled or not, explicit or implicit (stats: which and why;
             # switching.library.jit_model.choose_method)
             self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt, self.x, self.mode)

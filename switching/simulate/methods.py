@@ -8,7 +8,8 @@ what the driver needs to know of its method:
 
 * ``fixed_step``: steps of the given length ``dt`` [s]; else the step is
   adaptive, its local error held below ``atol + rtol·|y|`` (``rtol`` [1],
-  ``atol`` [the states' units]), at most ``max_step`` [s], the first one
+  ``atol`` [the states' units]: a number, or an array of each state's own,
+  :mod:`switching.simulate.state_tolerances`), at most ``max_step`` [s], the first one
   ``first_step`` [s] (:meth:`Method.step_options`);
 * ``compiled``: flows and instants run in the compiled kernel (numba),
   ``python`` the class of the same method in Python (a Python method's

@@ -33,14 +33,16 @@ class Start:
 @dataclass(frozen=True)
 class Stepping:
     """How a flow steps: the fixed step ``dt`` [s] (euler, rk4), or the
-    adaptive step's tolerances ``rtol`` [1] and ``atol`` [states' units],
+    adaptive step's tolerances ``rtol`` [1] and ``atol`` [states' units: ``None`` when not
+    given, then each state's own, an array in the states' order once the run starts,
+    :mod:`switching.simulate.state_tolerances`],
     bounded by ``max_step`` [s] and started at ``first_step`` [s]; with
     ``stiffness_check`` the explicit methods stop beyond their stability
     limit (``|h·λ|``)."""
 
     dt: float | None
     rtol: float
-    atol: float
+    atol: object  # a number, None, or (once the run starts) an array of the states' own
     max_step: float
     first_step: float | None
     stiffness_check: bool

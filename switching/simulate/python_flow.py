@@ -30,8 +30,11 @@ def flow_python(model, cm, mode, method, x, t, t_end, o, steps_left, recorder, l
     fun, state_at, y0 = flow_functions(model, cm, x)
     on_lists = getattr(fun, "on_lists", None) if len(y0) <= list_states else None
     jac = flow_jacobian(model, cm, x) if method.stiff else None  # the implicit methods' J, derived
+    options = o.stepping.integrator_options()
+    if np.ndim(options["atol"]):  # each state's own (switching.simulate.state_tolerances), the flow's states'
+        options["atol"] = np.asarray(options["atol"])[cm.independent] if len(cm.independent) else 1.0
     stepper = method.stepper(fun, t, y0, t_end, autonomous=not model.input_symbols, fun_list=on_lists,
-                             jac=jac, **o.stepping.integrator_options())
+                             jac=jac, **options)
     scan = (GuardScan(cm, sides_function(model, cm), stepper, state_at, t, x, o.rtol_g, o.atol_g, o.samples,
                       strict) if cm.guards else None)
     save = recorder.output == "steps"

@@ -22,7 +22,10 @@ option                  unit       kind and bounds
                                    the run: it could not advance); ``(t_end − t0)/dt`` at
                                    most ``max_steps``
 ``rtol``                1          number, finite, > 0
-``atol``                state      number, finite, > 0
+``atol``                state      number, finite, > 0; ``None`` (default): each state's own,
+                                   1e-9 in its storage's output's units (V, A, m/s, N)
+                                   times the storage's capacity
+                                   (:mod:`switching.simulate.state_tolerances`)
 ``max_step``            s          number > 0; adaptive methods: at least
                                    10 ulps of ``max(|t0|, |t_end|)`` (their smallest step)
                                    and ``(t_end − t0)/max_step`` at most ``max_steps``; not
@@ -203,7 +206,7 @@ def _check_progress(progress) -> None:
 OPTION_CHECKS = (
     ("dt", lambda v: v is None or positive_finite("dt", v, "seconds")),
     ("rtol", lambda v: positive_finite("rtol", v)),
-    ("atol", lambda v: positive_finite("atol", v, "the states' units")),
+    ("atol", lambda v: v is None or positive_finite("atol", v, "the states' units")),
     ("max_step", lambda v: positive("max_step", v, "seconds")),
     ("first_step", lambda v: v is None or positive_finite("first_step", v, "seconds")),
     ("event_samples", lambda v: whole("event_samples", v, 0, MAX_EVENT_SAMPLES, "guard samples per step")),
