@@ -61,7 +61,8 @@ def _A(key, keyword=None, shape="value", unit="", of=""):
 def _controller() -> Call:
     return Call("pid", (), (_A("measure", shape="text"), _A("reference"), _A("kp"), _A("ki"), _A("kd"),
                             _A("limits", shape="limits"), _A("tracking", unit="s"),
-                            _A("derivative_filter", unit="s"), _A("initial", shape="number")))
+                            _A("derivative_filter", unit="s"), _A("initial", shape="number"),
+                            _A("sample_period", unit="s"), _A("sample_delay", unit="s")))
 
 
 #: Part kind → the call of a circuit's part

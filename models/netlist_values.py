@@ -10,7 +10,8 @@ a text         a TOML string: a parameter name, an expression of ``t``, a condit
 true/false     a TOML boolean
 sympy          ``{ expression = "2*R0" }``, printed by :mod:`switching.language.exprtext`
 an input       ``{ input = "u" }`` (:class:`~models.circuits.Input`)
-a PWM          ``{ period = 1e-05, duty = 0.5, delay = 2.5e-06 }`` (``delay`` left out when 0)
+a PWM          ``{ period = 1e-05, duty = 0.5, delay = 2.5e-06, carrier = "sawtooth" }`` (``delay`` left
+               out when 0, ``carrier`` when ``"triangle"``)
 a law          ``{ of = "v", law = "1e-12*(exp(v/0.025) - 1)" }``: the law's expression of its
                variable ``of``; read back as a :class:`TextLaw` (a function of one argument)
 limits         ``{ lo = 0.0, hi = 0.95 }`` (a controller's output limits; either side may be left out)
@@ -154,6 +155,8 @@ def encode(value, argument) -> str | None:
         fields = {"period": _number_or_text(value.period), "duty": _number_or_text(value.duty)}
         if value.delay:
             fields["delay"] = toml_number(value.delay)
+        if value.carrier != "triangle":
+            fields["carrier"] = toml_string(value.carrier)
         return toml_inline(fields)
     if shape != "value":  # a text, a condition, a schedule's condition
         if not isinstance(value, str):
@@ -216,13 +219,16 @@ def _decode_table(value, shape: str, src, keys, culprit: str, what: str):
         return tuple(None if side not in table else _plain(table[side], src, keys + (side,), culprit, what)
                      for side in ("lo", "hi"))
     if shape == "schedule" and "period" in value:
-        table = src.table(value, keys, "a PWM", allowed=("period", "duty", "delay"), required=("period", "duty"),
-                          culprit=culprit)
+        table = src.table(value, keys, "a PWM", allowed=("period", "duty", "delay", "carrier"),
+                          required=("period", "duty"), culprit=culprit)
         delay = table.get("delay", 0.0)
         if not _is_number(delay):
             raise src.error(f"the PWM's delay must be a number, not {kind_of(delay)}", keys + ("delay",), culprit)
+        carrier = table.get("carrier", "triangle")
+        if not isinstance(carrier, str):
+            raise src.error(f"the PWM's carrier must be a text, not {kind_of(carrier)}", keys + ("carrier",), culprit)
         return PWM(_plain(table["period"], src, keys + ("period",), culprit, "the PWM's period"),
-                   _plain(table["duty"], src, keys + ("duty",), culprit, "the PWM's duty"), delay)
+                   _plain(table["duty"], src, keys + ("duty",), culprit, "the PWM's duty"), delay, carrier)
     if shape == "value" and "expression" in value:
         table = src.table(value, keys, what, allowed=("expression",), culprit=culprit)
         return as_doubles(parsed_text(table["expression"], src, keys + ("expression",), culprit, what))

@@ -17,7 +17,7 @@ from test_spice_netlists import NETLISTS
 
 import models
 from models import cli, netlists, spice
-from models.circuits import Circuit, Hysteresis, Input
+from models.circuits import PWM, Circuit, Hysteresis, Input
 from models.mechanics import Mechanism
 from models.netlist_files import dumps_netlist, loads_netlist
 from switching import load_model
@@ -100,8 +100,23 @@ def machine():
     return m.build(parameters={"m_3": 1.5})
 
 
+def digital_buck():
+    """A sampled PI (a digital controller) setting a sawtooth-carrier PWM's duty."""
+    c = Circuit("digital_buck")
+    c.V("Vin", "in", "0", 24.0)
+    c.switch("S", "in", "sw", PWM(1e-5, "PI1", carrier="sawtooth"))
+    c.diode("D1", "0", "sw")
+    c.L("L", "sw", "out", 100e-6)
+    c.C("C", "out", "0", 100e-6, v0=12.0)
+    c.R("RL", "out", "0", 12.0)
+    c.pi("PI1", "v_out", 12.0, kp=0.003, ki=20.0, limits=(0.0, 0.95), initial=0.5, sample_period=1e-5,
+         sample_delay=5e-6)
+    return c.build()
+
+
 #: name → (the model's builder, the run's end [s])
 CASES = {
+    "digital buck (sampled PI, sawtooth PWM)": (digital_buck, 5e-5),
     "ideal buck": (lambda: netlists.ideal_buck().build(), 5e-5),
     "bridge rectifier": (lambda: netlists.bridges(1).build(), 2e-3),
     "bridge rectifier with gmin": (lambda: netlists.bridges(1).build(gmin=1e-12), 2e-3),
