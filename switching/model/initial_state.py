@@ -44,7 +44,7 @@ def initial_state(model, x_given: np.ndarray) -> tuple[np.ndarray, tuple | None]
     ``(given, projected)`` (else ``None``); an :class:`InitialStateProjected`
     warning names every changed state."""
     x0 = np.asarray(projected(model, x_given), dtype=float)
-    if np.allclose(x0, x_given, rtol=1e-12, atol=1e-14):
+    if np.array_equal(x0, x_given) or np.allclose(x0, x_given, rtol=1e-12, atol=1e-14):  # (the first, cheap)
         return x0, None
     changed = [f"{s}: {a:.6g} → {b:.6g}" for s, a, b in zip(model.states, x_given, x0) if not np.isclose(a, b)]
     warnings.warn(f"initial state violates the constraints of mode {model.initial_mode.describe()}; projected by "

@@ -94,6 +94,13 @@ class Recorder:
         return self._kinds
 
     @property
+    def last_time(self) -> float | None:
+        """The time [s] of the latest sample recorded (``None`` before the first), the pieces left as they are."""
+        if self._t:
+            return self._t[-1]
+        return float(self._pieces[-1][0][-1]) if self._pieces else None
+
+    @property
     def n_rows(self) -> int:
         """How many samples are recorded."""
         return self._in_pieces + len(self._t)
@@ -221,12 +228,14 @@ class Recorder:
     def _flowed_through(self, times: list, before: list, modes: list) -> None:
         """:meth:`_flowed` to each instant at ``times`` [s] from the mode numbered ``before`` (into ``modes``),
         in order: the same sums, each mode hashed once."""
-        boundary, spent = self.boundary, {}
+        boundary, spent, mode_time = self.boundary, {}, self.mode_time
         for t, number in zip(times, before):
-            if boundary is not None and t > boundary:
-                spent[number] = spent[number] if number in spent else self.mode_time.get(modes[number], 0.0)
-                spent[number] += t - boundary
-            boundary = max(boundary if boundary is not None else t, t)
+            if boundary is None:
+                boundary = t
+            elif t > boundary:
+                total = spent.get(number)
+                spent[number] = (mode_time.get(modes[number], 0.0) if total is None else total) + (t - boundary)
+                boundary = t  # (the later of the two)
         self.boundary = boundary
         for number, total in spent.items():
             self.mode_time[modes[number]] = total
