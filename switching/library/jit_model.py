@@ -62,6 +62,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -83,7 +84,7 @@ from ..model.expression_input import ExpressionInput
 from ..rules.stiffness import AT_ONCE
 from .compiled import comparison_triples, condition_tree, guard_parts  # (the guards' one-sided parts)
 
-__all__ = ["KINDS", "STATUS", "AutoChoice", "CompiledModel", "KernelResult", "choose_method",
+__all__ = ["KINDS", "STATUS", "AutoChoice", "CompiledModel", "KernelArrays", "KernelResult", "choose_method",
            "forget_modes", "input_problem", "input_substitution", "kernel", "kernel_compiled", "mode_compiled",
            "mode_calls", "mode_function", "mode_function_source", "mode_signature", "model_tables", "native_enabled",
            "native_signature", "remember_modes", "remembered_modes"]
@@ -973,6 +974,23 @@ def _call_run(*arguments):
     return result
 
 
+class KernelArrays(NamedTuple):
+    """A kernel call's samples and events as arrays (:meth:`KernelResult.arrays`, views of its buffers):
+    the ``S`` samples saved, times ``t`` (S,) [s], states ``x`` (S, n), mode numbers ``modes`` (S,); the
+    ``E`` events, in order: ``at`` (E,) the samples saved before each, times ``t_events`` (E,) [s], the
+    mode numbers ``before`` and ``after`` (E,) and the states ``x_before`` and ``x_after`` (E, n)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    modes: np.ndarray
+    at: np.ndarray
+    t_events: np.ndarray
+    before: np.ndarray
+    x_before: np.ndarray
+    after: np.ndarray
+    x_after: np.ndarray
+
+
 class KernelResult:
     """What one kernel call produced: ``n_saved`` samples, ``n_events``
     events (in order, each with the number of samples saved before it),
@@ -997,6 +1015,24 @@ class KernelResult:
         modes = self.compiled.modes
         for j in range(start, stop):
             yield float(self._out_t[j]), self._out_x[j].copy(), modes[self._out_m[j]]
+
+    def arrays(self) -> KernelArrays:
+        """The saved samples and the events at once, as arrays (views of the reused buffers, valid until the
+        next call: copy what is kept; modes as their numbers in ``compiled.modes``): what :meth:`samples`
+        and :meth:`events` give one at a time."""
+        s, e, n = self.n_saved, self.n_events, self._out_x.shape[1]
+        floats, ints = self._ev_f[:e], self._ev_i[:e]
+        return KernelArrays(self._out_t[:s], self._out_x[:s], self._out_m[:s], ints[:, 2], floats[:, 0], ints[:, 0],
+                            floats[:, 1:1 + n], ints[:, 1], floats[:, 1 + n:])
+
+    def rows(self, lead: int, kind: int, before: int, after: int, pairs: bool = True) -> tuple:
+        """The saved samples and, with ``pairs``, each event's states before and after, as rows in time
+        order after ``lead`` rows left to the caller, marked ``kind``, ``before``, ``after``: new arrays
+        ``(t, x, mode numbers, kinds, the rows after the events)`` (:func:`.kernel_rows.merged_rows`)."""
+        from .kernel_rows import merged_rows
+
+        return merged_rows(self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.n_saved,
+                           self.n_events if pairs else 0, lead, kind, before, after)
 
     def events(self):
         """(samples saved before it, t, mode before, x before, mode after, x after) of each event (copies)."""

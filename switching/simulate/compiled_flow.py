@@ -64,8 +64,9 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             arrays = result.arrays()
             times = arrays.t_events.tolist()
             if instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
-                recorder.block(arrays, compiled.modes, REQUESTED if dense is not None else STATE,
-                               _instants(model, compiled.modes, times, arrays))
+                before = arrays.before.tolist()
+                recorder.block(result.rows, compiled.modes, REQUESTED if dense is not None else STATE,
+                               _instants(model, compiled.modes, times, before, arrays), times, before)
                 saved, at_once = result.n_saved, True
         if result.n_events and not at_once:
             for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
@@ -143,9 +144,9 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         raise FlowFailure(NonFiniteStateError, message, t, x, steps, mode)
 
 
-def _instants(model, modes, times, arrays) -> list:
-    """The records of a kernel call's events (:class:`~switching.library.jit_model.KernelArrays`), their
-    states rows of copies of the call's."""
-    return [CompiledInstant(model, t, modes[before], x_before, modes[after], x_after)
-            for t, before, x_before, after, x_after in zip(times, arrays.before.tolist(), arrays.x_before.copy(),
-                                                            arrays.after.tolist(), arrays.x_after.copy())]
+def _instants(model, modes, times, before, arrays) -> list:
+    """The records of a kernel call's events (:class:`~switching.library.jit_model.KernelArrays`) at
+    ``times`` from the modes numbered ``before``, their states rows of copies of the call's."""
+    return [CompiledInstant(model, t, modes[left], x_before, modes[entered], x_after)
+            for t, left, x_before, entered, x_after in zip(times, before, arrays.x_before.copy(),
+                                                           arrays.after.tolist(), arrays.x_after.copy())]

@@ -54,7 +54,7 @@ from .flow_failures import FlowFailure, nonfinite_jump_message
 from .methods import METHOD_CLASSES, METHODS, canonical_method
 from .option_groups import RunOptions
 from .energy_watch import warn_if_created
-from .preflight import nonfinite_at_start
+from .preflight import nonfinite_at_start, nonfinite_sides_at_start
 from .progress import ProgressBar
 from .step_doubling import warn_if_coarse
 from .python_flow import flow_python
@@ -287,6 +287,14 @@ class HybridRun:
             raise self.fail(ZenoError, message, accumulation_time=self.accumulation)
         return True
 
+    def instants_pass(self, times: list, count: int) -> bool:
+        """Would ``count`` instants about to be recorded, the Zeno watch seeing those at ``times`` [s], all
+        pass :meth:`after_event` without stopping the run (nor raising)?  True: the watch has taken them,
+        record them at once; False: nothing changed, take them one by one (:meth:`after_event` decides)."""
+        if times and self.recorder.n_events + count > self.options.limits.max_events:
+            return False
+        return self.zeno.quiet(times)
+
     def instant_at(self, event) -> bool:
         """Resolve the instant of a located ``event`` ``(t, x)`` in Python; True when it stops the run."""
         self.t, self.x = event
@@ -332,9 +340,9 @@ class HybridRun:
         initial_in_kernel = compiled is not None and compiled.covers(self.mode)
         if not initial_in_kernel:
             self.initial_instant()
-        elif not model.compiled_mode(self.mode).holds(self.x, self.t, self.rtol_g, self.atol_g):
-            # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
-            problem = nonfinite_at_start(model, model.compiled_mode(self.mode), self.x, self.t, rates=False)
+        else:  # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
+            problem = nonfinite_sides_at_start(model, model.compiled_mode(self.mode), self.x, self.t, self.rtol_g,
+                                               self.atol_g)
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
         if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
@@ -360,7 +368,8 @@ class HybridRun:
                 if compiled is not None and compiled.covers(self.mode) and not tie:
                     event, self.t, self.x, self.mode, steps, stop = run_kernel(
                         model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
-                        self.recorder, self.after_event, initial_in_kernel, auto=self.auto)
+                        self.recorder, self.after_event, initial_in_kernel, auto=self.auto,
+                        instants_pass=self.instants_pass)
                     if stop == "initial":  # the kernel leaves this initial instant to Python
                         initial_in_kernel = False
                         self.initial_instant()
@@ -454,7 +463,7 @@ class HybridRun:
             stats["zeno accumulation time [s]"] = self.accumulation
         recorder = self.recorder
         recorder.finish(self.t, self.x, self.mode)  # requested times at an instant that ended the run
-        if self.output == "events" and (not recorder.t or recorder.t[-1] != self.t):
+        if self.output == "events" and recorder.last_time != self.t:
             recorder.sample(self.t, self.x, self.mode, force=True)
         trajectory = recorder.trajectory(stopped=status.value, stats=stats, complete=status is Status.FINISHED,
                                          all_rows=all_rows)

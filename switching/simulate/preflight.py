@@ -13,6 +13,8 @@ guard sides per flow started.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..library.compiled import condition_tree, decide_tree
@@ -55,9 +57,8 @@ def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str |
     if not cm.n_sides:
         return None
     sides = cm.sides(x, t)
-    with np.errstate(all="ignore"):
-        if np.isfinite(np.asarray(sides, dtype=float)).all():
-            return None
+    if all(map(math.isfinite, np.asarray(sides, dtype=float).tolist())):
+        return None
     if any(decide_tree(g["tree"], sides, rtol, atol) for g in cm.guards):
         return None
     return nonfinite_at_start(model, cm, x, t, rates=False)

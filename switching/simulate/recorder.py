@@ -185,44 +185,30 @@ class Recorder:
         self.events.append(instant)
         self.event_index.append(self.n_rows - 1)
 
-    def block(self, arrays, modes: list, kind: int, instants: list) -> None:
+    def block(self, merge, modes: list, kind: int, instants: list, times: list, before: list) -> None:
         """One kernel call's samples and instants at once, recorded as :meth:`sample` (forced; ``kind`` STATE)
         or :meth:`requested` (``kind`` REQUESTED) of each sample and :meth:`event` of each instant would
-        record them, in order: ``arrays`` a :class:`~switching.library.jit_model.KernelArrays` (modes as
-        their numbers in ``modes``; read, not kept), ``instants`` the records of its events.  The rows recorded one at a
-        time since the last piece (the run's start) begin the piece they make."""
+        record them, in order.  ``merge(lead, kind, before, after, pairs)`` makes the rows
+        (:meth:`~switching.library.jit_model.KernelResult.rows`): ``(t, x, mode numbers into modes, kinds,
+        the rows after the instants)``, ``lead`` rows left empty, then the samples, each of ``kind``, and with
+        ``pairs`` each instant's rows of kinds ``before`` and ``after`` where it falls; ``instants`` are the
+        records of its events, at ``times`` [s], from the modes numbered ``before``.  The rows recorded one
+        at a time since the last piece (the run's start) begin the piece it makes."""
         self.n_events += len(instants)
         if instants:
             self.last_instant = instants[-1]
-            self._flowed_through(arrays.t_events.tolist(), arrays.before.tolist(), modes)
-        pairs = len(instants) if self.keep_instants else 0
-        lead, n = len(self._t), arrays.x.shape[1]
-        size = lead + len(arrays.t) + 2 * pairs
-        if size == lead:
+            self._flowed_through(times, before, modes)
+        pairs, lead = bool(instants) and self.keep_instants, len(self._t)
+        t, x, numbers, kinds, after = merge(lead, kind, BEFORE, AFTER, pairs)
+        if len(t) == lead:
             return
-        if not (lead or pairs):
-            t, x, numbers = arrays.t.copy(), arrays.x.copy(), arrays.modes
-            kinds = np.full(size, kind, dtype=np.int64)
-        else:
-            t, x = np.empty(size), np.empty((size, n))
-            numbers, kinds = np.empty(size, dtype=np.int64), np.full(size, kind, dtype=np.int64)
-            samples = np.arange(len(arrays.t))
-            if pairs:
-                before = lead + arrays.at + 2 * np.arange(pairs)  # the rows of the states before the instants
-                after = before + 1
-                samples += 2 * np.searchsorted(arrays.at, samples, side="right")  # (after the instants at or before)
-                t[before] = t[after] = arrays.t_events
-                x[before], x[after] = arrays.x_before, arrays.x_after
-                numbers[before], numbers[after] = arrays.before, arrays.after
-                kinds[before], kinds[after] = BEFORE, AFTER
-                self.event_index.extend((self._in_pieces + after).tolist())
-                self.events.extend(instants)
-            samples += lead
-            t[samples], x[samples], numbers[samples] = arrays.t, arrays.x, arrays.modes
-            if lead:
-                t[:lead], x[:lead], kinds[:lead] = self._t, np.array(self._x).reshape(lead, n), self._kinds
+        if lead:
+            t[:lead], x[:lead], kinds[:lead] = self._t, np.array(self._x).reshape(lead, x.shape[1]), self._kinds
+        if pairs:
+            self.event_index.extend((self._in_pieces + after).tolist())
+            self.events.extend(instants)
         self._pieces.append((t, x, self._modes + [modes[k] for k in numbers[lead:].tolist()], kinds))
-        self._in_pieces += size
+        self._in_pieces += len(t)
         self._t, self._x, self._modes, self._kinds = [], [], [], []
 
     def _flowed_through(self, times: list, before: list, modes: list) -> None:
