@@ -202,8 +202,8 @@ class Recorder:
         t, x, numbers, kinds, after = merge(lead, kind, BEFORE, AFTER, pairs)
         if len(t) == lead:
             return
-        if lead:
-            t[:lead], x[:lead], kinds[:lead] = self._t, np.array(self._x).reshape(lead, x.shape[1]), self._kinds
+        for row, (time, state, sort) in enumerate(zip(self._t, self._x, self._kinds)):  # (mostly the start alone)
+            t[row], x[row], kinds[row] = time, state, sort
         if pairs:
             self.event_index.extend((self._in_pieces + after).tolist())
             self.events.extend(instants)
