@@ -950,7 +950,7 @@ class _Builder(NetlistBuilder):
             raise InvalidGraphError(f"circuit {self.circuit.name!r}: input(s) {', '.join(missing_inputs)} have "
                                     "no function: give build(inputs={name: function of t})", missing_inputs)
         names = list(signals) + [s.name for s in self.graph.states]
-        units = units_by_prefix(names, CIRCUIT_UNITS)
+        units = units_by_prefix(names, CIRCUIT_UNITS, self.unitless)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state,
                            signals=signals, inputs=self.inputs or None, name=name, units=units, **options)
 

@@ -205,6 +205,7 @@ def _island(builder, storage, initial: float, rate: sp.Expr) -> None:
     junction = builder.graph.add(Zero(builder.internal(f"{name}_sum")))
     builder.graph.connect(Sf(builder.internal(f"{name}_rate"), rate), junction, name=builder.bond_name(f"{name}_in"))
     builder.graph.connect(junction, storage, name=builder.bond_name(f"{name}_out"))
+    builder.unitless.add(storage.state.name)  # (in the controller's output's unit, which no prefix knows)
     if initial:
         builder.start_unit_state(storage, initial)
 

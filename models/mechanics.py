@@ -733,7 +733,7 @@ class _Builder(NetlistBuilder):
                                     "build(inputs={name: function of t})", missing)
         prefixes = dict(MECHANICS_UNITS[m.kind])
         prefixes.update({f"p_{part.name}_L": "V·s" for part in m._parts.values() if part.kind == "DC"})
-        units = units_by_prefix(list(signals) + [s.name for s in self.graph.states], prefixes)
+        units = units_by_prefix(list(signals) + [s.name for s in self.graph.states], prefixes, self.unitless)
         return HybridModel(self.graph, self.automata, parameters, initial_state=initial_state, signals=signals,
                            inputs=self.inputs or None, name=name, units=units, **options)
 

@@ -144,13 +144,16 @@ def holds_at_start(condition: str, parameters: Mapping) -> bool:
     return bool(value) if value in (sp.true, sp.false) else False
 
 
-def units_by_prefix(names, prefixes: Mapping[str, str]) -> dict:
+def units_by_prefix(names, prefixes: Mapping[str, str], unitless=()) -> dict:
     """name → unit for each of ``names`` that starts with one of
     ``prefixes`` (prefix → unit; the longest prefix wins): the units a
-    builder gives the signals and states it names (``v_C1`` → V)."""
+    builder gives the signals and states it names (``v_C1`` → V); the
+    names in ``unitless`` get none."""
     ordered = sorted(prefixes, key=len, reverse=True)
     units = {}
     for name in names:
+        if name in unitless:
+            continue
         prefix = next((p for p in ordered if name.startswith(p)), None)
         if prefix is not None:
             units[name] = prefixes[prefix]
@@ -257,6 +260,8 @@ class NetlistBuilder:
         self.defaults: dict[str, float] = {}
         self.signals: dict[str, str] = {}
         self.automata: list = []
+        #: states whose unit the prefixes would misname (a controller's, in its output's unit): left without one
+        self.unitless: set[str] = set()
         self.node_bond: dict[str, str] = {}
         self._components = frozenset(netlist.components)
         self._texts: list[str] = []  # the user's conditions and expressions (claim_text_names)

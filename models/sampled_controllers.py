@@ -113,6 +113,7 @@ def build_sampled_controller(builder, part, error: sp.Expr, gains: dict, limits:
         builder.graph.connect(Se(builder.internal(f"{name}_{key}_buffer"), updates[key]), load)
         builder.graph.connect(load, storage)
         loads[key] = load.name
+        builder.unitless.add(storage.state.name)  # (in the output's unit, which no prefix knows)
         initial = v["initial"] if key in ("u", "w", "I") else 0.0
         if initial:
             builder.start_unit_state(storage, initial)

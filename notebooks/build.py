@@ -88,6 +88,8 @@ NOTEBOOKS = {
            "buck.R('Rload', 'out', '0', R)\n"
            "converter = buck.build()\n"
            "draw_bond_graph(converter.graph, converter.configuration_of(converter.initial_mode));"),
+        md("The netlist draws itself as a schematic (switches as they are at t = 0):"),
+        py("buck"),
         md("Start-up from rest (the LC filter rings at 1/(2π√(LC)) ≈ 500 Hz and settles in a few 2RC = 2 ms; "
            "where the first ring brings the current down to zero, a few periods end in discontinuous conduction, "
            "S open and D off), then the periodic steady state: some 400 switching instants in all."),
@@ -123,6 +125,8 @@ NOTEBOOKS = {
            "drive.damper('drag', 'l', '0', 2e-4)\n"
            "drivetrain = drive.build()\n"
            "draw_bond_graph(drivetrain.graph, drivetrain.configuration_of(drivetrain.initial_mode));"),
+        md("Its lumped diagram, drawn from the same list of parts:"),
+        py("drive"),
         py("spin = drivetrain.simulate(0.5, 'RK45', rtol=1e-9, atol=1e-12, max_step=2e-3)\n"
            "print(spin.summary())\n"
            "spin.plot([['omega_J1', 'omega_J2', 'omega_J3'], 'theta_B', 'T_M']);"),
@@ -350,6 +354,21 @@ NOTEBOOKS = {
            "                         voltage=24.0)\n"
            "for device, table in (('S', mosfet), ('D1', None)):\n"
            "    print(device, device_losses(run, device, table, **end))"),
+        md("## The same loop in a DSP\n\nSampled once a period at the carrier's peak (the middle of the off "
+           "time), its output held and applied a sample after it is computed (`sample_period`, `sample_delay`); "
+           "the PWM modulates the trailing edge of a sawtooth, as a timer's counter does.  Each tick is one "
+           "instant: the held values are charged in three pinnacle modes."),
+        py("digital = Circuit('digital_buck')\ndigital.V('Vin', 'in', 0, 24.0)\n"
+           "digital.switch('S', 'in', 'sw', PWM(1e-5, 'PI1', carrier='sawtooth'), r_on=0.05)\n"
+           "digital.diode('D1', 0, 'sw', v_f=0.4)\n"
+           "digital.L('L', 'sw', 'out', 100e-6)\ndigital.C('C', 'out', 0, 100e-6, v0=12.0)\n"
+           "digital.R('R_1A', 'out', 0, 12.0)\ndigital.switch('S_load', 'out', 'x', 't >= t_step')\n"
+           "digital.R('R_step', 'x', 0, 6.0)\n"
+           "digital.pi('PI1', 'v_out', 12.0, kp=0.003, ki=20.0, limits=(0.0, 0.95), initial=0.52,\n"
+           "           sample_period=1e-5, sample_delay=5e-6)\n"
+           "sampled_loop = digital.build(parameters={'t_step': 0.01}).simulate(0.02, 'auto')\n"
+           "print('undershoot', 12.0 - sampled_loop.measure('v_out', 'min', t_from=0.01, t_to=0.02), 'V')\n"
+           "plot_trajectory(sampled_loop, ['v_out', 'PI1'], t_range=(0.0099, 0.0102));"),
         md("## A diode bridge's input current\n\nA 230 V (325 V peak) line through 1 Ω into a bridge with a "
            "1 mF filter and a 100 Ω load draws its current in short pulses near the peaks: high THD, low "
            "power factor."),

@@ -134,3 +134,16 @@ def test_a_sampled_controller_refuses_a_clock_it_cannot_keep():
         c.pi("PI1", "v_x", 1.0, 1.0, 1.0, sample_delay=0.1)
     with pytest.raises(InvalidGraphError, match="backward difference"):
         c.pid("PI1", "v_x", 1.0, 1.0, 1.0, 0.1, derivative_filter=0.01, sample_period=0.1)
+
+
+def test_a_controller_s_states_and_output_are_not_labelled_as_charges():
+    """Its held values are unit capacities in the output's unit (here a voltage's, elsewhere a duty's):
+    the circuit's ``q_`` prefix (C) must not name them."""
+    continuous = Circuit("c")
+    continuous.V("V1", "in", "0", "PI2")
+    continuous.R("R1", "in", "0", 1.0)
+    continuous.pi("PI2", "v_in", 1.0, 0.5, 0.5)
+    for model in (rc_loop().build(), continuous.build()):
+        units = model.annotations.units
+        assert not [name for name in units if name.startswith(("q_PI", "PI"))], units
+    assert rc_loop().build().annotations.units["q_C1"] == "C"
