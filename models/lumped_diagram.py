@@ -22,7 +22,7 @@ from schemdraw.elements.elements import Element2Term
 from schemdraw.elements.twoterm import gap
 
 from .netlist import REFERENCE, holds_at_start
-from .netlist_drawing import FONT_SIZE, NetlistDrawing, quantity, short, states_of, text_extent
+from .netlist_drawing import FONT_SIZE, NetlistDrawing, add_controller_notes, quantity, states_of, text_extent
 from .schematic_layout import Piece, geometry, place
 
 __all__ = ["draw_mechanism", "Spring", "Damper", "Clutch", "Stop", "Backlash", "Gears", "LANE"]
@@ -166,12 +166,7 @@ def draw_mechanism(mechanism, mode=None) -> NetlistDrawing:
         d.add(elm.Label().at(((x0 + x1) / 2, (y0 + y1) / 2)).label(labels[name], halign="center", valign="center"))
         drawn.elements[name] = (block,)
         drawn.terminals[name] = (((x0 + x1) / 2, (y0 + y1) / 2),)
-    notes = [f"{p.name}: controller of {short(p.values['measure'])} → {quantity(p.values['reference'])}"
-             for p in parts.values() if p.kind == "PI"]
-    if notes:
-        bottom = min(y for _, p, q in drawn.wires for y in (p[1], q[1])) - 1.4
-        d.add(elm.Label().at((0, bottom)).label("\n".join(notes), halign="left", valign="top"))
-        drawn.notes = tuple(notes)
+    add_controller_notes(d, drawn, parts)
     return drawn
 
 

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 
 from bondgraph.errors import UnknownNameError
 
-__all__ = ["NetlistDrawing", "quantity", "short", "text_extent", "states_of", "svg_text", "FONT_SIZE"]
+__all__ = ["NetlistDrawing", "add_controller_notes", "quantity", "short", "text_extent", "states_of", "svg_text",
+           "FONT_SIZE"]
 
 #: the labels' size [pt]
 FONT_SIZE = 11.0
@@ -79,6 +80,19 @@ class NetlistDrawing:
     def __repr__(self) -> str:
         drawn = ", ".join(f"{k} {v}" for k, v in self.states.items())
         return f"NetlistDrawing({self.name!r}, {len(self.elements)} components" + (f", {drawn})" if drawn else ")")
+
+
+def add_controller_notes(d, drawn, parts) -> None:
+    """The controllers of ``parts`` (no terminals: nothing to draw between nodes) listed below the drawing
+    ``d``'s wires, one line each — what each measures and its reference — and kept in ``drawn.notes``."""
+    from schemdraw import elements as elm
+
+    notes = [f"{p.name}: controller of {short(p.values['measure'])} → {quantity(p.values['reference'])}"
+             for p in parts.values() if p.kind == "PI"]
+    if notes:
+        bottom = min(y for _, p, q in drawn.wires for y in (p[1], q[1])) - 1.4
+        d.add(elm.Label().at((0, bottom)).label("\n".join(notes), halign="left", valign="top"))
+        drawn.notes = tuple(notes)
 
 
 def svg_text(drawing) -> str:

@@ -24,7 +24,7 @@ from schemdraw import elements as elm
 from schemdraw.elements.elements import Element2Term
 
 from .netlist import REFERENCE, holds_at_start
-from .netlist_drawing import FONT_SIZE, NetlistDrawing, quantity, short, states_of, text_extent
+from .netlist_drawing import FONT_SIZE, NetlistDrawing, add_controller_notes, quantity, short, states_of, text_extent
 from .schematic_layout import Piece, geometry, place
 
 __all__ = ["draw_circuit", "ClosedSwitch", "ROW", "UNITS"]
@@ -96,12 +96,7 @@ def draw_circuit(circuit, mode=None) -> NetlistDrawing:
         drawn.elements[name] = (symbol,)
         drawn.terminals[name] = shape.ends[name]
         _place_label(d, labels[name], a, b, 0.75 if part.kind in ("V", "I") else 0.5)
-    notes = [f"{p.name}: controller of {short(p.values['measure'])} → {quantity(p.values['reference'])}"
-             for p in parts.values() if p.kind == "PI"]
-    if notes:
-        bottom = min(y for _, p, q in drawn.wires for y in (p[1], q[1])) - 1.4
-        d.add(elm.Label().at((0, bottom)).label("\n".join(notes), halign="left", valign="top"))
-        drawn.notes = tuple(notes)
+    add_controller_notes(d, drawn, parts)
     return drawn
 
 
