@@ -23,11 +23,13 @@ by numba beside its own module, once per installation.  Modules
 ``hbg_model_<key>`` of earlier versions, one kernel per model, are entries
 too, evicted alike.)
 Whenever an entry is stored and the directory is then over the cap, whole
-entries are deleted,
-least recently used first (a load from disk refreshes the entry's
+entries are deleted, least recently used first (a load from disk refreshes the entry's
 modification time), down to 90 % of the cap.  Entries used in the last
 :data:`GRACE_SECONDS` are never deleted (another process may be loading
-them), so the cap may be exceeded for a while.  Only files named like
+them), so the cap may be exceeded for a while.  A store lists the directory
+again only when what the cache stored since its last listing could fill half
+the room that listing left, or :data:`GRACE_SECONDS` after it (so a scene that
+stores a thousand modes lists it a few times, not a thousand).  Only files named like
 entries are counted or deleted: anything else in the directory is left alone.
 A file deleted under another process's feet is a miss there, not an error.
 """
@@ -168,6 +170,9 @@ class SourceCache:
         self.memory: dict[str, str] = {}
         self.hits = {"memory": 0, "disk": 0, "built": 0, "rejected": 0}
         self.evicted = 0  # entries this cache deleted to keep under max_bytes
+        self.scans = 0  # listings of the directory by :meth:`evict` (each costs a stat of every entry's files)
+        self._scanned: tuple | None = None  # (bytes the last listing found, time of it) (:meth:`_may_be_over`)
+        self._stored_since = 0  # bytes this cache stored since that listing
 
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.py"
@@ -224,7 +229,22 @@ class SourceCache:
         except OSError as exc:  # a read-only or full cache directory only costs speed
             warn_not_writable(self.directory, exc)
             return
-        self.evict(keep=key)
+        self._stored_since += len(header) + len(source.encode())
+        if self._may_be_over():
+            self.evict(keep=key)
+
+    def _may_be_over(self) -> bool:
+        """Could the directory be over the cap?  Yes unless the last listing
+        (:meth:`evict`) left room for twice what this cache stored since, and
+        is younger than :data:`GRACE_SECONDS`: the files other writers add
+        (other processes, the compiled modules) are counted by the next
+        listing.  A scene that stores one mode after another so lists the
+        directory a few times, not once per mode (each listing stats every
+        entry: the modes of a scene would cost their number squared)."""
+        if self._scanned is None or not math.isfinite(self.max_bytes):
+            return True
+        found, when = self._scanned
+        return 2 * self._stored_since > self.max_bytes - found or time.time() - when > GRACE_SECONDS
 
     def record(self, key: str):
         """The Python literal (numbers, strings, lists, dicts) stored under
@@ -268,6 +288,8 @@ class SourceCache:
             return 0
         entries = cache_entries(self.directory)
         total = sum(size for size, _, _ in entries.values())
+        self.scans += 1
+        self._scanned, self._stored_since = (total, time.time()), 0
         if total <= self.max_bytes:
             return 0
         target = LOW_WATER * self.max_bytes
@@ -288,6 +310,7 @@ class SourceCache:
                 total -= size
             deleted += 1
         self.evicted += deleted
+        self._scanned = (total, self._scanned[1])
         return deleted
 
 

@@ -227,6 +227,22 @@ def test_entries_in_use_are_not_evicted_and_no_cap_means_none(tmp_path):
     assert cache.evicted == 4 and set(cache_entries(tmp_path)) == {_key(9), _key(10), _key(11)}
 
 
+def test_a_store_lists_the_directory_only_when_it_could_be_over_the_cap(tmp_path):
+    """A scene's modes stored one after another do not list the directory once each
+    (a listing stats every entry), and the cap still holds for the cache's own stores."""
+    roomy = SourceCache(tmp_path, max_bytes=10_000_000)
+    for i in range(100):
+        roomy.store(_key(i), _text(_key(i), 1))
+    assert roomy.scans == 1 and roomy.evicted == 0
+    tight = SourceCache(tmp_path / "tight", max_bytes=500_000)
+    for i in range(8):  # 100 kB each: listed again as the room the last listing left fills
+        scans = tight.scans
+        tight.store(_key(i), _text(_key(i), 100))
+        total = sum(size for size, _, _ in cache_entries(tmp_path / "tight").values())
+        assert total <= 500_000 or tight.scans == scans + 1  # (entries this young are not evicted)
+    assert 1 < tight.scans < 8
+
+
 def test_the_cap_comes_from_HBG_CACHE_MAX_MB(monkeypatch):
     monkeypatch.delenv("HBG_CACHE_MAX_MB", raising=False)
     assert default_max_bytes() == 500e6
