@@ -9,8 +9,7 @@ from __future__ import annotations
 from .causality import assign_causality
 from .equations import derive_equations
 from .errors import HybridBondGraphError
-from .islands import element_couplings, has_modulated_two_port, merge_causality, merge_equations
-from .islands import islands as find_islands
+from .islands import IslandCells, element_couplings, has_modulated_two_port, merge_causality, merge_equations
 
 
 class Derivations:
@@ -48,8 +47,8 @@ class Derivations:
         key = (ports, tuple(config.items()))
         last = self.entries.get("islands")  # (kept for one configuration: its causality, then its equations)
         if last is None or last[0] != key:
-            couplings = self.memo(("island couplings", ports), lambda: element_couplings(graph))
-            parts = find_islands(graph, config, couplings)
+            cells = self.memo(("island cells", ports), lambda: IslandCells(graph, element_couplings(graph)))
+            parts = cells.islands(config)
             last = self.entries["islands"] = (key, parts if len(parts) > 1 else None)
         return last[1]
 

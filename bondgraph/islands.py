@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 from .elements import Junction, TwoPort
 
-__all__ = ["Island", "element_couplings", "has_modulated_two_port", "islands", "merge_causality",
+__all__ = ["Island", "IslandCells", "element_couplings", "has_modulated_two_port", "islands", "merge_causality",
            "merge_equations"]
 
 
@@ -75,48 +75,120 @@ def islands(graph, config: dict, couplings: dict | None = None) -> list[Island]:
     """The islands of ``graph`` in configuration ``config`` (every controlled
     junction named), in the order of their first bond.  ``couplings`` is
     :func:`element_couplings` of the graph (computed when not given)."""
-    if couplings is None:
-        couplings = element_couplings(graph)
-    parent = {b: b for b in graph.bonds}
+    return IslandCells(graph, couplings).islands(config)
 
-    def find(b):
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        return b
 
-    def union(bonds):
-        root = find(bonds[0])
-        for b in bonds[1:]:
-            other = find(b)
-            if other != root:
-                parent[other] = root
+def _find(parent: list, k: int) -> int:
+    while parent[k] != k:
+        parent[k] = parent[parent[k]]
+        k = parent[k]
+    return k
 
-    elements = graph.elements
-    bonds_of = graph._bonds_of
-    for name, el in elements.items():
-        bonds = bonds_of[name]
-        if not bonds:
-            continue
-        if not (isinstance(el, Junction) and el.controlled and not config[name]):
-            union(bonds)
-        read = couplings.get(name)
-        if read:
-            union([bonds[0], *read])
-    groups: dict = {}
-    for b in graph.bonds:
-        groups.setdefault(find(b), []).append(b)
-    members: dict = {root: [] for root in groups}
-    for name in elements:  # (in the graph's order; an off junction joins each island it has a bond in)
-        for root in dict.fromkeys(find(b) for b in bonds_of[name]):
-            members[root].append(name)
-    controlled = _controlled(graph)
-    out = []
-    for root, bonds in groups.items():
-        names = tuple(members[root])
-        switched = tuple((n, config[n]) for n in names if n in controlled)
-        out.append(Island(tuple(bonds), names, (tuple(bonds), switched)))
-    return out
+
+class IslandCells:
+    """The graph cut at *every* controlled junction into **cells** (classes of
+    bonds joined by the other elements and by the couplings), computed once;
+    the islands of a configuration are then the cells joined across its on
+    junctions.  A configuration so costs one union per controlled junction
+    instead of a walk of every element and bond (a scene of many contacts
+    asks for one configuration a mode), and an island met before is the
+    same :class:`Island` object.  Cells are numbered in the order of their
+    first bond, so groups of cells come out in the order of their first bond."""
+
+    def __init__(self, graph, couplings: dict | None = None):
+        if couplings is None:
+            couplings = element_couplings(graph)
+        controlled = _controlled(graph)
+        parent = {b: b for b in graph.bonds}
+
+        def find(b):
+            while parent[b] != b:
+                parent[b] = parent[parent[b]]
+                b = parent[b]
+            return b
+
+        def union(bonds):
+            root = find(bonds[0])
+            for b in bonds[1:]:
+                other = find(b)
+                if other != root:
+                    parent[other] = root
+
+        bonds_of = graph._bonds_of
+        for name, el in graph.elements.items():
+            bonds = bonds_of[name]
+            if not bonds:
+                continue
+            if not (isinstance(el, Junction) and name in controlled):
+                union(bonds)
+            read = couplings.get(name)
+            if read:
+                union([bonds[0], *read])
+        self.bond_index = {b: k for k, b in enumerate(graph.bonds)}
+        cell_of_root: dict = {}
+        cell_bonds: list = []
+        self.cell_of: dict = {}
+        for b in graph.bonds:
+            root = find(b)
+            if root not in cell_of_root:
+                cell_of_root[root] = len(cell_bonds)
+                cell_bonds.append([])
+            cell = cell_of_root[root]
+            cell_bonds[cell].append(b)
+            self.cell_of[b] = cell
+        self.cell_bonds = [tuple(bonds) for bonds in cell_bonds]
+        self.cell_elements: list = [[] for _ in cell_bonds]  # (element index, name) of its uncontrolled elements
+        junctions = []  # (element index, name, its cells in the order of its bonds)
+        for k, (name, el) in enumerate(graph.elements.items()):
+            cells = tuple(dict.fromkeys(self.cell_of[b] for b in bonds_of[name]))
+            if not cells:
+                continue
+            if isinstance(el, Junction) and name in controlled:
+                junctions.append((k, name, cells))
+            else:
+                (cell,) = cells
+                self.cell_elements[cell].append((k, name))
+        self.junctions = tuple(junctions)
+        self.known: dict = {}  # (cells, switched) → the Island
+
+    def islands(self, config: dict) -> list[Island]:
+        """The islands of ``config`` (as :func:`islands`)."""
+        n = len(self.cell_bonds)
+        parent = list(range(n))
+        for _, name, cells in self.junctions:
+            if config[name] and len(cells) > 1:
+                root = _find(parent, cells[0])
+                for c in cells[1:]:
+                    other = _find(parent, c)
+                    if other != root:
+                        parent[other] = root
+        groups: dict = {}
+        for c in range(n):
+            groups.setdefault(_find(parent, c), []).append(c)
+        switches: dict = {root: [] for root in groups}  # root → (index, name) of the controlled junctions it holds
+        for k, name, cells in self.junctions:
+            for root in dict.fromkeys(_find(parent, c) for c in cells):
+                switches[root].append((k, name))
+        out = []
+        for root, cells in groups.items():
+            held = switches[root]
+            found = (tuple(cells), tuple(config[name] for _, name in held))
+            island = self.known.get(found)
+            if island is None:
+                island = self.known[found] = self._island(cells, held, config)
+            out.append(island)
+        return out
+
+    def _island(self, cells: list, held: list, config: dict) -> Island:
+        if len(cells) == 1:
+            bonds = self.cell_bonds[cells[0]]
+        else:
+            index = self.bond_index
+            bonds = tuple(sorted((b for c in cells for b in self.cell_bonds[c]), key=index.__getitem__))
+        members = sorted([*(e for c in cells for e in self.cell_elements[c]), *held])
+        names = tuple(name for _, name in members)
+        switched = tuple((name, config[name]) for _, name in sorted(held))
+        return Island(bonds, names, (bonds, switched))
 
 
 def _controlled(graph) -> frozenset:

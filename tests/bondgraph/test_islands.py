@@ -24,7 +24,7 @@ from bondgraph import BondGraph, C, I, One, R, Se, Sf, Zero
 from bondgraph.causality import assign_causality
 from bondgraph.equations import derive_equations
 from bondgraph.errors import CausalityConflictError
-from bondgraph.islands import islands
+from bondgraph.islands import IslandCells, islands
 from models import ball_chain, boost_converter, bouncing_ball, colliding_balls, diode_circuit, falling_rod
 from models import parallel_capacitors, two_tanks
 from switching.files.modelfile import load_model
@@ -142,6 +142,56 @@ def test_a_configuration_that_switches_one_contact_derives_only_the_islands_next
     new = {k for k in graph.derived.entries if k[0] == "island equations"} - derived
     assert len(new) == 1  # the two balls the contact joins: one island, derived anew
     assert len(islands(graph, graph.configuration(one_on))) == len(derived) - 1
+
+
+def _walked_islands(graph, config):
+    """The islands by a walk of every element and bond (the definition): union-find over the bonds,
+    joined by every element but an off controlled junction and by the couplings."""
+    from bondgraph.elements import Junction
+    from bondgraph.islands import element_couplings
+
+    couplings = element_couplings(graph)
+    group = {b: {b} for b in graph.bonds}
+    for name, el in graph.elements.items():
+        bonds = graph._bonds_of[name]
+        joined = [] if isinstance(el, Junction) and el.controlled and not config[name] else bonds
+        for b in [*joined, *((bonds[:1] + couplings.get(name, [])) if bonds and name in couplings else [])]:
+            if group[b] is not group[bonds[0]]:
+                merged = group[bonds[0]] | group[b]
+                for m in merged:
+                    group[m] = merged
+    order = list(graph.bonds)
+    found = []
+    for members in sorted({id(g): g for g in group.values()}.values(), key=lambda g: min(map(order.index, g))):
+        bonds = tuple(b for b in order if b in members)
+        names = tuple(n for n in graph.elements if any(b in members for b in graph._bonds_of[n]))
+        switched = tuple((n, config[n]) for n in names if n in graph.controlled_junctions)
+        found.append((bonds, names, (bonds, switched)))
+    return found
+
+
+@pytest.mark.parametrize("name, model", list(_hybrid_models())[:8])
+def test_islands_from_the_cells_are_those_of_a_walk_of_the_whole_graph(name, model):
+    graph = model.derivation_graph
+    cells = IslandCells(graph)
+    for config in configurations(graph, limit=16):
+        config = graph.configuration(config)
+        got = [(i.bonds, i.elements, i.key) for i in cells.islands(config)]
+        assert got == _walked_islands(graph, config), config
+
+
+def test_an_island_met_again_is_the_same_object():
+    """A configuration joins the cells across its on junctions; an island it shares with an earlier one
+    is the Island built then (the memo of its causality and equations hashes the same key)."""
+    graph = ball_chain.build(N=12, e=1.0).derivation_graph
+    cells = IslandCells(graph)
+    contacts = graph.controlled_junctions
+    free = {c: False for c in contacts}
+    first = cells.islands(free)
+    second = cells.islands(dict(free, **{contacts[5]: True}))
+    assert len(second) == len(first) - 1
+    assert sum(any(a is b for b in first) for a in second) == len(second) - 1  # all but the joined one
+    assert len(cells.known) == len(first) + 1
 
 
 def test_an_element_that_reads_another_islands_state_joins_it():
