@@ -149,7 +149,7 @@ def simulate(
     if options.stepping.dt is None and max_step == np.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
-            options = dataclasses.replace(options, stepping=dataclasses.replace(options.stepping, max_step=bound))
+            options = _with_stepping(options, "max_step", bound)
     if progress is not True:
         return HybridRun(model, options).execute()
     bar = ProgressBar(t0, t_end)
@@ -158,6 +158,25 @@ def simulate(
             options, output=dataclasses.replace(options.output, progress=bar))).execute()
     finally:
         bar.close()
+
+
+#: (options, a step option, its value) → the options with that value: the last kept
+_WITH_STEPPING: dict = {}
+_WITH_STEPPING_KEPT = 64
+
+
+def _with_stepping(options: RunOptions, name: str, value) -> RunOptions:
+    """``options`` with ``stepping.<name> = value``, the same object for the same options and value (a
+    number told by its value and type, an array by its identity: the entry holds both alive), so that
+    a loop of runs (a parameter study) does not rebuild them every run."""
+    key = (id(options), name, id(value) if isinstance(value, np.ndarray) else (type(value), value))
+    found = _WITH_STEPPING.get(key)
+    if found is None:
+        if len(_WITH_STEPPING) >= _WITH_STEPPING_KEPT:
+            _WITH_STEPPING.clear()
+        found = _WITH_STEPPING[key] = (options, value, dataclasses.replace(
+            options, stepping=dataclasses.replace(options.stepping, **{name: value})))
+    return found[2]
 
 
 class Status(enum.Enum):
@@ -192,8 +211,8 @@ class HybridRun:
         projected = model.initial_projection if start.x0 is None else None
         self.mode = model.starting_mode(self.x, t0, start.mode)
         if stepping.dt is None:  # each state's absolute tolerance (switching.simulate.state_tolerances)
-            stepping = dataclasses.replace(stepping, atol=state_tolerances(model, self.x, stepping.atol))
-            self.options = options = dataclasses.replace(options, stepping=stepping)
+            self.options = options = _with_stepping(options, "atol", state_tolerances(model, self.x, stepping.atol))
+            stepping = options.stepping
         if METHOD_CLASSES[method].chooses:  # auto: compiled or not, explicit or implicit (stats: which and why;
             # switching.library.jit_model.choose_method)
             self.auto = _choose_method(model, t0, t_end, stepping.rtol, stepping.dt, self.x, self.mode)

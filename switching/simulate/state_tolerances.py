@@ -19,6 +19,8 @@ units.  An ``atol`` given to ``simulate`` is, as always, in the states' own unit
 from __future__ import annotations
 
 import math
+import weakref
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -31,31 +33,54 @@ DEFAULT_ATOL = 1e-9
 
 def state_tolerances(model, x, atol: float | None = None) -> np.ndarray:
     """``atol_i`` of every state (shape ``(n,)``, in the states' order): ``atol`` for all when given,
-    else the capacity-scaled tolerances of the module docstring at the state ``x``."""
+    else the capacity-scaled tolerances of the module docstring at the state ``x``.  What they are
+    made of the same as the model's last (the states and parameters the slopes read, to the bit), the
+    same array is returned (read it, never write it): a loop of runs hands the compiled kernel the
+    tolerances its record holds, and a parameter study that moves other values keeps them."""
     n = len(model.states)
-    if atol is not None:
-        return np.full(n, float(atol))
-    tolerances = np.full(n, DEFAULT_ATOL)
-    parameters = model.parameter_array
-    for index, slope in _slopes(model):
+    slopes = _slopes(model) if atol is None else None
+    if slopes is None:
+        made = (n, float(atol))
+    else:
+        indices, reads = slopes.indices, slopes.reads
+        made = (n, np.asarray(x, dtype=float)[indices].tobytes(), model.parameter_array[reads].tobytes())
+    kept = _KEPT.get(model)
+    if kept is not None and kept[0] is slopes and kept[1] == made:
+        return kept[2]
+    tolerances = np.full(n, DEFAULT_ATOL if slopes is not None else float(atol))
+    for index, slope in slopes.functions if slopes is not None else ():
         try:
-            value = float(slope(float(x[index]), parameters))
+            value = float(slope(float(x[index]), model.parameter_array))
         except (TypeError, ValueError, ZeroDivisionError, OverflowError):
             continue
         if math.isfinite(value) and value > 0.0 and math.isfinite(DEFAULT_ATOL / value):
             tolerances[index] = DEFAULT_ATOL / value
+    _KEPT[model] = (slopes, made, tolerances)
     return tolerances
 
 
-def _slopes(model) -> list:
-    """``[(state index, slope(x_i, parameters) → Φ'(x_i))]`` of the storage whose law's slope reads
-    only its state and the parameters (compiled once per graph and parameter list)."""
+#: model → (its slopes, what its last tolerances were made of, those tolerances)
+_KEPT: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+class _Slopes(NamedTuple):
+    """The storage slopes of a graph: ``functions`` ``[(state index, slope(x_i, parameters) → Φ'(x_i))]``,
+    the states they read (``indices``) and the places of the parameters they read (``reads``)."""
+
+    functions: list
+    indices: np.ndarray
+    reads: np.ndarray
+
+
+def _slopes(model) -> _Slopes:
+    """The slopes of the storage whose law's slope reads only its state and the parameters (compiled
+    once per graph and parameter list)."""
     symbols = tuple(model.parameter_symbols)
     return model.graph.derived.memo(("storage slopes", symbols), lambda: _compiled_slopes(model, symbols))
 
 
-def _compiled_slopes(model, symbols) -> list:
-    found = []
+def _compiled_slopes(model, symbols) -> _Slopes:
+    found, reads = [], set()
     known = set(symbols)
     for element in model.graph.storage:
         slope = sp.diff(element.law, element.state)
@@ -63,4 +88,6 @@ def _compiled_slopes(model, symbols) -> list:
             continue
         function = sp.lambdify((element.state, symbols), slope, "math")
         found.append((model.state_index[element.state], function))
-    return found
+        reads |= {symbols.index(s) for s in slope.free_symbols - {element.state}}
+    return _Slopes(found, np.array([index for index, _ in found], dtype=np.int64),
+                   np.array(sorted(reads), dtype=np.int64))

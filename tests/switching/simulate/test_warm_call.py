@@ -190,3 +190,46 @@ def test_a_guard_not_finite_where_a_compiled_run_starts_is_named(method):
     message = str(info.value)
     assert "'v/k >= v_hi'" in message and "automaton 'relay'" in message and "k = 0" in message
     assert info.value.t == 0.0
+
+
+def test_the_tolerances_of_a_loop_of_runs_are_kept_and_follow_what_they_are_made_of():
+    """state_tolerances returns the array it made last for the same states and parameters its slopes
+    read (a mass, not a restitution), so the kernel's record keeps it; any other value, a new array
+    with the values a fresh computation gives."""
+    from switching.simulate import state_tolerances as module
+
+    ball = bouncing_ball.build()
+    values = {s.name: v for s, v in ball.parameter_values.items()}
+    x = ball.initial_state()
+    first = module.state_tolerances(ball, x)
+    assert module.state_tolerances(ball, x.copy()) is first
+    ball.set_parameter_values({**values, "e": 0.7})  # (the momentum's slope 1/m does not read e)
+    assert module.state_tolerances(ball, x) is first
+    ball.set_parameter_values({**values, "m": 2.0})
+    heavier = module.state_tolerances(ball, x)
+    momentum = [state.name for state in ball.states].index("p")
+    assert heavier is not first and heavier[momentum] == 2 * first[momentum]  # (1e-9 N·s per kg)
+    module._KEPT.clear()
+    np.testing.assert_array_equal(module.state_tolerances(ball, x), heavier)
+    assert module.state_tolerances(ball, x, 1e-6) is module.state_tolerances(ball, x, 1e-6)
+    np.testing.assert_array_equal(module.state_tolerances(ball, x, 1e-6), np.full(2, 1e-6))
+
+
+def test_a_loop_of_runs_keeps_its_options_and_the_kernel_record(monkeypatch):
+    """Warm calls with the same options hand the kernel the same tolerances: the run's options and the
+    compiled model's record are not rebuilt call after call."""
+    ball = bouncing_ball.build()
+    seen = []
+    original = HybridRun.__init__
+
+    def spy(self, model, options):
+        original(self, model, options)
+        seen.append(self.options)
+
+    ball.simulate(4.02, "RK45-jit", rtol=1e-8)
+    record = ball.compiled_model().record
+    monkeypatch.setattr(HybridRun, "__init__", spy)
+    for _ in range(3):
+        ball.simulate(4.02, "RK45-jit", rtol=1e-8)
+    assert seen[0] is seen[1] is seen[2]
+    assert ball.compiled_model().record is record
