@@ -22,27 +22,31 @@ Each figure is the least of ``--repeats`` rounds (the least disturbed on a share
 of ``--calls`` calls; the rounds interleave the call and its kernel, so a change of load moves both.
 ``--no-cold`` skips the first calls in new processes (a warm disk cache: imports, build, first call).
 
-Figures (2 shared cores under load, least of 9 rounds of 300 calls, three runs; ``python
+Figures (2 shared cores under load, least of 9 rounds of 300 calls over several runs; ``python
 benchmarks/warm_call.py --repeats 9 --calls 300``), before issue 46's second bullet and after:
 
     case          before: call   kernel  ratio     after: call   kernel  ratio
-    ball               377 µs    98 µs   3.85          193 µs    96 µs   2.01
-    ball events        317 µs    97 µs   3.28          197 µs    94 µs   2.10
-    ball sweep         393 µs    62 µs   6.39          218 µs    60 µs   3.62
-    boost              978 µs   192 µs   5.09          311 µs   190 µs   1.64
+    ball               377 µs    98 µs   3.85          179 µs    96 µs   1.87
+    ball events        317 µs    97 µs   3.28          183 µs    94 µs   1.95
+    ball sweep         374 µs    61 µs   6.10          207 µs    60 µs   3.45
+    boost              978 µs   192 µs   5.09          293 µs   192 µs   1.53
 
     first call in a new process (kernel and modes in numba's disk cache): 0.65–0.95 s before and
     after; the compiled row merge adds its load, 6–9 ms (0.5 s to compile once per installation).
+    The sweep's kernel is replayed with the values of the last call (its own count of bounces), and
+    its call includes setting the values (set_parameter_values and the initial state: 25 µs).
 
-What a warm ball call spent, timed in place (µs of a call, both at the same load, the kernel 160):
+What a warm ball call spent, timed in place (µs of a call, each wrapped in a timer, both at the
+same load; the kernel through CompiledModel.run: 114 before, 101 after, which no longer rebuilds
+its record for new tolerances each call):
 
     part of the call                                            before   after
-    the kernel's output recorded (Zeno watch, time in modes)      290      60
-        (after: the merge 22, the instants' records 12, their checks 6, the flow's loop 20)
-    the start (its guard check)                                    37      22
-    the result (the trajectory)                                    34      18
-    the run's set-up (the states' tolerances: 11, 8)               29      22
-    the options and the step bound                                  9      10
+    the kernel's output recorded (Zeno watch, time in modes)      193      40
+        (after: the merge 18, the instants' records 10, their checks 3, the flow's loop 9)
+    the start (its guard check)                                    32      10
+    the result (the trajectory: 19, 6)                             24       9
+    the run's set-up (the states' tolerances: 7, 3)                20       9
+    the options and the step bound                                  6       5
 """
 
 from __future__ import annotations
