@@ -66,7 +66,7 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             if instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
                 before = arrays.before.tolist()
                 recorder.block(result.rows, compiled.modes, REQUESTED if dense is not None else STATE,
-                               _instants(model, compiled.modes, times, before, arrays), times, before)
+                               _instants_of_call(model, compiled.modes, times, before, arrays), times, before)
                 saved, at_once = result.n_saved, True
         if result.n_events and not at_once:
             for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
@@ -144,7 +144,7 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         raise FlowFailure(NonFiniteStateError, message, t, x, steps, mode)
 
 
-def _instants(model, modes, times, before, arrays) -> list:
+def _instants_of_call(model, modes, times, before, arrays) -> list:
     """The records of a kernel call's events (:class:`~switching.library.jit_model.KernelArrays`) at
     ``times`` from the modes numbered ``before``, their states rows of copies of the call's."""
     return [CompiledInstant(model, t, modes[left], x_before, modes[entered], x_after)
