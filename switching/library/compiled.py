@@ -50,7 +50,7 @@ from codegen.source import Argument, FunctionSpec, composed_source, docstring, f
 from ..rules.jumps import MOTION_ULPS, jump_pulse
 
 __all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
-           "decide_tree", "guard_parts", "holds_strictly", "mode_source_and_meta", "shifted_tree"]
+           "decide_tree", "guard_parts", "holds_strictly", "mode_module", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
 MODE_SOURCE_VERSION = "12"
@@ -229,6 +229,14 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     """The generated module of one mode and its ``META`` (the value the
     module's ``META = …`` line holds, which a :class:`CompiledMode` made now
     need not parse back: ~10 ms a mode for a scene of 200 contacts)."""
+    return mode_module(model, me)[:2]
+
+
+def mode_module(model, me) -> tuple[str, dict, dict]:
+    """:func:`mode_source_and_meta` and the module's parts as
+    :func:`_function_chunks` reads them off the text, known here as the text
+    is assembled (a :class:`CompiledMode` made now need not search the text
+    for them: ~7 ms a mode for a scene of 500 contacts)."""
     states = list(model.states)
     rates = [me.equations.rate_symbols[s] for s in states]
     params = list(model.parameter_symbols)
@@ -298,14 +306,22 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
         "n_states": len(states),
     }
     header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
-    texts = []
+    pieces = []  # (function name, its text) in the module's order
     for spec in specs:
         if blocks and spec.name in ("sides", "sides_raw"):
-            texts.append(_blocked_source(model, spec, blocks, 3 if spec.name == "sides" else 2))
+            pieces += _blocked_pieces(model, spec, blocks, 3 if spec.name == "sides" else 2)
         else:
-            texts.append(function_source(spec, model.library.print_memo))
-    source = header + f"META = {meta!r}\n\n\n" + "\n\n".join(texts)
-    return source, meta
+            pieces.append((spec.name, function_source(spec, model.library.print_memo)))
+    meta_text = repr(meta)
+    head = header + f"META = {meta_text}\n\n\n"
+    source = head + "\n\n".join(text for _, text in pieces)
+    chunks = {"META": meta_text}
+    start, line = len(head), 1 + head.count("\n")
+    for k, (name, text) in enumerate(pieces):
+        text = text if k + 1 == len(pieces) else text + "\n\n"  # (a chunk runs to the next one's start)
+        chunks[name] = (line, text)
+        start, line = start + len(text), line + text.count("\n")
+    return source, meta, chunks
 
 
 #: the guard comparisons of a mode of more than twice this many automata are
@@ -339,9 +355,10 @@ def _side_blocks(spans) -> list | None:
     return blocks
 
 
-def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int) -> str:
+def _blocked_pieces(model, spec: FunctionSpec, blocks: list, per_comparison: int) -> list:
     """``spec`` (``sides`` or ``sides_raw``) as calls of one block function
-    per block of comparisons, followed by the blocks' own source.  A block
+    per block of comparisons, followed by the blocks' own source: ``(name,
+    text)`` of each function.  A block
     is named by a hash of its text, so one block is one function for every
     mode that holds it, in this process and in the disk cache; its text is
     kept for the model by its outputs (the print memo makes the rest)."""
@@ -363,7 +380,7 @@ def _blocked_source(model, spec: FunctionSpec, blocks: list, per_comparison: int
             found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
         calls.append((found[0], len(outputs)))
         texts[found[0]] = found[1]
-    return "\n\n".join([composed_source(spec, calls, model.library.print_memo), *texts.values()])
+    return [(spec.name, composed_source(spec, calls, model.library.print_memo)), *texts.items()]
 
 
 def flat_sides(source: str) -> str:
@@ -433,13 +450,14 @@ class _Generated:
 class CompiledMode:
     """Executable functions and metadata of one mode (see the module docstring)."""
 
-    def __init__(self, model, mode, source: str, meta: dict | None = None):
+    def __init__(self, model, mode, source: str, meta: dict | None = None, chunks: dict | None = None):
         self.model = model
         self.mode = mode
         self.source = source
         self._where = f"<hbg mode {mode.label}>"
         self._namespace = module_namespace()
-        self._chunks = _function_chunks(source)
+        # (given: the parts the text was assembled from, :func:`mode_module`)
+        self._chunks = _function_chunks(source) if chunks is None else dict(chunks)
         missing = {"META", "phi", "rates", "sides", "sides_raw"} - set(self._chunks)
         if missing:  # not a module generate_mode_source wrote
             raise ValueError(f"the generated source of mode {mode.describe()} lacks {', '.join(sorted(missing))}")

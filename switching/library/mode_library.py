@@ -54,7 +54,7 @@ from bondgraph.errors import HybridBondGraphError
 from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
-from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_source_and_meta
+from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_module
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
 from ..model.modes import Mode, ModeEquations
@@ -280,11 +280,11 @@ class ModeLibrary:
         if mode not in self.compiled:
             with self._preparation():
                 key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
-                source, meta = self.cache.load(key), None
+                source, meta, chunks = self.cache.load(key), None, None
                 if source is None:
-                    source, meta = mode_source_and_meta(self.model, self.mode_equations(mode))
+                    source, meta, chunks = mode_module(self.model, self.mode_equations(mode))
                     self.cache.store(key, source)
-                self.compiled[mode] = CompiledMode(self.model, mode, source, meta)
+                self.compiled[mode] = CompiledMode(self.model, mode, source, meta, chunks)
         return self.compiled[mode]
 
     def conflict_guards(self, mode, error):

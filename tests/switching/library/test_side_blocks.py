@@ -182,3 +182,18 @@ def test_a_jump_that_leaves_most_states_copies_them_in_one_slice(moved):
     aliased = values.copy()  # out may be x itself
     functions[0](aliased, 0.0, [0.3], [], aliased)
     assert np.array_equal(aliased, functions[1](values, 0.0, [0.3], [], np.empty(n)))
+
+
+@pytest.mark.parametrize("blocked", [True, False])
+def test_the_parts_of_a_module_assembled_are_those_read_off_its_text(chain, blocked, monkeypatch):
+    """A mode generated now hands its CompiledMode the parts it was assembled from (the text is
+    not searched for them): the very parts, first lines included, that a module from the disk
+    cache is read into."""
+    if not blocked:
+        monkeypatch.setattr(compiled, "SIDE_BLOCK_AUTOMATA", 10 ** 6)
+    for mode in list(chain.visited_modes)[:3]:
+        source, meta, chunks = compiled.mode_module(chain, chain.mode_equations(mode))
+        assert chunks == compiled._function_chunks(source)
+        assert ("_sides_" in "".join(chunks)) == blocked
+        assert compiled.CompiledMode(chain, mode, source, meta, chunks)._chunks == compiled.CompiledMode(
+            chain, mode, source)._chunks
