@@ -337,24 +337,38 @@ def docstring(lines, indent: str = "    ") -> str:
     return f'{indent}"""{body}\n{indent}"""' if len(lines) > 1 else f'{indent}"""{body}"""'
 
 
-def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: list) -> list:
-    """The docstring lines of ``spec``: its doc, then (unless brief) every argument and output entry."""
+def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: str) -> list:
+    """The docstring lines of ``spec``: its doc, then (unless brief) every argument and output entry:
+    :func:`docstring` of those lines, ``argument_doc`` being the argument lines already passed through
+    it (:func:`_escaped_lines`: the same for every function of an argument list, a state vector of a
+    thousand entries in a large scene) and each output line escaped after its index."""
     if spec.brief:
         return [docstring([spec.doc.strip() or spec.name])]
-    doc = [*(spec.doc.strip() or spec.name).split("\n"), "", *argument_doc]
-    out_labels = spec.output_names or tuple(str(k) for k in range(n_outputs))
-    doc.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")
-    doc.extend(f"    [{k}] = {label}" for k, label in enumerate(out_labels))
-    return [docstring(doc)]
+    parts = [escaped(line) for line in (spec.doc.strip() or spec.name).split("\n")]
+    parts.append("")
+    if argument_doc:
+        parts.append(argument_doc)
+    parts.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")
+    if spec.output_names:  # (an index and " = " need no escape)
+        parts.extend(f"    [{k}] = {escaped(f'{label}')}" for k, label in enumerate(spec.output_names))
+    else:
+        parts.extend(f"    [{k}] = {k}" for k in range(n_outputs))
+    body = "\n    ".join(parts)
+    return [f'    """{body}\n    """']
+
+
+def _escaped_lines(lines: list) -> str:
+    """``lines`` as in the body of an indented :func:`docstring`: each escaped, joined by a newline and the indent."""
+    return "\n    ".join(escaped(line) for line in lines)
 
 
 def _names_and_doc(spec: FunctionSpec, memo: PrintMemo | None):
-    """The local names of the argument entries and the docstring lines listing them (memoized per argument list)."""
+    """The local names of the argument entries and the docstring text listing them (memoized per argument list)."""
     table = memo.table(spec) if memo is not None else None
     if table is None:
-        return None, _local_names(spec.arguments), _argument_doc(spec.arguments)
+        return None, _local_names(spec.arguments), _escaped_lines(_argument_doc(spec.arguments))
     if "names" not in table:  # (expressions are keyed by tuples: no clash)
-        table["names"], table["doc"] = _local_names(spec.arguments), _argument_doc(spec.arguments)
+        table["names"], table["doc"] = _local_names(spec.arguments), _escaped_lines(_argument_doc(spec.arguments))
     return table, table["names"], table["doc"]
 
 

@@ -230,6 +230,22 @@ def test_escaped_text_reads_back_exactly_inside_a_string_and_a_docstring(text):
     assert len(module.body) == 1 and len(module.body[0].body) == 2
 
 
+@pytest.mark.parametrize("raw", [False, True])
+@pytest.mark.parametrize("labels", [None, ("p1", 'say "hi"', "a\\b", "line\nbreak", "µ\u2028")])
+def test_a_functions_docstring_is_every_line_escaped_with_the_argument_lines_escaped_once(labels, raw):
+    """The argument lines of a function's docstring are escaped once per argument list (the same
+    for every function of a model) and its output lines after their index: the text is that of
+    docstring() of all the lines, whatever the names hold."""
+    from codegen.source import Argument, FunctionSpec, _argument_doc, _docstring, _escaped_lines
+
+    x, y = sp.symbols('x "y\\')
+    arguments = (Argument("x", (x, y), doc='state "vector"\n'), Argument("t", (sp.Symbol("t"),), scalar=True))
+    spec = FunctionSpec("f", arguments, (x, y), 'Doc of "f"\nsecond line.', labels and labels[:2], raw=raw)
+    lines = ['Doc of "f"', "second line.", "", *_argument_doc(arguments), ("returns" if raw else "out") + "[2]:",
+             *(f"    [{k}] = {label}" for k, label in enumerate(labels[:2] if labels else ("0", "1")))]
+    assert _docstring(spec, 2, _escaped_lines(_argument_doc(arguments))) == [docstring(lines)]
+
+
 @pytest.mark.parametrize("name", ["a/b", "_c0", "_c1", "__import__", "1x", "θ", "open", "lambda", "None", "x\n",
                                   "out", "np", "math", "H", "exp"])
 def test_sanitized_names_are_ascii_identifiers_the_generator_never_uses(name):
