@@ -227,6 +227,9 @@ def decide(op: str, left, right, rtol: float, atol: float, scale: float = 0.0) -
     atol`` (``scale``: the comparison's round-off scale, :mod:`codegen.roundoff`).
     ``<=``, ``>=`` and ``==`` include the band, ``<``, ``>`` and ``!=`` exclude
     it; a non-zero impulse dominates any finite part."""
+    if not (isinstance(left, Hyper) or isinstance(right, Hyper)):  # (numbers: no impulse, the finite parts decide)
+        lf, rf = float(left), float(right)
+        return finite_holds(_code(op), lf, rf, band(lf, rf, scale, rtol, atol))
     left, right = hyper(left), hyper(right)
     code = _code(op)
     if pulse_decides(left.impulse, right.impulse):

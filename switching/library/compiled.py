@@ -125,13 +125,20 @@ def decide_tree(tree, sides, rtol, atol, record=None, fixed=None) -> bool:
     kind = tree[0]
     if kind == "const":
         return tree[1]
-    if kind == "and":
-        return all(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
-    if kind == "or":
-        return any(decide_tree(t, sides, rtol, atol, record, fixed) for t in tree[1])
-    if kind == "not":
+    if kind == "rel":
+        _, k, op, text = tree
+    elif kind == "and":  # (loops, not all() of a generator: a scene decides a thousand guards an instant)
+        for sub in tree[1]:
+            if not decide_tree(sub, sides, rtol, atol, record, fixed):
+                return False
+        return True
+    elif kind == "or":
+        for sub in tree[1]:
+            if decide_tree(sub, sides, rtol, atol, record, fixed):
+                return True
+        return False
+    else:
         return not decide_tree(tree[1], sides, rtol, atol, record, fixed)
-    _, k, op, text = tree
     if fixed and k in fixed:
         return fixed[k]
     left, right, scale = sides[3 * k], sides[3 * k + 1], sides[3 * k + 2]

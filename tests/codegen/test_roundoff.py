@@ -122,6 +122,21 @@ def test_comparison_record_reports_its_margin_in_ulps():
     assert (text, result) == ("y <= 0", True)
 
 
+@pytest.mark.parametrize("op", ["<", "<=", ">", ">=", "==", "!="])
+def test_numbers_are_decided_as_the_hyper_values_without_impulse_they_stand_for(op):
+    """decide() on plain numbers (the finite sides of a flow's guards) skips making Hyper values of
+    them: the same decision, at and off the band's edge, for floats, numpy floats and non-finite sides."""
+    rng = np.random.default_rng(7)
+    values = [0.0, -0.0, 1.0, 1.0 + 1e-13, 1.0 - 1e-13, 3e-13, -3e-13, math.inf, -math.inf, math.nan,
+              *rng.normal(size=6)]
+    for left in values:
+        for right in values[:8]:
+            for scale in (0.0, 3.0, math.nan):
+                expected = decide(op, Hyper(0.0, left), Hyper(0.0, right), 1e-13, 1e-300, scale)
+                assert decide(op, left, right, 1e-13, 1e-300, scale) == expected
+                assert decide(op, np.float64(left), right, 1e-13, 1e-300, np.float64(scale)) == expected
+
+
 def test_divergence_message_tells_physics_from_round_off():
     """Item 5: the diode's holding current above the actual current is a loop
     of the physics (every comparison far from its band); the four-ball chain
