@@ -143,7 +143,7 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     constraints = equations.constraints
     storage_states = set(storage)
     constrained = set().union(*(constraints[d].free_symbols for d in dependent))
-    reached = _reached_by_impulses(equations)
+    reached = _reached_by_impulses(equations, graph)
     participating = tuple(x for x in equations.independent
                           if x in storage_states and x in constrained and x in reached)
     phi = sp.Matrix([constraints[d] for d in dependent])
@@ -166,14 +166,19 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     )
 
 
-def _reached_by_impulses(equations) -> set:
+def _reached_by_impulses(equations, graph=None) -> set:
     """The independent states whose implicit rate holds a dependent state's rate (``∂F_i/∂ẋ_d ≠ 0``):
     those an impulse into the dependent storage reaches through the junction structure.  A state
     that a constraint reads only through a modulated source's value (a controlled source, a
     sample-and-hold's buffer) is not among them: the source takes the impulse, the state it reads
-    stays (its value enters ``c``)."""
-    rates = [equations.rate_symbols[d] for d in equations.dependent]
-    return {x for x, rate in equations.implicit_rates.items() if any(rate.has(r) for r in rates)}
+    stays (its value enters ``c``).  The symbols of each implicit rate are kept with ``graph``'s
+    derivations: the configurations of a scene share most of their rates (island by island)."""
+    rates = {equations.rate_symbols[d] for d in equations.dependent}
+    if graph is None:
+        return {x for x, rate in equations.implicit_rates.items() if not rates.isdisjoint(rate.atoms(sp.Symbol))}
+    memo = graph.derived.memo
+    return {x for x, rate in equations.implicit_rates.items()
+            if not rates.isdisjoint(memo(("symbols in", rate), lambda rate=rate: rate.atoms(sp.Symbol)))}
 
 
 def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:

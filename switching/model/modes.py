@@ -89,6 +89,28 @@ class GuardForm:
     text: str
 
 
+def _storage_values(graph, mode_values: dict) -> dict:
+    """Bond symbol → the co-energy of the storage element on it, from its own state (an I's signed
+    flow, a C's effort), with the values a mode's automaton states set substituted: kept with the
+    graph's derivations for each set of values (every mode of a scene of many contacts asks for the
+    same thousand expressions)."""
+
+    def derive():
+        values = {}
+        for el in graph.storage:
+            (bond,) = graph.bonds_of(el.name)
+            s = bond.sign_at(el.name)
+            if isinstance(el, I):
+                values[bond.flow] = s * el.output(el.state).xreplace(mode_values)
+            elif isinstance(el, C):
+                values[bond.effort] = el.output(el.state).xreplace(mode_values)
+        return values
+
+    # (the values by their full form: 1, 1.0 and Integer(1) are equal keys but different substitutions)
+    key = tuple((symbol, sp.srepr(value)) for symbol, value in mode_values.items())
+    return graph.derived.memo(("storage co-energies", key), derive)
+
+
 class ModeEquations:
     """Everything derived for one mode (see the module docstring).
 
@@ -154,16 +176,11 @@ class ModeEquations:
         physical value (e.g. the velocity of each mass)."""
         eq = self.equations
         values = {}
+        efforts, flows = eq.efforts, eq.flows
         for name, bond in graph.bonds.items():
-            values[bond.effort] = eq.efforts[name]
-            values[bond.flow] = eq.flows[name]
-        for el in graph.storage:
-            (bond,) = graph.bonds_of(el.name)
-            s = bond.sign_at(el.name)
-            if isinstance(el, I):
-                values[bond.flow] = s * el.output(el.state).xreplace(self.values)
-            elif isinstance(el, C):
-                values[bond.effort] = el.output(el.state).xreplace(self.values)
+            values[bond.effort] = efforts[name]
+            values[bond.flow] = flows[name]
+        values.update(_storage_values(graph, self.values))
         return values
 
     def to_raw(self, expr: sp.Basic) -> sp.Basic:

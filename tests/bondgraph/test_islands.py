@@ -23,7 +23,7 @@ import models
 from bondgraph import BondGraph, C, I, One, R, Se, Sf, Zero
 from bondgraph.causality import assign_causality
 from bondgraph.equations import derive_equations
-from bondgraph.errors import CausalityConflictError
+from bondgraph.errors import CausalityConflictError, HybridBondGraphError
 from bondgraph.islands import IslandCells, islands
 from models import ball_chain, boost_converter, bouncing_ball, colliding_balls, diode_circuit, falling_rod
 from models import parallel_capacitors, two_tanks
@@ -311,3 +311,21 @@ def test_random_graphs_derive_island_by_island_as_whole(seed):
     g.validate()
     for config in configurations(g, limit=16):
         assert_same_derivation(g, g.configuration(config))
+
+
+@pytest.mark.parametrize("name, model", list(_hybrid_models())[:8])
+def test_the_states_impulses_reach_are_the_same_with_the_rates_symbols_kept(name, model):
+    """A jump map reads which implicit rates hold a dependent rate off symbols kept with the graph's
+    derivations (the configurations share most rates): the same states as asking each rate."""
+    from bondgraph.jump import _reached_by_impulses
+
+    graph = model.derivation_graph
+    for config in configurations(graph, limit=8):
+        try:
+            eq = graph.equations(config, open_ports=False)
+        except HybridBondGraphError:
+            continue
+        kept = _reached_by_impulses(eq, graph)
+        assert kept == _reached_by_impulses(eq) == _reached_by_impulses(eq, graph)
+        assert kept == {x for x, rate in eq.implicit_rates.items()
+                        if any(rate.has(eq.rate_symbols[d]) for d in eq.dependent)}

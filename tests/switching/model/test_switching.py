@@ -316,3 +316,18 @@ def test_every_model_service_is_registered():
         assert getattr(SERVICES, field.name).__name__ != "missing", field.name
     with pytest.raises(TypeError, match="no model service 'plot'"):
         provide(plot=print)
+
+
+def test_the_co_energies_of_storage_are_derived_once_for_the_modes_of_a_scene():
+    """Each mode reads a storage element's co-energy from its own state; the modes of a ball chain
+    (no automaton state sets a value) share those expressions, kept with the graph's derivations."""
+    from models import ball_chain
+
+    model = ball_chain.build(N=6, e=1.0)
+    model.simulate(1.0, "RK45", rtol=1e-9)
+    entries = [k for k in model.derivation_graph.derived.entries if k[0] == "storage co-energies"]
+    assert entries == [("storage co-energies", ())] and model.derivation_count == 6
+    me = model.mode_equations(model.derived_modes[-1])
+    for el in model.derivation_graph.storage:  # the momentum's flow is p/m, signed by its bond
+        (bond,) = model.derivation_graph.bonds_of(el.name)
+        assert me._bond_values[bond.flow] == bond.sign_at(el.name) * el.output(el.state)
