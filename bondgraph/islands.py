@@ -89,10 +89,10 @@ class IslandCells:
     """The graph cut at *every* controlled junction into **cells** (classes of
     bonds joined by the other elements and by the couplings), computed once;
     the islands of a configuration are then the cells joined across its on
-    junctions.  A configuration so costs one union per controlled junction
-    instead of a walk of every element and bond (a scene of many contacts
-    asks for one configuration a mode), and an island met before is the
-    same :class:`Island` object.  Cells are numbered in the order of their
+    junctions.  A configuration so costs a look at each controlled junction
+    and the work of its on ones, instead of a walk of every element and bond
+    (a scene of many contacts asks for one configuration a mode, a few of its
+    contacts on), and an island met before is the same :class:`Island` object.  Cells are numbered in the order of their
     first bond, so groups of cells come out in the order of their first bond."""
 
     def __init__(self, graph, couplings: dict | None = None):
@@ -149,35 +149,55 @@ class IslandCells:
                 (cell,) = cells
                 self.cell_elements[cell].append((k, name))
         self.junctions = tuple(junctions)
+        self.cell_junctions: list = [[] for _ in cell_bonds]  # (element index, name) of the junctions at a cell
+        for k, name, cells in junctions:
+            for c in cells:
+                self.cell_junctions[c].append((k, name))
         self.known: dict = {}  # (cells, switched) → the Island
+        # every junction off: each cell an island of its own
+        self.apart = [self._known([c], self.cell_junctions[c], {}) for c in range(len(cell_bonds))]
+
+    def _known(self, cells: list, held: list, config: dict) -> Island:
+        """The island of ``cells`` with the controlled junctions ``held`` (in the graph's order) set as
+        in ``config`` (off where it does not name them), built when first met."""
+        found = (tuple(cells), tuple(config.get(name, False) for _, name in held))
+        island = self.known.get(found)
+        if island is None:
+            island = self.known[found] = self._island(cells, held, config)
+        return island
 
     def islands(self, config: dict) -> list[Island]:
-        """The islands of ``config`` (as :func:`islands`)."""
-        n = len(self.cell_bonds)
-        parent = list(range(n))
+        """The islands of ``config`` (as :func:`islands`): the cells apart, but those an on junction
+        touches, joined across the on junctions (a configuration costs its on junctions)."""
+        parent: dict = {}
+
+        def find(c):
+            while parent[c] != c:
+                parent[c] = parent[parent[c]]
+                c = parent[c]
+            return c
+
         for _, name, cells in self.junctions:
-            if config[name] and len(cells) > 1:
-                root = _find(parent, cells[0])
+            if config[name]:
+                for c in cells:
+                    parent.setdefault(c, c)
+                root = find(cells[0])
                 for c in cells[1:]:
-                    other = _find(parent, c)
+                    other = find(c)
                     if other != root:
                         parent[other] = root
+        if not parent:
+            return list(self.apart)
         groups: dict = {}
-        for c in range(n):
-            groups.setdefault(_find(parent, c), []).append(c)
-        switches: dict = {root: [] for root in groups}  # root → (index, name) of the controlled junctions it holds
-        for k, name, cells in self.junctions:
-            for root in dict.fromkeys(_find(parent, c) for c in cells):
-                switches[root].append((k, name))
-        out = []
-        for root, cells in groups.items():
-            held = switches[root]
-            found = (tuple(cells), tuple(config[name] for _, name in held))
-            island = self.known.get(found)
-            if island is None:
-                island = self.known[found] = self._island(cells, held, config)
-            out.append(island)
-        return out
+        for c in sorted(parent):
+            groups.setdefault(find(c), []).append(c)
+        out = list(self.apart)
+        for cells in groups.values():  # (each in the place of its first cell: the order of first bonds)
+            held = sorted({j for c in cells for j in self.cell_junctions[c]})
+            out[cells[0]] = self._known(cells, held, config)
+            for c in cells[1:]:
+                out[c] = None
+        return [island for island in out if island is not None]
 
     def _island(self, cells: list, held: list, config: dict) -> Island:
         if len(cells) == 1:
@@ -187,7 +207,7 @@ class IslandCells:
             bonds = tuple(sorted((b for c in cells for b in self.cell_bonds[c]), key=index.__getitem__))
         members = sorted([*(e for c in cells for e in self.cell_elements[c]), *held])
         names = tuple(name for _, name in members)
-        switched = tuple((name, config[name]) for _, name in sorted(held))
+        switched = tuple((name, config.get(name, False)) for _, name in sorted(held))
         return Island(bonds, names, (bonds, switched))
 
 
