@@ -211,8 +211,13 @@ def comparison_triples(me, relations) -> list:
     triples = []
     model = me.model
     memo, scales = model.library.roundoff_memo, model.library.scale_memo
+    kept = model.library.triple_memo  # comparison → its triple, where it reads no rate (the same in every mode)
     clock = None
     for rel in relations:
+        found = kept.get(rel)
+        if found is not None:
+            triples += found
+            continue
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
         scale = scales.get((left, right))
         if scale is None:
@@ -223,6 +228,8 @@ def comparison_triples(me, relations) -> list:
             else:
                 scale = larger(roundoff_scale(left, memo), roundoff_scale(right, memo))
             scales[(left, right)] = scale
+        if left is rel.lhs and right is rel.rhs:  # (no rate substituted: the mode did not enter)
+            kept[rel] = (left, right, scale)
         triples += [left, right, scale]
     return triples
 

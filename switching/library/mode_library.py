@@ -180,6 +180,8 @@ class ModeLibrary:
         self.scale_memo: dict = {}
         self.guard_texts: dict = {}
         self.guard_trees: dict = {}
+        #: guard comparison → (left, right, round-off scale) of its finite sides, where they read no rate
+        self.triple_memo: dict = {}
         self.side_block_sources: dict = {}
         self.side_block_functions: dict = {}
         self.symbols_memo: dict = {}

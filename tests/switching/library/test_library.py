@@ -139,3 +139,26 @@ def test_a_sweep_shares_the_library_and_each_run_equals_a_fresh_model_to_the_bit
     assert all(library is libraries[0] for library in libraries)
     assert derived[-1] == derived[0]  # the later runs derived no mode: all came from the shared library
     assert not np.array_equal(runs[0.8].x[-1], runs[0.6].x[-1])
+
+
+def test_guard_comparisons_that_read_no_rate_keep_their_sides_for_every_mode():
+    """A comparison's finite sides and round-off scale are the mode's own only where it reads a
+    rate (ẋ = f(x) of the mode substituted); the others are kept once for every mode (a scene's
+    modes share a thousand contact comparisons) and are the triples derived anew."""
+    from sympy.core.relational import Relational
+
+    from models import ball_chain, diode_circuit
+    from switching.library.compiled import comparison_triples
+
+    for model in (ball_chain.build(N=6, e=1.0), diode_circuit.build()):
+        model.simulate(1.0 if model.name.startswith("ball") else 2e-3, "RK45", rtol=1e-9)
+        library = model.library
+        for mode in model.derived_modes:
+            me = model.mode_equations(mode)
+            relations = [rel for guard in me.guards for rel in guard.condition.atoms(Relational)]
+            kept = comparison_triples(me, relations)
+            library.triple_memo.clear()
+            assert comparison_triples(me, relations) == kept
+            assert all((rel in library.triple_memo) == (me.finite(rel.lhs) is rel.lhs and me.finite(rel.rhs)
+                                                        is rel.rhs) for rel in relations)
+        assert library.triple_memo or model.name.startswith("diode")
