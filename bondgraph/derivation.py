@@ -72,6 +72,16 @@ class Derivations:
                          lambda: derive_equations(self.island_graph(graph, island, ports), dict(island.key[1]),
                                                   self.island_causality(graph, island, ports)))
 
+    def _kept(self, kind: str, derive, graph, parts: list, ports: str) -> list:
+        """``derive(graph, island, ports)`` of each island in ``parts``, read straight from the entries
+        where kept (a configuration of a large scene holds hundreds of islands, nearly all kept)."""
+        entries = self.entries
+        pieces = []
+        for island in parts:
+            found = entries.get((kind, ports, island.key))
+            pieces.append(derive(graph, island, ports) if found is None else found)
+        return pieces
+
     def checked(self, graph, ports: str) -> None:
         """Validate ``graph`` once per version of this graph (it raises every time while invalid)."""
         if ("validated", ports) not in self.entries:
@@ -87,7 +97,7 @@ class Derivations:
         if parts is None:
             return assign_causality(graph, config, validate=False)
         try:
-            pieces = [self.island_causality(graph, island, ports) for island in parts]
+            pieces = self._kept("island causality", self.island_causality, graph, parts, ports)
         except HybridBondGraphError:
             return assign_causality(graph, config, validate=False)
         return merge_causality(graph, config, pieces)
@@ -99,7 +109,7 @@ class Derivations:
         if parts is None:
             return derive_equations(graph, config, causality)
         try:
-            pieces = [self.island_equations(graph, island, ports) for island in parts]
+            pieces = self._kept("island equations", self.island_equations, graph, parts, ports)
         except HybridBondGraphError:
             return derive_equations(graph, config, causality)
         return merge_equations(graph, config, causality, pieces)

@@ -188,7 +188,7 @@ class ModeEquations:
         (and signals taken in another mode by their expressions of ``x``)."""
         free, has_rates = self.model.library.symbols_of(expr)
         bonds, values, taken = self._bond_values, self.values, self.model.cross_signals
-        if not (has_rates or taken or any(s in bonds or s in values for s in free)):
+        if not (has_rates or taken or not bonds.keys().isdisjoint(free) or not values.keys().isdisjoint(free)):
             return expr  # (a guard on states and parameters: every contact of a ball chain)
         if taken:
             cross = {s: self.model.library.cross_signal(self.mode, s.name, self) for s in free
