@@ -240,9 +240,10 @@ def merge_causality(graph, config: dict, parts: list):
         relations.update(part.relations.relations)
         rates.update(part.relations.rates)
         constraints.update(part.relations.constraints)
-    independent = [el.state for el in graph.storage if el.state not in dependent_set]
+    storage = graph.derived.memo("storage elements", lambda: graph.storage)  # (a walk of every element)
+    independent = [el.state for el in storage if el.state not in dependent_set]
     independent.extend(graph.displacements)
-    dependent = tuple(el.state for el in graph.storage if el.state in dependent_set)
+    dependent = tuple(el.state for el in storage if el.state in dependent_set)
     rate_symbols = dict(graph.derived.memo("rate symbols", lambda: {s: rate_symbol(s) for s in graph.states}))
     return Causality(
         configuration=dict(config),
@@ -274,16 +275,17 @@ def merge_equations(graph, config: dict, causality, parts: list):
         for port in part.port_inputs:
             port_values[port] = (part.port_inputs[port], part.port_outputs[port])
     open_ports = [p for p in graph.open_ports if p in port_values]
+    states = graph.derived.memo("states", lambda: tuple(graph.states))  # (a walk of every element)
     return ConfigurationEquations(
         graph_name=graph.name,
         configuration=dict(config),
-        states=tuple(graph.states),
+        states=states,
         independent=causality.independent,
         dependent=causality.dependent,
         rate_symbols=dict(causality.relations.rate_symbols),
         constraints={x: constraints[x] for x in causality.dependent},
         implicit_rates={x: implicit[x] for x in causality.independent},
-        rates={x: rates[x] for x in graph.states},
+        rates={x: rates[x] for x in states},
         efforts={b: efforts[b] for b in graph.bonds},
         flows={b: flows[b] for b in graph.bonds},
         causality=causality,
