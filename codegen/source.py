@@ -21,6 +21,7 @@ the function's source defines after it (:mod:`codegen.inverse`).
 from __future__ import annotations
 
 import builtins
+import itertools
 import keyword
 import math
 import re
@@ -350,7 +351,7 @@ def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: str) -> list:
         parts.append(argument_doc)
     parts.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")
     if spec.output_names:  # (an index and " = " need no escape)
-        parts.extend(f"    [{k}] = {escaped(f'{label}')}" for k, label in enumerate(spec.output_names))
+        parts.extend(map("    [{}] = {}".format, itertools.count(), map(escaped, map(format, spec.output_names))))
     else:
         parts.extend(f"    [{k}] = {k}" for k in range(n_outputs))
     body = "\n    ".join(parts)
