@@ -162,3 +162,30 @@ def test_guard_comparisons_that_read_no_rate_keep_their_sides_for_every_mode():
             assert all((rel in library.triple_memo) == (me.finite(rel.lhs) is rel.lhs and me.finite(rel.rhs)
                                                         is rel.rhs) for rel in relations)
         assert library.triple_memo or model.name.startswith("diode")
+
+
+def test_the_garbage_collector_waits_while_a_mode_is_prepared_and_is_left_as_it_was():
+    """Preparing a mode allocates many objects and hardly any cyclic garbage; the collections they
+    would trigger walk every object of the modes before it.  The collector is off inside the outermost
+    preparation and switched back on after it only if it was on (a caller's gc.disable() stands)."""
+    import gc
+
+    from models import bouncing_ball
+
+    library = bouncing_ball.build().library
+    seen = []
+    assert gc.isenabled()
+    try:
+        with library._preparation():
+            seen.append(gc.isenabled())
+            with library._preparation():
+                seen.append(gc.isenabled())
+            seen.append(gc.isenabled())
+        seen.append(gc.isenabled())
+        gc.disable()
+        with library._preparation():
+            pass
+        seen.append(gc.isenabled())
+    finally:
+        gc.enable()
+    assert seen == [False, False, False, True, False]
