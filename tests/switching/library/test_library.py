@@ -150,10 +150,13 @@ def test_guard_comparisons_that_read_no_rate_keep_their_sides_for_every_mode():
     from models import ball_chain, diode_circuit
     from switching.library.compiled import comparison_triples
 
-    for model in (ball_chain.build(N=6, e=1.0), diode_circuit.build()):
-        model.simulate(1.0 if model.name.startswith("ball") else 2e-3, "RK45", rtol=1e-9)
+    chain = ball_chain.build(N=6, e=1.0)
+    automata = chain.initial_mode.automata
+    chain_modes = [{a: "collide" if j == k else "free" for j, a in enumerate(automata)} for k in range(len(automata))]
+    for model, modes in ((chain, [chain.initial_mode, *chain_modes]), (diode_circuit.build(), [None])):
         library = model.library
-        for mode in model.derived_modes:
+        for mode in modes:
+            mode = model.initial_mode if mode is None else model.mode(mode)
             me = model.mode_equations(mode)
             relations = [rel for guard in me.guards for rel in guard.condition.atoms(Relational)]
             kept = comparison_triples(me, relations)

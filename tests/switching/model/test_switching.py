@@ -324,9 +324,11 @@ def test_the_co_energies_of_storage_are_derived_once_for_the_modes_of_a_scene():
     from models import ball_chain
 
     model = ball_chain.build(N=6, e=1.0)
-    model.simulate(1.0, "RK45", rtol=1e-9)
+    automata = model.initial_mode.automata
+    for k in range(len(automata)):  # (derived here: a run may read the modes' functions from the disk cache)
+        model.mode_equations({a: "collide" if j == k else "free" for j, a in enumerate(automata)})
     entries = [k for k in model.derivation_graph.derived.entries if k[0] == "storage co-energies"]
-    assert entries == [("storage co-energies", ())] and model.derivation_count == 6
+    assert entries == [("storage co-energies", ())] and model.derivation_count == 5
     me = model.mode_equations(model.derived_modes[-1])
     for el in model.derivation_graph.storage:  # the momentum's flow is p/m, signed by its bond
         (bond,) = model.derivation_graph.bonds_of(el.name)
