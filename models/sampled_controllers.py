@@ -117,13 +117,14 @@ def build_sampled_controller(builder, part, error: sp.Expr, gains: dict, limits:
         initial = v["initial"] if key in ("u", "w", "I") else 0.0
         if initial:
             builder.start_unit_state(storage, initial)
-    builder.automata.append(_clock(name, v["sample_delay"], period, loads))
+    builder.automata.append(_clock(name, v["sample_delay"], period, loads, q))
     return q["u"]
 
 
-def _clock(name: str, delay: float, period: sp.Symbol, loads: dict) -> Automaton:
+def _clock(name: str, delay: float, period: sp.Symbol, loads: dict, q: dict) -> Automaton:
     """The automaton ``<name>_clock``: ``wait_a``/``wait_b`` hold every value (clock positive/negative
-    since the last tick), ``stage<j>_a``/``_b`` close stage ``j``'s loads (module docstring)."""
+    since the last tick), ``stage<j>_a``/``_b`` close stage ``j``'s loads (module docstring); ``q``: the
+    held values' states."""
     def setting(closed=()):
         return {load: key in closed for key, load in loads.items()}
 
@@ -140,11 +141,12 @@ def _clock(name: str, delay: float, period: sp.Symbol, loads: dict) -> Automaton
         for j, stage in enumerate(stages, 1):
             source = f"stage{j}_{other}"
             target = f"stage{j + 1}_{other}" if j < len(stages) else f"wait_{other}"
-            done = " and ".join(f"q_{name}_{key} == {_source_of(name, key)}" for key in stage)
+            done = " and ".join(f"{q[key].name} == {_source_of(name, key, q)}" for key in stage)
             automaton.add_transition(source, target, done, "a priori")
     return automaton
 
 
-def _source_of(name: str, key: str) -> str:
+def _source_of(name: str, key: str, q: dict) -> str:
     """The text of the value ``key`` is loaded with: a held state or a ``<name>_next_<key>`` signal."""
-    return {"u": f"q_{name}_w", "I": f"q_{name}_n", "E": f"q_{name}_m"}.get(key, f"{name}_next_{key}")
+    held = {"u": "w", "I": "n", "E": "m"}
+    return q[held[key]].name if key in held else f"{name}_next_{key}"

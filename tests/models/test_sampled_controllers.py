@@ -147,3 +147,15 @@ def test_a_controller_s_states_and_output_are_not_labelled_as_charges():
         units = model.annotations.units
         assert not [name for name in units if name.startswith(("q_PI", "PI"))], units
     assert rc_loop().build().annotations.units["q_C1"] == "C"
+
+
+def test_held_values_renamed_around_a_component_of_their_name_still_close_their_stages():
+    """A resistor named ``PI1_u`` takes the held output's element name: the hold becomes ``PI1_u_2`` and
+    its stage's guard reads that state, so the loop is still the exact discrete one."""
+    c = rc_loop()
+    c.R("PI1_u", "out", "0", 1e9)  # (1 nA at 1 V: the loop's answer moves by far less than the tolerance)
+    run = c.build().simulate(1.0, rtol=1e-11, atol=1e-13)
+    assert "q_PI1_u_2" in run.state_names
+    ticks, _, _ = exact_loop(1.0, rc_relax)
+    assert np.allclose(run.event_times, ticks, rtol=0, atol=1e-14)
+    assert run.signal("PI1")[-1] == run.state("q_PI1_u_2")[-1]
