@@ -656,9 +656,17 @@ def test_a_long_pinnacle_chain_costs_linear_time():
     def per_pinnacle(ratio):
         model = ball_row([1.0, ratio, 1.0], 1.0, max_steps=100_000)
         model.simulate(0.05, "RK45")  # code generation out of the timing
-        started = time.perf_counter()
-        trajectory = model.simulate(0.3, "RK45", output="events")
-        return (time.perf_counter() - started) / trajectory.events[0].kinds.count("pinnacle")
+        best = math.inf
+        for _ in range(3):  # the least of three, the collector held: the chain's cost, not the session's heap
+            gc.collect()
+            gc.disable()
+            try:
+                started = time.perf_counter()
+                trajectory = model.simulate(0.3, "RK45", output="events")
+                best = min(best, time.perf_counter() - started)
+            finally:
+                gc.enable()
+        return best / trajectory.events[0].kinds.count("pinnacle")
 
     small, large = per_pinnacle(1e-4), per_pinnacle(1e-6)
     print(f"\ntime per pinnacle: {small * 1e3:.2f} ms (222 pinnacles), {large * 1e3:.2f} ms (2221 pinnacles)")
