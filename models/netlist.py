@@ -183,13 +183,9 @@ class Netlist:
         """The components' names, in the order added."""
         return tuple(self._parts)
 
-    def draw(self, mode=None):
-        """The netlist's drawing (:class:`~models.netlist_drawing.NetlistDrawing`): each kind of netlist draws
-        its own (a circuit's schematic, a mechanism's lumped diagram)."""
-        raise NotImplementedError(f"a {self.kind_word} has no drawing")
-
     def _repr_svg_(self) -> str:
-        """A notebook shows the netlist as its drawing, in the states at t = 0."""
+        """A notebook shows the netlist as its drawing in the states at t = 0: ``draw()``, which each kind
+        of netlist defines (a circuit's schematic, a mechanism's lumped diagram)."""
         return self.draw().svg()
 
 
