@@ -181,14 +181,15 @@ def _compiled(source: str, where: str, first_line: int = 1) -> types.CodeType:
             where, line) from None
 
 
-def check_source(source: str, where: str = "<generated>", dialect: Dialect = PYTHON) -> None:
-    """Compile ``source`` and check it (:func:`check_code`); a source that
+def check_source(source: str, where: str = "<generated>", dialect: Dialect = PYTHON,
+                 also: frozenset = frozenset()) -> None:
+    """Compile ``source`` and check it (:func:`check_code`; ``also`` as there); a source that
     passed with the same dialect is not compiled again for the check."""
     digest = hashlib.blake2b(source.encode("utf-8", "surrogatepass"), digest_size=20).digest() + \
-        repr(dialect).encode()
+        repr(dialect).encode() + repr(sorted(also)).encode()
     if digest in _PASSED:
         return
-    check_code(_compiled(source, where), where, dialect)
+    check_code(_compiled(source, where), where, dialect, also)
     if len(_PASSED) >= _PASSED_MAX:
         _PASSED.clear()
     _PASSED.add(digest)

@@ -59,6 +59,10 @@ class FunctionSpec:
     output_names: tuple = ()
     raw: bool = False  # outputs computed on Hyper values and returned as a list
     brief: bool = False  # a one-line docstring, without the lists of argument and output entries
+    #: ``False``: the docstring states the arrays' shapes (``x[2000]: state vector``) and ``output_doc``, not
+    #: every entry (a scene's mode functions: a list of every state in every function of every mode)
+    entries: bool = True
+    output_doc: str = ""
     #: an array argument whose entries most outputs equal (a jump leaves most states as they are):
     #: from COPY_MIN such outputs on, one slice copy ``out[:] = <it>`` writes them all
     copy_of: str = ""
@@ -258,11 +262,19 @@ class PrintMemo:
     def __init__(self):
         self._tables: dict = {}
         self._names: dict = {}
+        #: (id of an arguments tuple, raw) → (the tuple, its table): a scene's modes hand the same tuple,
+        #: whose key (every state's symbol) costs a hash of a thousand symbols
+        self._by_arguments: dict = {}
         self.hits = self.misses = 0
 
     def table(self, spec: "FunctionSpec") -> dict:
+        found = self._by_arguments.get((id(spec.arguments), spec.raw))
+        if found is not None and found[0] is spec.arguments:
+            return found[1]
         key = (spec.raw, tuple((a.name, a.symbols) for a in spec.arguments))
-        return self._tables.setdefault(key, {})
+        table = self._tables.setdefault(key, {})
+        self._by_arguments[(id(spec.arguments), spec.raw)] = (spec.arguments, table)  # (held: the id stays its)
+        return table
 
     def temporary(self, expr) -> str:
         """The model-wide name of the temporary holding ``expr``."""
@@ -347,6 +359,12 @@ def _docstring(spec: FunctionSpec, n_outputs: int, argument_doc: str) -> list:
         return [docstring([spec.doc.strip() or spec.name])]
     parts = [escaped(line) for line in (spec.doc.strip() or spec.name).split("\n")]
     parts.append("")
+    if not spec.entries:
+        parts += [escaped(f"{a.name}: {a.doc or a.symbols[0]}" if a.scalar else f"{a.name}[{len(a.symbols)}]: {a.doc}")
+                  for a in spec.arguments]
+        parts.append(escaped(("returns" if spec.raw else "out") + f"[{n_outputs}]: {spec.output_doc}".rstrip()))
+        body = "\n    ".join(parts)
+        return [f'    """{body}\n    """']
     if argument_doc:
         parts.append(argument_doc)
     parts.append(("returns" if spec.raw else "out") + f"[{n_outputs}]:")

@@ -16,11 +16,18 @@ Generated functions of one mode (arrays: ``x`` states, ``p`` parameters,
 ``sides_raw(x, t, p, u, xdot)``  the left and right sides on raw signals,
                                impulse-aware (``[2k], [2k + 1]``)
 
-In a mode of many automata (more than ``2·SIDE_BLOCK_AUTOMATA``) ``sides``
+In a mode of many automata (more than ``2·SIDE_BLOCK_AUTOMATA``: a scene) ``sides``
 and ``sides_raw`` call one function per block of automata
 (``_sides_<hash>``, ``_sides_raw_<hash>``, named by a hash of their text),
-which every mode holding those automata in the same states shares;
-:func:`flat_sides` writes such a ``sides`` out as one function.
+which every mode holding those automata in the same states shares, and
+``rates`` one per block of ``STATE_BLOCK`` states (``_rates_<hash>``);
+:func:`flat_sides` writes such a ``sides`` and ``rates`` out as one function.
+A scene's module does not hold the blocks it calls (each is generated, stored
+in the disk cache and compiled once for all the modes that call it:
+:meth:`switching.library.mode_library.ModeLibrary.block_text`), and its
+functions' docstrings state the arrays' shapes, not every entry: the module's
+size so grows with the number of blocks, not with the states and guards
+(bar ``META``).
 
 A comparison is decided with the band ``rtol·max(|left|, |right|, R) + atol``
 (:func:`codegen.runtime.decide`): a difference that is zero up to the
@@ -49,11 +56,11 @@ from codegen.source import Argument, FunctionSpec, composed_source, docstring, f
 
 from ..rules.jumps import MOTION_ULPS, jump_pulse
 
-__all__ = ["CompiledMode", "MODE_SOURCE_VERSION", "comparison_triples", "condition_tree", "generate_mode_source",
-           "decide_tree", "guard_parts", "holds_strictly", "mode_module", "mode_source_and_meta", "shifted_tree"]
+__all__ = ["BLOCK_CALLS", "CompiledMode", "MODE_SOURCE_VERSION", "block_checked", "block_name", "called_blocks", "comparison_triples",
+           "condition_tree", "generate_mode_source", "decide_tree", "guard_parts", "holds_strictly", "mode_module", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "12"
+MODE_SOURCE_VERSION = "13"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -246,6 +253,25 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     return mode_module(model, me)[:2]
 
 
+def _arguments(model, states, rates, params, inputs) -> tuple:
+    """The argument lists of a mode's functions and of its raw ones: the same tuples for every mode of a model
+    (kept by its library) while they hold the same symbols, so that the print memo finds its table by them at
+    once (:meth:`codegen.source.PrintMemo.table`)."""
+    kept = model.library.mode_arguments
+    symbols = (tuple(states), tuple(rates), tuple(params), tuple(inputs), model.time)
+    if kept is not None and kept[0] == symbols:
+        return kept[1]
+    base_args = (
+        Argument("x", symbols[0], doc="state vector"),
+        Argument("t", (model.time,), scalar=True, doc="time [s]"),
+        Argument("p", symbols[2], doc="parameters"),
+        Argument("u", symbols[3], doc="inputs"),
+    )
+    raw_args = base_args + (Argument("xdot", symbols[1], doc="state derivatives (Hyper: impulse, finite)"),)
+    model.library.mode_arguments = (symbols, (base_args, raw_args))
+    return base_args, raw_args
+
+
 def mode_module(model, me) -> tuple[str, dict, dict]:
     """:func:`mode_source_and_meta` and the module's parts as
     :func:`_function_chunks` reads them off the text, known here as the text
@@ -258,13 +284,7 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     dependent = [s for s in states if s in me.equations.dependent]
     independent = [s for s in states if s not in me.equations.dependent]
     label = me.mode.describe()
-    base_args = (
-        Argument("x", tuple(states), doc="state vector"),
-        Argument("t", (model.time,), scalar=True, doc="time [s]"),
-        Argument("p", tuple(params), doc="parameters"),
-        Argument("u", tuple(inputs), doc="inputs"),
-    )
-    raw_args = base_args + (Argument("xdot", tuple(rates), doc="state derivatives (Hyper: impulse, finite)"),)
+    base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
     relations: list = []
     guards = []
@@ -288,27 +308,40 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     finite_sides, raw_sides = comparison_triples(me, relations), []
     for rel in relations:
         raw_sides += [rel.lhs, rel.rhs]
-    texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by condition_tree
-    side_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right"))
-    triple_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right", "round-off scale"))
+    large = len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA  # a scene: no per-entry lists, rates in blocks
+    if large:  # (the docstrings state the arrays' shapes; the module's docstring names the mode)
+        side_names = triple_names = ()
+        where, shaped = "this mode", (lambda output_doc: {"entries": False, "output_doc": output_doc})
+    else:
+        texts = _leaf_texts([g["tree"] for g in guards], len(relations))  # printed once, by condition_tree
+        side_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right"))
+        triple_names = tuple(f"{side} of {text}" for text in texts for side in ("left", "right", "round-off scale"))
+        where, shaped = f"mode {label}", (lambda output_doc: {})
 
     g = me.g
     jump_kind = "identity" if me.jump.is_identity else ("symbolic" if g is not None else "numeric")
     specs = [
         FunctionSpec("phi", base_args, tuple(me.equations.constraints[s] for s in dependent),
-                     f"Dependent states of mode {label} (x_d = phi(x_i, t)).",
-                     tuple(model.state_names[model.state_index[s]] for s in dependent)),
-        FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in mode {label}.",
-                     model.state_names),
+                     f"Dependent states of {where} (x_d = phi(x_i, t)).",
+                     tuple(model.state_names[model.state_index[s]] for s in dependent),
+                     **shaped("x_d, the states at x[k] for k in META['dependent'], in that order")),
+        FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in {where}.",
+                     model.state_names, **shaped("dx/dt of every state, in the order of x")),
         FunctionSpec("sides", base_args, tuple(finite_sides),
-                     f"Guard comparison sides in mode {label} (finite) with their round-off scales.", triple_names),
+                     f"Guard comparison sides in {where} (finite) with their round-off scales.", triple_names,
+                     **shaped("left side, right side and round-off scale of guard comparison k (numbered as "
+                              "in META's guard trees) at [3k], [3k + 1], [3k + 2]")),
         FunctionSpec("sides_raw", raw_args, tuple(raw_sides),
-                     f"Guard comparison sides in mode {label} on raw signals (impulse-aware).", side_names, raw=True),
+                     f"Guard comparison sides in {where} on raw signals (impulse-aware).", side_names, raw=True,
+                     **shaped("left and right side of guard comparison k at [2k], [2k + 1]")),
     ]
     if jump_kind == "symbolic":
         specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
-                                  f"x+ = g(x) into mode {label}.", model.state_names, copy_of="x"))
-    blocks = _side_blocks(spans) if len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA else None
+                                  f"x+ = g(x) into {where}.", model.state_names, copy_of="x",
+                                  **shaped("x+, in the order of x")))
+    blocks = _side_blocks(spans) if large else None
+    state_blocks = [(k, min(k + STATE_BLOCK, len(states))) for k in range(0, len(states), STATE_BLOCK)] \
+        if large else None
     meta = {
         "mode": tuple(me.mode.states),
         "automata": tuple(me.mode.automata),
@@ -319,11 +352,18 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
         "guards": tuple(guards),
         "n_states": len(states),
     }
+    if large:  # (named by the automata off their initial states: META['mode'] holds every state)
+        initial = {a.name: a.initial for a in model.automata}
+        changed = ", ".join(f"{a}={s}" for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a])
+        label = f"{changed} (every other automaton in its initial state)" if changed else \
+            "with every automaton in its initial state"
     header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
     pieces = []  # (function name, its text) in the module's order
     for spec in specs:
         if blocks and spec.name in ("sides", "sides_raw"):
-            pieces += _blocked_pieces(model, spec, blocks, 3 if spec.name == "sides" else 2)
+            pieces.append(_blocked_piece(model, spec, blocks, 3 if spec.name == "sides" else 2))
+        elif state_blocks and spec.name == "rates":
+            pieces.append(_blocked_piece(model, spec, state_blocks, 1))
         else:
             pieces.append((spec.name, function_source(spec, model.library.print_memo)))
     meta_text = repr(meta)
@@ -347,7 +387,13 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
 #: shared across a block's edge are computed once per block).
 SIDE_BLOCK_AUTOMATA = 16
 
-_BLOCK_NAME = r"_(?:sides|sides_raw)_[0-9a-f]{12}"
+#: the rates of such a mode are printed in blocks of this many states, shared alike (a
+#: ball's rates read the same in every mode where its contacts are as they were)
+STATE_BLOCK = 32
+
+_BLOCK_NAME = r"_(?:sides|sides_raw|rates)_[0-9a-f]{12}"
+#: the names of block functions in a module's text, which its functions may call (checked: :mod:`codegen.safety`)
+BLOCK_CALLS = rf"\b{_BLOCK_NAME}\b"
 
 
 def _side_blocks(spans) -> list | None:
@@ -369,44 +415,73 @@ def _side_blocks(spans) -> list | None:
     return blocks
 
 
-def _blocked_pieces(model, spec: FunctionSpec, blocks: list, per_comparison: int) -> list:
-    """``spec`` (``sides`` or ``sides_raw``) as calls of one block function
-    per block of comparisons, followed by the blocks' own source: ``(name,
-    text)`` of each function.  A block
-    is named by a hash of its text, so one block is one function for every
-    mode that holds it, in this process and in the disk cache; its text is
-    kept for the model by its outputs (the print memo makes the rest)."""
+def block_name(kind: str, text: str) -> str:
+    """The name of a block function of ``kind`` (``sides``, ``sides_raw``, ``rates``) whose text,
+    defined as ``_block_``, is ``text``: a hash of it."""
     import hashlib
 
-    memo = model.library.side_block_sources
-    calls, texts = [], {}
+    return f"_{kind}_" + hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tuple:
+    """``spec`` (``sides``, ``sides_raw`` or ``rates``) as calls of one block
+    function per block of items (comparisons, states; ``per_item`` outputs
+    each): ``(name, text)`` of the caller.  A block is named by a hash of its
+    text, so one block is one function for every mode that holds it, in this
+    process and in the disk cache; its text is kept for the model by its
+    outputs (the print memo makes the rest) and by its name in the library's
+    ``block_texts``, which the caller's module does not hold (the library
+    stores each block in the disk cache once, under its own key)."""
+    memo, named = model.library.side_block_sources, model.library.block_texts
+    calls = []
+    kind = "raw signals (impulse-aware)" if spec.raw else "their round-off scales"
     for start, end in blocks:
-        outputs = spec.outputs[per_comparison * start:per_comparison * end]
-        key = (spec.raw, outputs)
+        outputs = spec.outputs[per_item * start:per_item * end]
+        key = (spec.name, spec.raw, outputs)
         found = memo.get(key)
         if found is None:
-            block = FunctionSpec("_block_", spec.arguments, outputs,
-                                 "A block of guard comparison sides " + ("on raw signals (impulse-aware)."
-                                                                         if spec.raw else "with their round-off scales."),
-                                 raw=spec.raw, brief=True)
+            doc = ("A block of state rates dx/dt." if spec.name == "rates"
+                   else f"A block of guard comparison sides with {kind}.")
+            block = FunctionSpec("_block_", spec.arguments, outputs, doc, raw=spec.raw, brief=True)
             text = function_source(block, model.library.print_memo)
-            name = f"_{spec.name}_" + hashlib.sha1(text.encode()).hexdigest()[:12]
+            name = block_name(spec.name, text)
             found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
+            named[name] = found[1]
         calls.append((found[0], len(outputs)))
-        texts[found[0]] = found[1]
-    return [(spec.name, composed_source(spec, calls, model.library.print_memo)), *texts.items()]
+    return spec.name, composed_source(spec, calls, model.library.print_memo)
+
+
+def called_blocks(text: str) -> list:
+    """The block functions a generated caller's ``text`` calls, in order, each once."""
+    body = text[text.rindex('"""') + 3:] if '"""' in text else text  # (after the docstring)
+    return list(dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", body)))
+
+
+def block_checked(name: str, text: str) -> bool:
+    """Is ``text`` the block function ``name`` (its name the hash of its text)?"""
+    kind = re.fullmatch(r"_(sides|sides_raw|rates)_[0-9a-f]{12}", name)
+    head = f"def {name}("
+    return bool(kind) and text.startswith(head) and block_name(kind.group(1), "def _block_(" + text[len(head):]) \
+        == name
 
 
 def flat_sides(source: str) -> str:
-    """A generated mode module with a ``sides`` made of blocks written out as
-    one function — each block's statements in turn, its outputs at their
-    places — and the blocks' definitions dropped: the same numbers, for any
-    ``out`` (a standalone export may be handed a list, whose slices are
-    copies, not views).  Other modules are returned as they are."""
+    """A generated mode module with a ``sides`` (and ``rates``) made of
+    blocks written out as one function — each block's statements in turn, its
+    outputs at their places — and the blocks' definitions dropped: the same
+    numbers, for any ``out`` (a standalone export may be handed a list, whose
+    slices are copies, not views).  Other modules are returned as they are."""
+    for function in ("sides", "rates"):
+        source = _flat(source, function)
+    return source
+
+
+def _flat(source: str, function: str) -> str:
+    """:func:`flat_sides` of one function."""
     chunks = _function_chunks(source)
-    if "sides" not in chunks:
+    if function not in chunks:
         return source
-    caller = chunks["sides"][1]
+    caller = chunks[function][1]
     calls = re.findall(rf"^    ({_BLOCK_NAME})\(x, t, p, u, out\[(\d+):\d+\]\)$", caller, re.MULTILINE)
     if not calls:
         return source
@@ -467,7 +542,9 @@ class CompiledMode:
     def __init__(self, model, mode, source: str, meta: dict | None = None, chunks: dict | None = None):
         self.model = model
         self.mode = mode
-        self.source = source
+        #: the mode's module as generated and stored: a scene's calls block functions it does not hold
+        #: (:attr:`source` is the module with them)
+        self.module = source
         self._where = f"<hbg mode {mode.label}>"
         self._namespace = module_namespace()
         # (given: the parts the text was assembled from, :func:`mode_module`)
@@ -478,7 +555,10 @@ class CompiledMode:
         meta_text = self._chunks.pop("META")
         meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
         self.meta = meta
-        self._functions = frozenset(self._chunks)  # (each compiled apart, checked to call only these)
+        #: the block functions the module's callers call, by caller
+        self._blocks = {name: called_blocks(self._chunks[name][1]) for name in ("rates", "sides", "sides_raw")}
+        # (each compiled apart, checked to call only these)
+        self._functions = frozenset(self._chunks).union(*self._blocks.values())
         self.independent = np.array(meta["independent"], dtype=int)
         self.dependent = np.array(meta["dependent"], dtype=int)
         self.moved = np.array(meta["moved"], dtype=int)
@@ -489,32 +569,51 @@ class CompiledMode:
         self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
         self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
 
+    @property
+    def source(self) -> str:
+        """The mode's whole module: :attr:`module` and the block functions it calls that it does not hold."""
+        missing = [name for names in self._blocks.values() for name in names if name not in self._chunks]
+        if not missing:
+            return self.module
+        texts = [self.function_text(name) for name in dict.fromkeys(missing)]
+        return self.module.rstrip("\n") + "\n\n\n" + "\n\n".join(text.rstrip("\n") + "\n" for text in texts)
+
+    def function_text(self, name: str) -> str:
+        """The text of generated function ``name``: the module's, or a block function it calls
+        (:meth:`~switching.library.mode_library.ModeLibrary.block_text`)."""
+        if name in self._chunks:
+            return self._chunks[name][1]
+        return self.model.library.block_text(name, self.mode)
+
     def _function(self, name: str):
         """Generated function ``name``, compiled when first asked for (a mode
         passed through at instants never needs its rates, say).  Its line
-        numbers are those of :attr:`source`."""
+        numbers are those of :attr:`module` (a block's, its own)."""
         found = self._namespace.get(name)
         if found is None and name in self._chunks:
             first_line, text = self._chunks[name]
-            if name in ("sides", "sides_raw"):
-                self._place_blocks(text)
+            self._place_blocks(self._blocks.get(name, ()))
             execute(text, self._namespace, self._where, first_line=first_line, also=self._functions)
             found = self._namespace[name]
         return found
 
-    def _place_blocks(self, text: str) -> None:
-        """Put the block functions that ``text`` calls into this mode's
-        namespace: the model's, compiled by the first mode that needed them
-        (a block's name is a hash of its text, so equal names are equal
-        functions), else compiled now from this mode's source."""
+    def _place_blocks(self, blocks) -> None:
+        """Put the block functions ``blocks`` into this mode's namespace: the
+        model's, compiled by the first mode that needed them (a block's name is
+        a hash of its text, so equal names are equal functions), else compiled
+        now from its text (:meth:`function_text`)."""
         shared = self.model.library.side_block_functions
-        body = text[text.rindex('"""') + 3:]  # (the calls: after the docstring, which lists every output)
-        for block in dict.fromkeys(re.findall(rf"\b({_BLOCK_NAME})\(", body)):
+        for block in blocks:
             if block in self._namespace:
                 continue
             function = shared.get(block)
             if function is None:
-                function = shared[block] = self._function(block)
+                if block in self._chunks:
+                    function = self._function(block)
+                else:
+                    namespace = execute(self.function_text(block), module_namespace(), f"<hbg block {block}>")
+                    function = namespace[block]
+                shared[block] = function
             self._namespace[block] = function
 
     _phi = _Generated("phi")

@@ -47,6 +47,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import gc
+import re
 import time
 
 import sympy as sp
@@ -55,7 +56,7 @@ from bondgraph.errors import HybridBondGraphError
 from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
-from .compiled import MODE_SOURCE_VERSION, CompiledMode, mode_module
+from .compiled import BLOCK_CALLS, MODE_SOURCE_VERSION, CompiledMode, block_checked, called_blocks, mode_module
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
 from ..model.modes import Mode, ModeEquations
@@ -150,7 +151,10 @@ class ModeLibrary:
     ``side_block_sources``
         (raw?, outputs) of a block of guard sides → (function name, source).
     ``side_block_functions``
-        name of a block of guard sides → its compiled function (shared by the modes).
+        name of a block of guard sides or rates → its compiled function (shared by the modes).
+    ``block_texts``
+        name of a block function → its text (:meth:`block_text`), which a mode's module calls
+        but does not hold: each is stored in the disk cache once, under a key of its own.
     ``symbols_memo``
         expression → (free symbols, whether a law switch's Rate occurs) (:meth:`symbols_of`).
     ``jacobians``
@@ -185,6 +189,11 @@ class ModeLibrary:
         self.triple_memo: dict = {}
         self.side_block_sources: dict = {}
         self.side_block_functions: dict = {}
+        #: name of a block function (guard sides, rates) → its text; and the names stored in the disk cache
+        self.block_texts: dict = {}
+        self.stored_blocks: set = set()
+        #: (the symbols, the argument lists) of the modes' functions (:func:`switching.library.compiled._arguments`)
+        self.mode_arguments = None
         self.symbols_memo: dict = {}
         self.jacobians: dict = {}
         self.gradient_memo: dict = {}
@@ -293,12 +302,41 @@ class ModeLibrary:
         if mode not in self.compiled:
             with self._preparation():
                 key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
-                source, meta, chunks = self.cache.load(key), None, None
+                source, meta, chunks = self.cache.load(key, calls=BLOCK_CALLS), None, None
+                if source is not None and not all(map(self._block_at_hand, set(re.findall(BLOCK_CALLS, source)))):
+                    source = None  # (a block it calls is gone from the disk cache: made again with the module)
                 if source is None:
                     source, meta, chunks = mode_module(self.model, self.mode_equations(mode))
                     self.cache.store(key, source)
+                    for name in (n for f in ("rates", "sides", "sides_raw") for n in called_blocks(chunks[f][1])):
+                        if name not in self.stored_blocks:  # (a scene's module calls blocks it does not hold)
+                            self.cache.store(self._block_key(name), self.block_texts[name])
+                            self.stored_blocks.add(name)
                 self.compiled[mode] = CompiledMode(self.model, mode, source, meta, chunks)
         return self.compiled[mode]
+
+    def _block_key(self, name: str) -> str:
+        return fingerprint(self.fingerprint, "block", MODE_SOURCE_VERSION, name)
+
+    def _block_at_hand(self, name: str) -> bool:
+        """Is the text of block function ``name`` known here, or in the disk cache (then read, checked to be
+        the function its name is the hash of)?"""
+        if name in self.block_texts:
+            return True
+        text = self.cache.load(self._block_key(name))
+        if text is None or not block_checked(name, text):
+            return False
+        self.block_texts[name] = text
+        self.stored_blocks.add(name)
+        return True
+
+    def block_text(self, name: str, mode) -> str:
+        """The text of the block function ``name`` that ``mode``'s module calls (made in this process
+        or read from the disk cache with the module: :meth:`compiled_mode`)."""
+        if not self._block_at_hand(name):
+            raise ValueError(f"the generated module of mode {self.model.mode(mode).describe()} calls a block "
+                             f"function {name} that is neither made nor in the disk cache")
+        return self.block_texts[name]
 
     def conflict_guards(self, mode, error):
         """The guards of ``mode``, whose derivation raised the causality conflict ``error``, judged in the

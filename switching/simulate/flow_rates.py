@@ -18,17 +18,31 @@ _READS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def _reads(cm, name):
     """The state indices the generated function ``name`` of ``cm`` reads,
-    from its source (``local = x[k]`` lines); ``None`` when that cannot be
-    told for sure."""
+    from its source (``local = x[k]`` lines, and those of the block functions
+    it calls on ``x``); ``None`` when that cannot be told for sure."""
     known = _READS.setdefault(cm, {})
     if name not in known:
-        match = re.search(rf"^def {name}\(x, t, p, u, out\):\n(.*?)(?=^def |\Z)", cm.source, re.DOTALL | re.MULTILINE)
-        body = match.group(1).split('"""') if match else []
-        code = body[2] if len(body) == 3 else None
-        reads = re.findall(r"^ +\w+ = x\[(\d+)\]$", code, re.MULTILINE) if code is not None else []
-        known[name] = {int(k) for k in reads} if code is not None and len(re.findall(r"\bx\[", code)) == len(
-            reads) else None
+        known[name] = _read_by(cm, cm.function_text(name))
     return known[name]
+
+
+def _read_by(cm, text):
+    """:func:`_reads` of one function's ``text``."""
+    body = re.split(r"^def ", text, flags=re.MULTILINE)[1].split('"""')  # (the function, not helpers after it)
+    code = body[2] if len(body) == 3 else None
+    if code is None:
+        return None
+    reads = {int(k) for k in re.findall(r"^ +\w+ = x\[(\d+)\]$", code, re.MULTILINE)}
+    calls = re.findall(r"^    (_rates_[0-9a-f]{12})\(x, t, p, u, out\[\d+:\d+\]\)$", code, re.MULTILINE)
+    if len(re.findall(r"\bx\[", code)) != len(re.findall(r"^ +\w+ = x\[(\d+)\]$", code, re.MULTILINE)) or \
+            len(re.findall(r"\bx\b", code)) != len(re.findall(r"\bx\[", code)) + len(calls):
+        return None  # (x read otherwise than by unpacking, or handed to something other than a block)
+    for block in calls:
+        found = _read_by(cm, cm.function_text(block))
+        if found is None:
+            return None
+        reads |= found
+    return reads
 
 
 def _inputs(model):

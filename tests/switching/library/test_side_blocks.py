@@ -92,13 +92,16 @@ def test_a_new_mode_prints_only_the_blocks_it_changes(tmp_path):
     model.cache = SourceCache(tmp_path)  # empty: every mode is generated here
     contacts = [a.name for a in model.automata]
     model.compiled_mode(model.initial_mode)._sides  # noqa: B018 - compiles the blocks
-    printed, functions = len(model.library.side_block_sources), len(model.library.side_block_functions)
+    def side_blocks():
+        return [key for key in model.library.side_block_sources if key[0] in ("sides", "sides_raw")]
+
+    printed, functions = len(side_blocks()), len(model.library.side_block_functions)
     assert functions == 3
     states = dict(zip(contacts, model.initial_mode.states))
     states[contacts[20]] = "collide"
     cm = model.compiled_mode(model.mode(states))
     cm._sides  # noqa: B018
-    assert len(model.library.side_block_sources) == printed + 2  # one block of finite sides, one of raw sides
+    assert len(side_blocks()) == printed + 2  # one block of finite sides, one of raw sides
     assert len(model.library.side_block_functions) == functions + 1  # the two other blocks are the initial mode's
 
 
@@ -125,6 +128,7 @@ def test_an_export_of_large_modes_fills_a_list(chain, tmp_path):
     raw_blocks = [line for line in text.splitlines() if line.startswith("def _sides_raw_")]
     assert len(raw_blocks) == len(set(raw_blocks))  # each shared block written once
     assert "def _sides_" not in text.replace("def _sides_raw_", "")  # finite sides written out: lists work
+    assert "def _rates_" not in text  # and the rates
     mode = chain.mode(labels[-1])
     cm = chain.compiled_mode(mode)
     x = random_states(chain, 1)[0]
@@ -141,13 +145,16 @@ def test_an_export_of_large_modes_fills_a_list(chain, tmp_path):
         functions["sides"]({[float(v) for v in x]!r}, 0.2, m.PARAMETER_VALUES, [], out)
         raw = functions["sides_raw"]({[float(v) for v in x]!r}, 0.2, m.PARAMETER_VALUES, [],
                                      [m.Hyper(0.0, 0.0)] * {len(x)})
-        print(json.dumps([out, len(raw)]))
+        rates = [0.0] * {len(x)}
+        functions["rates"]({[float(v) for v in x]!r}, 0.2, m.PARAMETER_VALUES, [], rates)
+        print(json.dumps([out, len(raw), rates]))
         """
     )
     out = subprocess.run([sys.executable, "-c", check, str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    values, count = json.loads(out.stdout)
+    values, count, rates = json.loads(out.stdout)
     assert np.array_equal(np.array(values), expected)
+    assert np.array_equal(np.array(rates), cm.rates(x, 0.2))
     assert count == 2 * cm.n_relations
 
 
@@ -194,6 +201,6 @@ def test_the_parts_of_a_module_assembled_are_those_read_off_its_text(chain, bloc
     for mode in list(chain.visited_modes)[:3]:
         source, meta, chunks = compiled.mode_module(chain, chain.mode_equations(mode))
         assert chunks == compiled._function_chunks(source)
-        assert ("_sides_" in "".join(chunks)) == blocked
+        assert bool(compiled.called_blocks(chunks["sides"][1])) == blocked  # (the blocks are stored apart)
         assert compiled.CompiledMode(chain, mode, source, meta, chunks)._chunks == compiled.CompiledMode(
             chain, mode, source)._chunks

@@ -1,0 +1,144 @@
+"""A scene's mode modules (issue 46): their size grows with the number of blocks, not with the states.
+
+A mode of more than ``2·SIDE_BLOCK_AUTOMATA`` automata calls block functions for its rates (``STATE_BLOCK``
+states each) and guard sides, which its module does not hold: each block is stored in the disk cache once,
+under a key of its own, and compiled once for every mode that calls it.  Its functions' docstrings state the
+arrays' shapes, not every entry.  The numbers are those of the one-function form to the last bit.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import switching.library.compiled as compiled
+from codegen.cache import SourceCache
+from codegen.source import module_namespace
+from models import ball_chain
+from switching.simulate.flow_rates import _reads
+
+
+def functions_text(module: str) -> str:
+    """A mode module without its ``META`` line."""
+    return re.sub(r"^META = .*\n", "", module, flags=re.MULTILINE)
+
+
+def chain_with_one_pinnacle(n, tmp_path):
+    model = ball_chain.build(N=n, e=1.0)
+    model.cache = SourceCache(tmp_path / f"cache{n}")
+    contacts = [a.name for a in model.automata]
+    states = dict(zip(contacts, model.initial_mode.states))
+    states[contacts[n // 2]] = "collide"
+    return model, model.mode(states)
+
+
+def test_a_scene_module_grows_with_its_blocks_not_with_its_states(tmp_path):
+    sizes = {}
+    for n in (40, 160):
+        model, mode = chain_with_one_pinnacle(n, tmp_path)
+        cm = model.compiled_mode(mode)
+        text = functions_text(cm.module)
+        sizes[n] = len(text.encode())
+        assert "    [0] = " not in text and "x[0] = p1" not in text  # no per-entry lines in the docstrings
+        assert not re.search(r"^def _(rates|sides|sides_raw)_", cm.module, re.MULTILINE)  # blocks stored apart
+        calls = re.findall(r"^    _rates_\w+\(x, t, p, u, out\[", cm.function_text("rates"), re.MULTILINE)
+        assert len(calls) == -(-2 * n // compiled.STATE_BLOCK)  # (equal blocks are one function: all p's rates 0)
+    # 120 more balls: about 16 more block calls (≈ 60 bytes each); it was ≈ 1.2 kB a ball
+    assert sizes[160] - sizes[40] < 12 * 120, sizes
+
+
+def test_each_block_is_stored_once_and_read_back(tmp_path):
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    cache = model.cache
+    first = model.compiled_mode(model.initial_mode)
+    second = model.compiled_mode(mode)
+    blocks = {b for cm in (first, second) for names in cm._blocks.values() for b in names}
+    assert blocks == model.library.stored_blocks
+    assert cache.hits["built"] == 2 + len(blocks)  # two modules and each block once
+    again = ball_chain.build(N=40, e=1.0)
+    again.cache = SourceCache(cache.directory)
+    loaded = again.compiled_mode(mode)
+    assert again.derivation_count == 0 and loaded.module == second.module
+    x = np.random.default_rng(3).normal(size=len(again.states))
+    p, u = again.parameter_array, again.input_values(0.0)
+    for name in ("rates", "sides"):
+        size = loaded.n if name == "rates" else loaded.n_sides
+        assert np.array_equal(getattr(loaded, "_" + name)(x, 0.1, p, u, np.empty(size)),
+                              getattr(second, "_" + name)(x, 0.1, p, u, np.empty(size)))
+    assert loaded.source == second.source  # the whole module: the blocks written after it
+
+
+def test_a_module_whose_block_left_the_cache_is_made_again(tmp_path):
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    made = model.compiled_mode(mode)
+    directory = model.cache.directory
+    for name in made._blocks["rates"]:
+        (directory / f"{model.library._block_key(name)}.py").unlink()
+    again = ball_chain.build(N=40, e=1.0)
+    again.cache = SourceCache(directory)
+    loaded = again.compiled_mode(mode)
+    assert again.derivation_count == 1  # derived again, with its blocks
+    x = np.random.default_rng(4).normal(size=len(again.states))
+    p, u = again.parameter_array, again.input_values(0.0)
+    assert np.array_equal(loaded._rates(x, 0.2, p, u, np.empty(loaded.n)), made._rates(x, 0.2, p, u,
+                                                                                         np.empty(made.n)))
+
+
+@pytest.fixture(scope="module")
+def chain():
+    model = ball_chain.build(N=40, e=0.5)
+    model.simulate(0.4, "RK45", rtol=1e-9)
+    return model
+
+
+def test_blocked_rates_and_jumps_give_the_numbers_of_one_function(chain, monkeypatch):
+    p, u = chain.parameter_array, chain.input_values(0.0)
+    rng = np.random.default_rng(8)
+    for mode in chain.visited_modes:
+        cm = chain.compiled_mode(mode)
+        assert compiled.called_blocks(cm.function_text("rates"))
+        monkeypatch.setattr(compiled, "SIDE_BLOCK_AUTOMATA", 10 ** 6)
+        source, _ = compiled.mode_source_and_meta(chain, chain.mode_equations(mode))
+        monkeypatch.undo()
+        assert "def _rates_" not in source and "    [0] = " in source
+        flat = module_namespace()
+        exec(compile(source, "<one function>", "exec"), flat)
+        for _ in range(4):
+            x = rng.normal(size=cm.n) * 10.0 ** rng.integers(-3, 4)
+            assert np.array_equal(cm._rates(x, 0.3, p, u, np.empty(cm.n)), flat["rates"](x, 0.3, p, u,
+                                                                                          np.empty(cm.n)))
+            assert np.array_equal(cm._rates(list(x), 0.3, p, u, np.empty(cm.n)), flat["rates"](x, 0.3, p, u,
+                                                                                                np.empty(cm.n)))
+            if cm.jump_kind == "symbolic":
+                assert np.array_equal(cm._jump(x, 0.3, p, u, np.empty(cm.n)), flat["jump"](x, 0.3, p, u,
+                                                                                           np.empty(cm.n)))
+        # the states the rates read, through their blocks: those the one function unpacks
+        unpacked = {int(k) for k in re.findall(r"^    \w+ = x\[(\d+)\]$", source.split("def rates(")[1]
+                                               .split("\ndef ")[0], re.MULTILINE)}
+        assert _reads(cm, "rates") == unpacked
+
+
+def test_the_whole_source_runs_vectorized_with_its_blocks(chain):
+    cm = chain.compiled_mode(list(chain.visited_modes)[3])
+    p, u = chain.parameter_array, chain.input_values(0.0)
+    xs = np.random.default_rng(2).normal(size=(5, cm.n))
+    namespace = module_namespace(vectorized=True)
+    exec(compile(cm.source, "<vectorized>", "exec"), namespace)
+    many = np.empty((cm.n, len(xs)))
+    namespace["rates"](xs.T, np.full(len(xs), 0.3), p, u, many)
+    for j, x in enumerate(xs):
+        assert np.array_equal(many[:, j], cm._rates(x, 0.3, p, u, np.empty(cm.n)))
+    assert np.array_equal(cm.rates_at(xs, np.full(len(xs), 0.3)), many.T)
+
+
+def test_the_modes_of_a_scene_hand_the_print_memo_one_argument_list(chain):
+    """The print memo finds its table by the arguments tuple itself, not by a hash of every state's symbol."""
+    memo = chain.library.print_memo
+    modes = list(chain.visited_modes)
+    compiled.mode_module(chain, chain.mode_equations(modes[0]))
+    known = dict(memo._by_arguments)
+    for mode in modes[1:4]:
+        compiled.mode_module(chain, chain.mode_equations(mode))
+    assert memo._by_arguments == known and len(known) == 2  # (the functions' list, and the raw functions')
