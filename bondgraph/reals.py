@@ -45,6 +45,8 @@ def _refusal(what: str, value, name: str) -> ParameterValueError:
 def real_number(value, what: str, name: str):
     """``value`` itself (its real part for a complex number with a zero
     imaginary part); :class:`ParameterValueError` when it is complex."""
+    if isinstance(value, (float, int)):  # (real: told without the number tower's abstract checks, ~4 µs)
+        return value
     imag = imaginary_part(value)
     if imag != 0:
         raise _refusal(what, value, name)

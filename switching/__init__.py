@@ -45,6 +45,8 @@ from .sweep.batch import MissingDependencyError as MissingDependencyError
 from .sweep.batch import RunResult as RunResult
 from .sweep.batch import local_cluster as local_cluster
 from .sweep.batch import simulate_many as simulate_many
+from .sweep.kernel_batch import BatchResult as BatchResult
+from .sweep.kernel_batch import simulate_batch as simulate_batch
 from .sweep.frame import SignalMetrics as SignalMetrics
 from .sweep.frame import parameter_grid as parameter_grid
 from .sweep.frame import plot_sweep as plot_sweep

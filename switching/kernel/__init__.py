@@ -17,11 +17,13 @@ module             what
 :mod:`.instants`   the resolution of an instant
 :mod:`.loop`       the entry :func:`.loop.run`: the run by phase, its
                    workspaces and return codes
+:mod:`.batch`      :func:`.batch.run_many`: many runs' first calls of
+                   :func:`.loop.run` at once, in parallel
 =================  ==========================================================
 """
 
 #: the kernel's modules, in the order they import one another
-MODULES = ("compiler", "calls", "flow", "implicit", "events", "instants", "loop")
+MODULES = ("compiler", "calls", "flow", "implicit", "events", "instants", "loop", "batch")
 
 # the entry and the names of round 2's switching.kernel module (it was one module then)
 from .loop import (  # noqa: E402

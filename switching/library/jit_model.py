@@ -911,34 +911,45 @@ class CompiledModel:
         the result says how many of them it consumed (``n_dense``).
         ``stiffness_check=False``: no stiffness test (see :func:`switching.simulate`).
         The result's arrays are views of reused buffers: valid until the next call."""
-        model = self.model
+        record, ints, floats, x, te = self.call_arrays(
+            kind, mode, x, t, t_end, dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
+            samples=samples, save=save, max_steps=max_steps, resolve_first=resolve_first, t_eval=t_eval,
+            stiffness_check=stiffness_check)
+        mode_code = int(ints[4])
+        buffers = self.buffers(2, len(te)) if mode_code == 2 else \
+            self._buffers.get(mode_code) or self.buffers(mode_code)
+        work = self._workspaces.get((samples, int(ints[3]))) or self.workspace(samples, int(ints[3]))
+        status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
+            record, ints, floats, x, te, buffers, work, True if kind >= KINDS["rodas-jit"] else None)
+        if status == 7:
+            raise RuntimeError(f"compiled model {self.model.name!r}: the kernel's workspace is too small (a bug)")
+        return KernelResult(self, status, t_stop, m_stop, steps, n_saved, n_ev, buffers, n_dense)
+
+    def call_arrays(self, kind, mode, x, t, t_end, *, dt, rtol, atol, max_step, first_step, samples, save,
+                    max_steps=10**9, resolve_first=False, t_eval=None, stiffness_check=True) -> tuple:
+        """The kernel's inputs for the call :meth:`run` makes with these arguments: ``(record, ints, floats,
+        x, te)`` (see :func:`switching.kernel.loop.run`): the model record with the model's parameter
+        values of now and ``atol``, the call's integer and float settings, the state, the requested times
+        (``ints[4]`` is 2 when there are some)."""
         if kind >= KINDS["rodas-jit"] and self.jacobian_compiler is None:
             raise RuntimeError("the implicit kernel needs the modes' Jacobians: call need_jacobians first")
-        tol = model.tolerance
-        max_instant = int(model.max_steps_per_instant)
+        tol = self.model.tolerance
+        max_instant = int(self.model.max_steps_per_instant)
         if t_eval is not None:
             te = np.array(t_eval, dtype=float)  # a writable C-contiguous copy: the type _call_run expects
             mode_code = 2
-            buffers = self.buffers(2, len(te))
         else:
             te = _NO_TIMES
             mode_code = 1 if save else 0
-            buffers = self._buffers.get(mode_code) or self.buffers(mode_code)
         record = self.record
         if record.atol is not atol:  # each state's absolute tolerance: an array in the states' order, or a number
-            atol = _kernel_array(np.broadcast_to(atol, (len(model.states),)) if np.ndim(atol) == 0 else atol)
+            atol = _kernel_array(np.broadcast_to(atol, (self.n,)) if np.ndim(atol) == 0 else atol)
             record = self._record = record._replace(atol=atol)
-        work = self._workspaces.get((samples, max_instant)) or self.workspace(samples, max_instant)
         ints = np.array([kind, self.ids[mode], samples, max_instant, mode_code, max_steps, bool(resolve_first),
                          bool(stiffness_check)], dtype=np.int64)
         floats = np.array([t, t_end, dt or 0.0, rtol, 0.0, max_step, first_step or 0.0, tol.rtol, tol.atol,
                            tol.jump_rtol, tol.jump_atol], dtype=float)
-        status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
-            record, ints, floats, np.array(x, dtype=float), te, buffers, work,
-            True if kind >= KINDS["rodas-jit"] else None)
-        if status == 7:
-            raise RuntimeError(f"compiled model {self.model.name!r}: the kernel's workspace is too small (a bug)")
-        return KernelResult(self, status, t_stop, m_stop, steps, n_saved, n_ev, buffers, n_dense)
+        return record, ints, floats, np.array(x, dtype=float), te
 
 
 def _kernel_array(values) -> np.ndarray:

@@ -393,11 +393,15 @@ def initial_state(states, expressions: Mapping, values: Mapping) -> np.ndarray:
     x = np.zeros(len(states))
     index = {s: k for k, s in enumerate(states)}
     for state, expr in expressions.items():
-        missing = sorted(s.name for s in expr.free_symbols if s not in values)
-        if missing:
-            raise MissingParameterError(set(missing), {name: f"used by the initial value of state {state.name!r} "
-                                                             f"({expr})" for name in missing})
-        value = expr.xreplace(values) if expr.free_symbols else expr
+        if expr in values:  # (a parameter's value itself, y0: read without a substitution)
+            value = values[expr]
+        else:
+            free = expr.free_symbols
+            missing = sorted(s.name for s in free if s not in values)
+            if missing:
+                raise MissingParameterError(set(missing), {name: f"used by the initial value of state "
+                                                                 f"{state.name!r} ({expr})" for name in missing})
+            value = expr.xreplace(values) if free else expr
         try:
             number = float(value)
         except (TypeError, ValueError, OverflowError):

@@ -18,9 +18,28 @@ from .preflight import nonfinite_at_start
 from .recorder import REQUESTED, STATE
 from .resolution import CompiledInstant
 
-__all__ = ["run_kernel"]
+__all__ = ["kernel_arguments", "kernel_kind", "run_kernel"]
 
 _KERNEL_MAX_STEPS = 2**62  # the kernel counts in int64
+
+
+def kernel_kind(compiled, method: str, auto) -> int:
+    """The kernel's method number for ``method`` (``auto``: its per-mode choice, when it makes one); the
+    modes' Jacobians compiled when the method is implicit."""
+    kind = AUTO_KIND if auto is not None and auto.per_mode else KINDS[method]
+    if kind >= KINDS["rodas-jit"]:
+        compiled.need_jacobians(jacobian_function)  # the implicit method's J, derived and compiled per mode
+    return kind
+
+
+def kernel_arguments(compiled, kind, mode, x, t, t_end, o, steps_left, recorder, initial) -> dict:
+    """The keywords of :meth:`CompiledModel.run <switching.library.jit_model.CompiledModel.run>` for a
+    kernel call from ``(t, mode, x)`` of a run with flow settings ``o``, ``steps_left`` steps to go and the
+    requested times its ``recorder`` has not sampled yet; ``initial``: the instant at ``t`` is resolved first."""
+    return dict(kind=kind, mode=mode, x=x, t=t, t_end=t_end, **o.stepping.integrator_options(), samples=o.samples,
+                save=o.save, resolve_first=initial,
+                t_eval=None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:],
+                max_steps=min(steps_left, _KERNEL_MAX_STEPS))
 
 
 def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False,
@@ -40,20 +59,17 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
     x_ev)`` is an instant the kernel left to Python; ``stop`` is ``True`` on
     Zeno behaviour with ``on_zeno='stop'``, ``"initial"`` when the initial
     instant is left to Python."""
-    kind = AUTO_KIND if auto is not None and auto.per_mode else KINDS[method]
-    if kind >= KINDS["rodas-jit"]:
-        compiled.need_jacobians(jacobian_function)  # the implicit method's J, derived and compiled per mode
+    kind = kernel_kind(compiled, method, auto)
     steps = 0
     while True:
         if steps >= steps_left:
             raise step_limit(o, t, t_end, mode, x, steps)
         start = (t, x, mode)  # (a flow that cannot start there is named with its rates, below)
-        dense = None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:]
         if kind == AUTO_KIND:
             auto.classify(compiled, x, t)
-        result = compiled.run(kind, mode, x, t, t_end, **o.stepping.integrator_options(), samples=o.samples,
-                              save=o.save, resolve_first=initial, t_eval=dense,
-                              max_steps=min(steps_left - steps, _KERNEL_MAX_STEPS))
+        arguments = kernel_arguments(compiled, kind, mode, x, t, t_end, o, steps_left - steps, recorder, initial)
+        dense = arguments["t_eval"]
+        result = compiled.run(**arguments)
         recorder.eval_pos += result.n_dense  # the requested times the kernel sampled on its dense output
         if initial and KERNEL_STATUS[result.status] == "resolve" and result.n_events == 0 and result.t == t:
             return None, t, x, mode, 0, "initial"

@@ -49,7 +49,7 @@ from ..library.jit_model import choose_method as _choose_method
 from ..library.jit_model import input_problem as _input_problem
 from ..library.jit_model import remember_modes as _remember_modes
 from ..model.source_periods import step_bound
-from .compiled_flow import run_kernel
+from .compiled_flow import kernel_arguments, kernel_kind, run_kernel
 from .flow_failures import FlowFailure, nonfinite_jump_message
 from .methods import METHOD_CLASSES, METHODS, canonical_method
 from .option_groups import RunOptions
@@ -135,12 +135,26 @@ def simulate(
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.simulate.run_options`)."""
-    method = canonical_method(method)  # (a method's name in any case)
     keywords = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, mode=mode, output=output, t_eval=t_eval,
                     samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
                     zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
                     progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
+    if progress is not True:
+        return prepared_run(model, t_end, method, keywords).execute()
+    bar = ProgressBar(t0, t_end)
+    try:
+        return prepared_run(model, t_end, method, {**keywords, "progress": bar}).execute()
+    finally:
+        bar.close()
+
+
+def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
+    """The run :func:`simulate` executes, set up and not started: ``keywords`` are all of its options
+    (:func:`option_defaults` gives them), checked here.  A batch of runs
+    (:mod:`switching.sweep.kernel_batch`) prepares each this way, so that its runs start as ``simulate``'s."""
+    method = canonical_method(method)  # (a method's name in any case)
     options = checked_options(model, t_end, method, keywords)
+    dt, rtol, atol, max_step = keywords["dt"], keywords["rtol"], keywords["atol"], keywords["max_step"]
     #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
     model.last_run = {"t_end": float(t_end), "method": method,
                       **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol)}),
@@ -150,14 +164,7 @@ def simulate(
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
             options = _with_stepping(options, "max_step", bound)
-    if progress is not True:
-        return HybridRun(model, options).execute()
-    bar = ProgressBar(t0, t_end)
-    try:
-        return HybridRun(model, dataclasses.replace(
-            options, output=dataclasses.replace(options.output, progress=bar))).execute()
-    finally:
-        bar.close()
+    return HybridRun(model, options)
 
 
 #: (options, a step option, its value) → the options with that value: the last kept
@@ -368,6 +375,19 @@ class HybridRun:
             x = self.x
             self.recorder.dense(self.t - 1.0, self.t, lambda tau: x.copy(), self.mode)
         return initial_in_kernel
+
+    def first_kernel_call(self) -> dict | None:
+        """The keywords of this run's first kernel call (:meth:`CompiledModel.run
+        <switching.library.jit_model.CompiledModel.run>`'s), the initial instant resolved in it, when the
+        run starts that way: a compiled method of one kind (not ``auto``, whose choice may change between
+        runs), the initial mode compiled.  Otherwise ``None``.  It records the run's start, as
+        :meth:`execute` does first, so a run asked this is not executed afterwards (a batch of runs,
+        :mod:`switching.sweep.kernel_batch`, makes that call for many runs at once)."""
+        if self.compiled is None or self.auto is not None or not self.t < self.t_end or not self._start():
+            return None
+        settings = self._flow_settings()
+        return kernel_arguments(self.compiled, kernel_kind(self.compiled, self.method, None), self.mode, self.x,
+                                self.t, self.t_end, settings, settings.max_steps, self.recorder, True)
 
     def _at_tie(self) -> bool:
         """Does a guard hold as the flow starts?  Only after an instant that rested at a tie: that flow counts a

@@ -38,7 +38,6 @@ import uuid
 from collections import OrderedDict
 from collections.abc import Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -47,79 +46,14 @@ from bondgraph.errors import HybridBondGraphError, MissingDependencyError, Param
 
 from ..errors import SweepInterrupted
 from ..simulate.driver import check_option_names
+from .kernel_batch import batch_results
+from .results import RunResult, failed_run, result_of_run
 
 __all__ = ["BuildError", "MissingDependencyError", "RunResult", "local_cluster", "run_batch", "shared_model",
            "simulate_many"]
 
 #: the extra that installs what sweeps on Dask need
 DASK_EXTRA = "pip install '.[dask]'"
-
-
-@dataclass
-class RunResult:
-    """One run of :func:`simulate_many`.
-
-    ``parameters`` (the build arguments), ``t`` [s] (samples), ``x``
-    (samples × states), ``state_names``, ``modes`` (labels per sample),
-    ``event_times`` [s], ``instants`` (for each instant, the list of
-    ``(mode label, kind)`` passed), ``instant_count`` (also when
-    ``keep_instants=False`` kept no record of them), ``stopped`` (why the run ended early on
-    purpose, e.g. ``"zeno"`` with ``on_zeno="stop"``), ``metrics`` (what the
-    sweep's ``metrics`` callable returned for this run, computed in the
-    worker), ``wall_time`` [s] of the run in its worker.  A failed run has
-    ``error`` (the message) and ``error_type`` (the exception's class name);
-    its arrays hold what was computed.  With ``trajectories=False`` the
-    arrays hold only the last sample and ``instants`` is empty (the event
-    times are kept)."""
-
-    parameters: dict
-    t: np.ndarray = field(repr=False)
-    x: np.ndarray = field(repr=False)
-    state_names: list = field(repr=False)
-    modes: list = field(repr=False)
-    event_times: np.ndarray = field(repr=False)
-    instants: list = field(repr=False)
-    instant_count: int = 0
-    stopped: str | None = None
-    error: str | None = None
-    error_type: str | None = None
-    metrics: dict = field(default_factory=dict)
-    wall_time: float = 0.0
-
-    @property
-    def ok(self) -> bool:
-        """The run reached its end (or stopped early on purpose)."""
-        return self.error is None
-
-    @property
-    def status(self) -> str:
-        """``"ok"``, ``"stopped"`` (ended early on purpose) or ``"failed"``."""
-        return "failed" if self.error is not None else "stopped" if self.stopped else "ok"
-
-
-def _result(parameters, trajectory, wall, keep=True, metrics=None, error=None, error_type=None) -> RunResult:
-    last = slice(None) if keep else slice(-1, None)
-    return RunResult(
-        parameters=dict(parameters),
-        t=trajectory.t[last].copy(),
-        x=trajectory.x[last].copy(),
-        state_names=list(trajectory.state_names),
-        modes=trajectory.mode_labels[last],
-        event_times=trajectory.event_times,
-        instants=[[(s.mode.describe(), s.kind) for s in e.steps] for e in trajectory.events] if keep else [],
-        instant_count=trajectory.instant_count,
-        stopped=trajectory.stopped,
-        error=error,
-        error_type=error_type,
-        metrics=dict(metrics or {}),
-        wall_time=wall,
-    )
-
-
-def _nothing(parameters, error, error_type, wall=0.0) -> RunResult:
-    """A failed run that computed nothing (its model could not be built, or its task was lost)."""
-    return RunResult(dict(parameters), np.zeros(0), np.zeros((0, 0)), [], [], np.zeros(0), [],
-                     error=error, error_type=error_type, wall_time=wall)
 
 
 # ------------------------------------------------------------ one model per structure and process
@@ -217,31 +151,14 @@ def _run_one(build, parameters, t_end, method, options, metrics=None, trajectori
     sweep.  ``metrics(trajectory)`` is evaluated while the shared model still
     holds this run's values (signals read them)."""
     start = time.perf_counter()
-    measured, metric_error = {}, None
     try:
         with shared_model(build, parameters) as model:
-            trajectory = model.simulate(t_end, method, **options)
-            if metrics is not None:
-                try:
-                    measured = dict(metrics(trajectory))
-                except Exception as exc:  # noqa: BLE001 - the user's metric fails this run, not the sweep
-                    metric_error = exc
+            return result_of_run(parameters, partial(model.simulate, t_end, method, **options), metrics, trajectories,
+                                 start)
     except KeyboardInterrupt:  # SimulationInterrupted too: Ctrl-C stops the sweep, not one run
         raise
-    except HybridBondGraphError as exc:
-        wall = time.perf_counter() - start
-        partial_run = getattr(exc, "trajectory", None)
-        if partial_run is None:
-            return _nothing(parameters, str(exc), type(exc).__name__, wall)
-        return _result(parameters, partial_run, wall, trajectories, error=str(exc), error_type=type(exc).__name__)
-    wall = time.perf_counter() - start
-    if metric_error is not None:
-        message = (f"the metrics callable {getattr(metrics, '__name__', type(metrics).__name__)} failed on this "
-                   f"run: {type(metric_error).__name__}: {metric_error} (it must return a dict name → value; "
-                   "the run itself completed and its trajectory is kept)")
-        return _result(parameters, trajectory, wall, trajectories, error=message,
-                       error_type=type(metric_error).__name__)
-    return _result(parameters, trajectory, wall, trajectories, metrics=measured)
+    except HybridBondGraphError as exc:  # the set could not be built
+        return failed_run(parameters, str(exc), type(exc).__name__, time.perf_counter() - start)
 
 
 def run_batch(parameter_sets, build, t_end, method, options, metrics=None, trajectories=True) -> list[RunResult]:
@@ -379,7 +296,7 @@ def _on_dask(client, jobs, task, batch_size, retries, progress_bar) -> list[RunR
             exc, why = cancelled, f"the task was cancelled ({type(cancelled).__name__})"
         message = (f"the Dask task holding this parameter set (and {len(chunk) - 1} others) was given up after "
                    "its reruns (retries=, or the scheduler's allowed-failures when its workers died): " + why)
-        results.extend(_nothing(p, message, type(exc).__name__) for p in chunk)
+        results.extend(failed_run(p, message, type(exc).__name__) for p in chunk)
     return results
 
 
@@ -388,7 +305,7 @@ def _interrupted(jobs, done: dict) -> SweepInterrupted:
     maps the positions of finished runs to their results."""
     message = (f"simulate_many was interrupted: {len(done)} of {len(jobs)} runs had finished; they are in "
                "error.results (the others as failed results marked interrupted)")
-    results = [done[k] if k in done else _nothing(p, "the sweep was interrupted (Ctrl-C) before this run finished",
+    results = [done[k] if k in done else failed_run(p, "the sweep was interrupted (Ctrl-C) before this run finished",
                                                    "SweepInterrupted")
                for k, p in enumerate(jobs)]
     return SweepInterrupted(message, results)
@@ -437,10 +354,29 @@ def simulate_many(build, parameter_sets, t_end: float, method: str = "RK45", *, 
     ``if __name__ == "__main__":`` (the workers are spawned processes that
     import the script's module).
 
+    ``build`` may be a model instead (a :class:`~switching.model.hybrid_model.HybridModel` built once):
+    each set then gives values of its parameters (and of those only its initial state uses), the
+    runs are made in this process, and with a compiled method of one kind (``RK45-jit``, ``rodas-jit``,
+    …) their kernel calls in batches over the cores (:func:`switching.simulate_batch`), each run's
+    result the same as ``model.simulate`` with its values (``client``, ``workers``, ``batch_size``
+    and ``progress_bar`` are then errors).
+
     Example — the falling rod's friction sweep::
 
         results = simulate_many(falling_rod.build, [{"mu": mu} for mu in mus], 0.5, "RK45-jit", rtol=1e-9)
     """
+    from ..model.hybrid_model import HybridModel
+
+    if isinstance(build, HybridModel):
+        for name, value, default in (("client", client, None), ("workers", workers, None),
+                                     ("batch_size", batch_size, None), ("progress_bar", progress_bar, False)):
+            if value is not default and not (name == "client" and value == "serial"):
+                raise ParameterValueError(
+                    f"simulate_many: {name}= is for sweeps of a build function on Dask; a model's sets run in this "
+                    "process, a compiled method's in one kernel batch over the cores (pass the build function, e.g. "
+                    "models.bouncing_ball.build, to spread the runs over a Dask cluster)", name, value)
+        return batch_results(build, parameter_sets, t_end, method, metrics=metrics, trajectories=trajectories,
+                             **options)
     jobs = list(parameter_sets)
     for k, p in enumerate(jobs):
         if not isinstance(p, Mapping):
