@@ -565,6 +565,7 @@ class CompiledMode:
         self.jump_kind = meta["jump"]
         self.guards = meta["guards"]
         self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
+        self._conjunctions = None  # (see maybe_holding)
         self.n = meta["n_states"]
         self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
         self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
@@ -757,12 +758,55 @@ class CompiledMode:
             triples += [raw[2 * k], raw[2 * k + 1], scale]
         return triples
 
+    def maybe_holding(self, sides, rtol, atol) -> np.ndarray | None:
+        """Which guards may hold on the comparison triples ``sides`` (an array of floats, :meth:`sides`): a
+        mask that is ``False`` only where :func:`decide_tree` decides ``False`` — a guard that is one
+        comparison or a conjunction of comparisons one of which fails — computed for all of them at once,
+        with the arithmetic of :func:`codegen.runtime.decide` on arrays (:func:`codegen.decision.band`,
+        :func:`codegen.decision.finite_holds`: the same IEEE operations, so the same decisions).  A scene
+        decides a thousand guards at each pinnacle, of which a few hold; ``None`` where ``sides`` is no
+        array of floats (Hyper values: a posteriori sides)."""
+        if not isinstance(sides, np.ndarray) or sides.dtype != np.float64:
+            return None
+        if self._conjunctions is None:
+            comparisons, ops, owners = [], [], []
+            for g, guard in enumerate(self.guards):
+                tree = guard["tree"]
+                leaves = (tree,) if tree[0] == "rel" else tree[1] if tree[0] == "and" else ()
+                if leaves and all(leaf[0] == "rel" for leaf in leaves):
+                    for leaf in leaves:
+                        comparisons.append(leaf[1])
+                        ops.append(decision.OPS[leaf[2]])
+                        owners.append(g)
+            k = np.array(comparisons, dtype=np.intp)
+            self._conjunctions = (3 * k, np.array(ops, dtype=np.intp), np.array(owners, dtype=np.intp))
+        start, ops, owners = self._conjunctions
+        maybe = np.ones(len(self.guards), dtype=bool)
+        if not len(start):
+            return maybe
+        lf, rf, sc = sides[start], sides[start + 1], sides[start + 2]
+        with np.errstate(all="ignore"):
+            left, right = np.abs(lf), np.abs(rf)
+            scale = np.where(right > left, right, left)
+            scale = np.where(np.isfinite(sc) & (sc > scale), sc, scale)
+            width = np.where(np.isfinite(np.where(right > left, right, left)), rtol * scale + atol, 0.0)
+            diff = lf - rf
+            size = np.abs(diff)
+            holds = np.select([ops == 0, ops == 1, ops == 2, ops == 3, ops == 4],
+                              [diff < -width, diff <= width, diff > width, diff >= -width, size <= width],
+                              size > width)
+        maybe[owners[~holds]] = False
+        return maybe
+
     def holds(self, x, t, rtol, atol) -> bool:
         """Does any guard hold during flow at ``x`` (no jump)?"""
         if not self.guards:
             return False
         sides = self.sides(x, t)
-        return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
+        maybe = self.maybe_holding(sides, rtol, atol)
+        if maybe is None:
+            return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
+        return any(decide_tree(self.guards[g]["tree"], sides, rtol, atol) for g in np.flatnonzero(maybe))
 
 
 def _count_rel(tree) -> int:

@@ -200,12 +200,16 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
     fired = []
     done = set()
     prior = post = None
+    rtol, atol = model.tolerance.rtol, model.tolerance.atol
+    maybe = None  # the guards that may hold on the sides at x, all decided at once (CompiledMode.maybe_holding)
     if as_in_flow:
         prior = post = cm.sides(x, t)
-    rtol, atol = model.tolerance.rtol, model.tolerance.atol
-    for guard in cm.guards:
+        maybe = cm.maybe_holding(prior, rtol, atol)
+    for index, guard in enumerate(cm.guards):
         if guard["automaton"] in done:
             continue
+        if maybe is not None and not maybe[index] and (as_in_flow or guard["when"] != A_POSTERIORI):
+            continue  # (fails on the sides at x: decided so by the same arithmetic)
         if guard["when"] == A_POSTERIORI:
             if post is None:
                 try:
@@ -218,6 +222,9 @@ def evaluate_guards(model, cm, x: np.ndarray, x_plus: np.ndarray, t: float, as_i
         else:
             if prior is None:
                 prior = cm.sides(x, t)
+                maybe = cm.maybe_holding(prior, rtol, atol)
+                if maybe is not None and not maybe[index]:
+                    continue
             sides = prior
         if decide_tree(guard["tree"], sides, rtol, atol):
             firm = holds_strictly(guard["tree"], sides, rtol, atol)

@@ -142,3 +142,39 @@ def test_the_modes_of_a_scene_hand_the_print_memo_one_argument_list(chain):
     for mode in modes[1:4]:
         compiled.mode_module(chain, chain.mode_equations(mode))
     assert memo._by_arguments == known and len(known) == 2  # (the functions' list, and the raw functions')
+
+
+def test_the_guards_that_may_hold_are_decided_at_once_as_one_by_one(chain):
+    """``maybe_holding`` is False only where ``decide_tree`` decides False: on random sides, with ties at
+    the band's edges, zeros, infinities and NaN."""
+    rng = np.random.default_rng(11)
+    rtol, atol = chain.tolerance.rtol, chain.tolerance.atol
+    specials = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-300, 1.0])
+    for mode in list(chain.visited_modes)[:6]:
+        cm = chain.compiled_mode(mode)
+        for trial in range(30):
+            sides = rng.normal(size=cm.n_sides) * 10.0 ** rng.integers(-12, 6, size=cm.n_sides)
+            if trial % 3 == 0:  # right side = left side, or just beyond the band
+                width = rtol * np.abs(sides[0::3]) + atol
+                sides[1::3] = sides[0::3] + rng.choice([0.0, 1.0, -1.0], size=cm.n_relations) * width
+            if trial % 5 == 0:
+                spots = rng.integers(0, cm.n_sides, size=cm.n_sides // 4)
+                sides[spots] = rng.choice(specials, size=len(spots))
+            maybe = cm.maybe_holding(sides, rtol, atol)
+            decided = [compiled.decide_tree(g["tree"], sides, rtol, atol) for g in cm.guards]
+            assert not any(d and not m for d, m in zip(decided, maybe))
+            assert list(maybe) == decided  # (every guard of the chain is a conjunction of comparisons)
+
+
+def test_a_pinnacle_decides_one_by_one_only_the_guards_that_may_hold(monkeypatch):
+    import switching.simulate.resolution as resolution
+
+    model = ball_chain.build(N=40, e=1.0)
+    calls = []
+    decide = resolution.decide_tree
+    monkeypatch.setattr(resolution, "decide_tree", lambda *a, **k: calls.append(1) or decide(*a, **k))
+    model.simulate(0.2, "RK45", rtol=1e-9)
+    pinnacles = len(model.library.compiled)
+    assert pinnacles >= 39
+    # two calls (decision and record) per fired guard, ~2 fired a pinnacle; it was 39 guards a pinnacle
+    assert len(calls) < 8 * pinnacles, len(calls)
