@@ -22,6 +22,7 @@ from bondgraph.errors import DuplicateNameError, ParameterValueError, UnknownNam
 from switching.simulate.measurements import MEASURES, measure
 
 from .batch import DASK_EXTRA, MissingDependencyError
+from .kernel_batch import BatchResult
 
 __all__ = ["parameter_grid", "SignalMetrics", "to_frame", "plot_sweep", "require_pandas", "RUN_COLUMNS"]
 
@@ -120,16 +121,19 @@ def require_pandas():
 
 
 def to_frame(results):
-    """The runs of :func:`switching.simulate_many` as a pandas DataFrame, one
-    row per run in their order.  Columns: each parameter (by name; empty
+    """The runs of :func:`switching.simulate_many` (or the :class:`BatchResult` of
+    :func:`switching.simulate_batch`) as a pandas DataFrame, one row per run in their order.  Columns: each parameter (by name; empty
     where a run did not set it), ``status`` (``ok``, ``stopped``,
     ``failed``), ``error`` (the message of a failed run), ``events`` (the
     number of instants), ``first_event`` (time of the first instant [s]),
     ``t_final`` (the last time reached [s]), ``final_<state>`` (each state at
     ``t_final``, in its own units), each metric (by name), ``wall_time`` [s].
     A failed run's ``events``, ``t_final`` and final states are those of the
-    part computed; its metrics are empty."""
+    part computed; its metrics are empty.  A batch's frame has no metrics and
+    no ``wall_time`` (its runs are timed together)."""
     pd = require_pandas()
+    if isinstance(results, BatchResult):
+        return _batch_frame(pd, results)
     results = list(results)
     parameters = list(dict.fromkeys(name for r in results for name in r.parameters))
     states = list(dict.fromkeys(name for r in results for name in r.state_names))
@@ -154,6 +158,18 @@ def to_frame(results):
         rows.append(row)
     columns = parameters + list(RUN_COLUMNS[:-1]) + [FINAL + s for s in states] + metrics + ["wall_time"]
     return pd.DataFrame(rows, columns=columns)
+
+
+def _batch_frame(pd, batch: BatchResult):
+    """:func:`to_frame` of a :func:`switching.simulate_batch`: the same columns, no metrics nor wall time
+    (a batch times its runs together)."""
+    parameters = list(dict.fromkeys(name for p in batch.parameters for name in p))
+    columns = {name: [p.get(name, math.nan) for p in batch.parameters] for name in parameters}
+    first = batch.event_times[:, 0] if batch.event_times.shape[1] else np.full(len(batch), np.nan)
+    columns.update(status=batch.status, error=batch.errors, events=batch.event_counts, first_event=first,
+                   t_final=batch.t)
+    columns.update({FINAL + s: batch.x[:, k] for k, s in enumerate(batch.state_names)})
+    return pd.DataFrame(columns)
 
 
 # ------------------------------------------------------------ plot

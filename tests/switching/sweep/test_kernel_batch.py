@@ -201,3 +201,13 @@ def test_a_replay_refuses_a_first_call_other_than_its_batch_call(ball):
                                                   "max_steps": 10, "x": np.zeros(2)})
     with pytest.raises(RuntimeError, match="a bug"):
         answered.run(kind=2, mode=None, t=0.0, t_end=2.0, save=0, max_steps=10, x=np.zeros(2))
+
+
+def test_a_batch_s_frame_has_the_columns_of_a_sweep_s(ball):
+    pd = pytest.importorskip("pandas")
+    from switching import to_frame
+
+    batch = simulate_batch(ball, SETS, T_END, "RK45-jit", rtol=1e-8)
+    frame = to_frame(batch)
+    swept = to_frame(simulate_many(ball, SETS, T_END, "RK45-jit", rtol=1e-8, output="events"))
+    pd.testing.assert_frame_equal(frame, swept.drop(columns="wall_time"), check_dtype=False)
