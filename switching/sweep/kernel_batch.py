@@ -146,11 +146,14 @@ class _Values:
         self.values = {s.name: v for s, v in model.parameter_values.items()}
         self.initial = {s.name: v for s, v in model.initial_parameters.items()}
         self.initial_names = initial_only_names(model.initial_expressions, model.parameter_symbols)
+        self.state_index = {name: k for k, name in enumerate(model.state_names)}
 
-    def apply(self, changes: Mapping) -> None:
-        """The model's values with ``changes`` (name → number: a parameter, or a parameter only the initial
-        state uses), set on the model (its initial state projected anew when asked)."""
-        values, initial = dict(self.values), dict(self.initial)
+    def apply(self, changes: Mapping) -> dict:
+        """The model's values with ``changes`` (name → number: a parameter, a parameter only the initial
+        state uses, or a state), set on the model (its initial state projected anew when asked).  Returns
+        the run's own options of ``simulate``: ``{"x0": …}`` when ``changes`` name states — the model's
+        initial state (projected) with those states' values — else ``{}``."""
+        values, initial, states = dict(self.values), dict(self.initial), {}
         unknown = []
         for name, value in changes.items():
             name = str(name)
@@ -158,11 +161,19 @@ class _Values:
                 values[name] = value
             elif name in self.initial_names:
                 initial[name] = value
+            elif name in self.state_index:
+                states[name] = value
             else:
                 unknown.append(name)
         if unknown:
-            raise UnknownParameterError(unknown, sorted([*values, *self.initial_names]))
+            raise UnknownParameterError(unknown, sorted([*values, *self.initial_names, *self.model.state_names]))
         self.model.set_parameter_values(values, initial)
+        if not states:
+            return {}
+        x0 = self.model.initial_state().astype(object)  # (a state's value checked as simulate's x0 checks it)
+        for name, value in states.items():
+            x0[self.state_index[name]] = value
+        return {"x0": list(x0)}
 
     def restore(self) -> None:
         self.model.set_parameter_values(self.values, self.initial)
@@ -280,7 +291,8 @@ def _checked(model, parameter_sets, t_end, method, options, what: str, one_kind:
     for name in ("progress", "x0", "mode"):
         if options.get(name) is not None:
             raise ParameterValueError(f"{what}: option {name}= is not taken by a batch (runs start from the model's "
-                                      "initial state and mode, which each set's values give)", name, options[name])
+                                      "initial state and mode, which each set's values give; a set may give "
+                                      "states' initial values by their names)", name, options[name])
     return [dict(p) for p in sets], method, {**option_defaults(), **options}
 
 
@@ -311,8 +323,8 @@ def _batched(model, sets, t_end, method, keywords, event_capacity, each) -> None
             for run in range(first, end):
                 arguments = None
                 try:
-                    values.apply(sets[run])
-                    hybrid = prepared_run(model, t_end, method, keywords)
+                    own = values.apply(sets[run])
+                    hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords)
                     arguments = hybrid.first_kernel_call()
                     compiled = hybrid.compiled
                 except HybridBondGraphError:
@@ -323,8 +335,8 @@ def _batched(model, sets, t_end, method, keywords, event_capacity, each) -> None
                 slab.run(compiled, event_capacity)
 
             def replay(run, slab=slab):
-                values.apply(sets[run])  # (a value the model refuses raises here: the run's error)
-                hybrid = prepared_run(model, t_end, method, keywords)
+                own = values.apply(sets[run])  # (a value the model refuses raises here: the run's error)
+                hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords)
                 result = slab.result(compiled, run)
                 if result is not None:
                     hybrid.compiled = FirstCallAnswered(hybrid.compiled, result, slab.calls[run - slab.first])
@@ -340,7 +352,8 @@ def simulate_batch(model, parameter_sets, t_end: float, method: str = "RK45-jit"
     """Simulate ``model`` to ``t_end`` [s] with the compiled ``method`` for
     every set of values in ``parameter_sets`` (each a dict name → number of
     the model's parameters and of the parameters only its initial state
-    uses; the others keep the model's values); one batch of kernel calls in
+    uses, the others keeping the model's values; and of states, whose values
+    replace those of the model's initial state: the run's ``x0``); one batch of kernel calls in
     parallel, results identical to ``model.simulate`` with each set's values
     (see the module docstring).  ``options`` are ``simulate``'s (``rtol``,
     ``atol``, ``max_step``, ``t_eval``, ``on_zeno``, …; not ``x0``, ``mode``,
@@ -465,8 +478,8 @@ def batch_results(model, parameter_sets, t_end: float, method: str, *, metrics=N
         values = _Values(model)
 
         def simulate(run):
-            values.apply(sets[run])
-            return prepared_run(model, t_end, method, keywords).execute()
+            own = values.apply(sets[run])
+            return prepared_run(model, t_end, method, {**keywords, **own} if own else keywords).execute()
 
         try:
             return [result_of_run(p, partial(simulate, run), metrics, trajectories, time.perf_counter())

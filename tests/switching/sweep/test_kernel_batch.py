@@ -211,3 +211,33 @@ def test_a_batch_s_frame_has_the_columns_of_a_sweep_s(ball):
     frame = to_frame(batch)
     swept = to_frame(simulate_many(ball, SETS, T_END, "RK45-jit", rtol=1e-8, output="events"))
     pd.testing.assert_frame_equal(frame, swept.drop(columns="wall_time"), check_dtype=False)
+
+
+def test_a_set_may_give_initial_states_by_name_as_simulate_s_x0(ball):
+    sets = [{"y": 1.5}, {"y": 0.8, "p": 2.0, "e": 0.7}, {"p": -1.0}]
+    batch = simulate_batch(ball, sets, T_END, "RK45-jit", rtol=1e-8)
+    names = list(ball.state_names)
+    for r, p in enumerate(sets):
+        values = {k: v for k, v in p.items() if k not in names}
+        model = bouncing_ball.build(**values)
+        x0 = model.initial_state()
+        for name in set(p) & set(names):
+            x0[names.index(name)] = p[name]
+        trajectory = model.simulate(T_END, "RK45-jit", rtol=1e-8, x0=x0, output="events")
+        np.testing.assert_array_equal(batch.x[r], trajectory.x[-1])
+        np.testing.assert_array_equal(batch.event_times[r, :batch.event_counts[r]], trajectory.event_times)
+    assert batch.in_kernel[1:].all()
+    bad = simulate_batch(ball, [{"y": float("inf")}], T_END, "RK45-jit")
+    assert bad.status == ["failed"] and "x0" in bad.errors[0]
+
+
+def test_a_boost_converter_batch_over_duty_load_and_initial_voltage_is_simulate_s():
+    from models import boost_converter
+
+    sets = [{"D": d, "R_load": r, "v_C0": v} for d in (0.3, 0.7) for r in (5.0, 20.0) for v in (0.0, 12.0)]
+    batch = simulate_batch(boost_converter.build(), sets, 5e-4, "RK45-jit", rtol=1e-8)
+    for r, p in enumerate(sets):
+        trajectory = boost_converter.build(**p).simulate(5e-4, "RK45-jit", rtol=1e-8, output="events")
+        np.testing.assert_array_equal(batch.x[r], trajectory.x[-1])
+        np.testing.assert_array_equal(batch.event_times[r, :batch.event_counts[r]], trajectory.event_times)
+    assert batch.in_kernel[1:].all() and (batch.event_counts == 10).all()
