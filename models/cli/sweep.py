@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import sys
@@ -84,9 +85,30 @@ def _sweep_metrics(names, model, window=None):
     return metrics
 
 
+def compiled_method(method: str) -> bool:
+    """Is ``method`` one of the compiled methods of one kind (those a batch runs in one kernel call)?"""
+    from switching.simulate.methods import METHOD_CLASSES, canonical_method
+
+    chosen = METHOD_CLASSES[canonical_method(method)]
+    return chosen.compiled and not chosen.chooses
+
+
+def _check_batch(model, axes) -> None:
+    """``--batch`` sets values on one model: every grid name must be one of its parameters, parameters of
+    its initial state, or states (a build argument that changes the structure, a ball count, cannot)."""
+    from switching.sweep.kernel_batch import settable_names
+
+    names = settable_names(model)
+    wrong = [name for name in axes if name not in names]
+    if wrong:
+        raise UsageError(f"--batch: {', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} not a parameter or a "
+                         f"state of {model.name} (a batch sets values on one model; it takes "
+                         f"{', '.join(sorted(names))}): drop --batch to build a model per run on Dask")
+
+
 def _cmd_sweep(args) -> int:
-    """``hbg sweep``: one run per point of the grid on Dask, a CSV row per run,
-    a plot of one metric over the grid."""
+    """``hbg sweep``: one run per point of the grid on Dask (``--batch``: in this process, in kernel
+    batches), a CSV row per run, a plot of one metric over the grid."""
     import contextlib
 
     from switching import simulate_many
@@ -119,14 +141,23 @@ def _cmd_sweep(args) -> int:
     names = args.metric or ["events"]
     metrics = _sweep_metrics(names, model, window_options(args))
     sets = [{**base, **point} for point in parameter_grid(axes)]
-    where = args.scheduler or f"{min(args.workers or os.cpu_count() or 1, len(sets))} local Dask worker(s)"
+    if args.batch:
+        _check_batch(model, axes)
+        sets = list(parameter_grid(axes))  # (the --set values are the model's already)
+    where = ("this process" + (", kernel calls in batches over the cores" if compiled_method(method) else "")
+             if args.batch else args.scheduler
+             or f"{min(args.workers or os.cpu_count() or 1, len(sets))} local Dask worker(s)")
     print(f"sweep of {model.name}: {len(sets)} runs over {' × '.join(f'{n} ({len(v)})' for n, v in axes.items())}, "
           f"{method} to t = {t_end:g} s, on {where}")
     start = time.perf_counter()
     bar = sys.stderr.isatty()
     with contextlib.redirect_stdout(sys.stderr) if bar else contextlib.nullcontext():  # Dask's bar: on stderr
-        results = simulate_many(module.build, sets, t_end, method, client=args.scheduler, workers=args.workers,
-                                metrics=metrics, trajectories=False, progress_bar=bar, **options)
+        if args.batch:
+            results = simulate_many(model, sets, t_end, method, metrics=metrics, trajectories=False, **options)
+            results = [dataclasses.replace(r, parameters={**base, **r.parameters}) for r in results]
+        else:
+            results = simulate_many(module.build, sets, t_end, method, client=args.scheduler, workers=args.workers,
+                                    metrics=metrics, trajectories=False, progress_bar=bar, **options)
     frame = to_frame(results)
     counts = frame["status"].value_counts()
     print(f"  {counts.get('ok', 0)} ok, {counts.get('stopped', 0)} stopped early, {counts.get('failed', 0)} failed, "
@@ -180,6 +211,10 @@ def add_sweep(sub) -> None:
     group = p.add_mutually_exclusive_group()
     group.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)")
     group.add_argument("--workers", type=int, help="size of the local Dask cluster (default: all cores)")
+    group.add_argument("--batch", action="store_true",
+                       help="no Dask: the runs in this process on one model, a compiled method's kernel calls in "
+                            "batches over the cores (each run as simulate makes it; the grid's names must be the "
+                            "model's parameters or states)")
     p.add_argument("--csv", required=True, metavar="FILE", help="one row per run: parameters, status, events, "
                    "final state, metrics")
     p.add_argument("--plot", metavar="FILE.png", help="the first --metric over the grid (line or heat map)")

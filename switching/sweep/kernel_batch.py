@@ -45,7 +45,7 @@ from ..simulate.methods import METHOD_CLASSES, canonical_method
 from ..simulate.zeno import ZenoWatch
 from .results import RunResult, result_of_run
 
-__all__ = ["BatchResult", "FirstCallAnswered", "batch_results", "simulate_batch"]
+__all__ = ["BatchResult", "FirstCallAnswered", "batch_results", "settable_names", "simulate_batch"]
 
 #: the kernel's status of a run that reached ``t_end``
 DONE = next(code for code, name in STATUS.items() if name == "done")
@@ -136,6 +136,14 @@ class FirstCallAnswered:
 
 
 # ------------------------------------------------------------ parameter sets onto the model
+
+
+def settable_names(model) -> set:
+    """The names a set of a batch may give values of: ``model``'s parameters, the parameters only its
+    initial state uses, its states."""
+    return ({s.name for s in model.parameter_symbols} | initial_only_names(model.initial_expressions,
+                                                                             model.parameter_symbols)
+            | set(model.state_names))
 
 
 class _Values:

@@ -241,3 +241,23 @@ def test_a_boost_converter_batch_over_duty_load_and_initial_voltage_is_simulate_
         np.testing.assert_array_equal(batch.x[r], trajectory.x[-1])
         np.testing.assert_array_equal(batch.event_times[r, :batch.event_counts[r]], trajectory.event_times)
     assert batch.in_kernel[1:].all() and (batch.event_counts == 10).all()
+
+
+def test_hbg_sweep_batch_writes_the_rows_of_simulate_s_runs(tmp_path, capsys):
+    pd = pytest.importorskip("pandas")
+    from models import cli
+
+    csv = tmp_path / "grid.csv"
+    code = cli.main(["sweep", "bouncing-ball", "--grid", "e=0.7:0.9:3", "--grid", "y0=1,2", "--set", "v_rest=0.1",
+                     "--t-end", "2", "--method", "RK45-jit", "--batch", "--csv", str(csv), "--metric", "max:v"])
+    out = capsys.readouterr().out
+    assert code == 0 and "this process, kernel calls in batches" in out and "6 ok" in out
+    frame = pd.read_csv(csv)
+    assert list(frame["v_rest"]) == [0.1] * 6
+    for _, row in frame.iterrows():
+        trajectory = bouncing_ball.build(e=row["e"], y0=row["y0"], v_rest=0.1).simulate(2.0, "RK45-jit", rtol=1e-8)
+        assert row["events"] == len(trajectory.event_times)
+        assert row["final_y"] == trajectory.x[-1, list(trajectory.state_names).index("y")]
+        assert row["max:v"] == pytest.approx(trajectory.signal("v").max(), rel=0, abs=0)
+    assert cli.main(["sweep", "ball-chain", "--grid", "N=2,3", "--batch", "--csv", str(csv)]) != 0
+    assert "--batch: N is not a parameter or a state" in capsys.readouterr().err
