@@ -31,7 +31,7 @@ from .calls import gparts, holds_at
 from ..rules.bracket import BISECTIONS
 from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, parabola_peak, peak_in_reach,
                        stamp_with_rules, worth_refining)
-from .flow import interp
+from .flow import interp, rk45_dense
 
 __all__ = ["S_BEFORE", "S_INSIDE", "S_SCRATCH", "S_START", "S_STEP", "bisect", "event_in_step", "first_hold",
            "margin_peak", "pieces", "point"]
@@ -78,9 +78,18 @@ def point(slot, tau, at, yv, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
     if at:
         hd = holds_at(m, yv, tau, M, s, rtol, atol)
     else:
-        interp(kind, t_old, h, A, tau, tmp)
+        _interpolate(kind, t_old, h, A, tau, tmp)
         hd = holds_at(m, tmp, tau, M, s, rtol, atol)
     return _parts(slot, tau, hd, m, s, rtol, atol, M, PT)
+
+
+@inline
+def _interpolate(kind, t_old, h, A, tau, out):
+    """:func:`.flow.interp`, RK45's inlined (the same values, without a call at each of a step's points)."""
+    if kind == 2:
+        rk45_dense(A[0], A[2], A[4], h, (tau - t_old) / h, out)
+    else:
+        interp(kind, t_old, h, A, tau, out)
 
 
 @inline
@@ -118,7 +127,7 @@ def _samples(kind, m, t_old, t_new, h, A, E, M, rtol, atol, samples, PT, order):
     for j in range(1, samples + 1):
         tau = t_old + span * j / (samples + 1)
         if ptau[order[cnt - 1]] < tau and tau < t_new:  # a step of a few ulps has fewer distinct points
-            interp(kind, t_old, h, A, tau, tmp)
+            _interpolate(kind, t_old, h, A, tau, tmp)
             hd = _parts(nxt, tau, holds_at(m, tmp, tau, M, s, rtol, atol), m, s, rtol, atol, M, PT)
             order[cnt] = nxt
             cnt += 1
@@ -316,7 +325,7 @@ def first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
         more, mid = halve(t_lo, hi)
         if not more:
             break
-        interp(kind, t_old, h, A, mid, tmp)
+        _interpolate(kind, t_old, h, A, mid, tmp)
         if holds_at(m, tmp, mid, M, s, rtol, atol):
             hi = mid
         else:

@@ -25,7 +25,7 @@ from .compiler import (dispatch, euler_step, fixed_size, fixed_stiffness, hermit
                        rk4_combine, rodas_dense, stamp_with_rules)
 
 __all__ = ["RK_A", "RK_B", "RK_C", "RK_E", "RK_P", "adaptive_step", "dense_coefficients", "fixed_step", "hairer",
-           "initial_step", "interp"]
+           "initial_step", "interp", "rk45_dense"]
 
 RK_C = np.array([0.0, 0.2, 0.3, 0.8, 8 / 9, 1.0])
 RK_A = np.array([
@@ -99,16 +99,22 @@ def interp(kind, t_old, h, A, tau, out):
             terms = abs(y_old[i]) + abs(y_new[i]) + abs(Q[i, 0]) + abs(Q[i, 1])
             out[i] = nearer_end(rodas_dense(y_old[i], y_new[i], Q[i, 0], Q[i, 1], theta), y_old[i], y_new[i], terms)
     else:
-        theta = (tau - t_old) / h
-        for i in range(out.shape[0]):
-            acc = 0.0
-            terms = 0.0
-            pw = 1.0
-            for j in range(Q.shape[1]):
-                pw *= theta
-                acc += Q[i, j] * pw
-                terms += abs(Q[i, j])
-            out[i] = nearer_end(y_old[i] + h * acc, y_old[i], y_new[i], abs(y_old[i]) + abs(h) * terms)
+        rk45_dense(y_old, y_new, Q, h, (tau - t_old) / h, out)
+
+
+@inline
+def rk45_dense(y_old, y_new, Q, h, theta, out):
+    """RK45's dense output at ``θ`` (scipy's: ``y + h·Σ_j Q[:, j]·θ^(j+1)``, ``Q`` of four columns), each value
+    beyond the step's end values by no more than the round-off of its terms the nearer end's."""
+    for i in range(out.shape[0]):
+        acc = 0.0
+        terms = 0.0
+        pw = 1.0
+        for j in range(4):
+            pw *= theta
+            acc += Q[i, j] * pw
+            terms += abs(Q[i, j])
+        out[i] = nearer_end(y_old[i] + h * acc, y_old[i], y_new[i], abs(y_old[i]) + abs(h) * terms)
 
 
 @inline
