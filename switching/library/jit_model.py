@@ -790,6 +790,7 @@ class CompiledModel:
         self._record = None
         self._buffers = {}
         self._workspaces = {}
+        self._atol_number = (math.nan, None)  # the last atol given as a number, and its array (see call_arrays)
         self.add(sorted(set(modes), key=lambda m: m.label))
 
     def add(self, modes) -> None:
@@ -911,14 +912,12 @@ class CompiledModel:
         the result says how many of them it consumed (``n_dense``).
         ``stiffness_check=False``: no stiffness test (see :func:`switching.simulate`).
         The result's arrays are views of reused buffers: valid until the next call."""
-        record, ints, floats, x, te = self.call_arrays(
-            kind, mode, x, t, t_end, dt=dt, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
-            samples=samples, save=save, max_steps=max_steps, resolve_first=resolve_first, t_eval=t_eval,
-            stiffness_check=stiffness_check)
-        mode_code = int(ints[4])
+        record, ints, floats, x, te, mode_code, max_instant = self._inputs(
+            kind, mode, x, t, t_end, dt, rtol, atol, max_step, first_step, samples, save, max_steps, resolve_first,
+            t_eval, stiffness_check)
         buffers = self.buffers(2, len(te)) if mode_code == 2 else \
             self._buffers.get(mode_code) or self.buffers(mode_code)
-        work = self._workspaces.get((samples, int(ints[3]))) or self.workspace(samples, int(ints[3]))
+        work = self._workspaces.get((samples, max_instant)) or self.workspace(samples, max_instant)
         status, n_saved, n_ev, t_stop, m_stop, steps, n_dense = _call_run(
             record, ints, floats, x, te, buffers, work, True if kind >= KINDS["rodas-jit"] else None)
         if status == 7:
@@ -931,6 +930,13 @@ class CompiledModel:
         x, te)`` (see :func:`switching.kernel.loop.run`): the model record with the model's parameter
         values of now and ``atol``, the call's integer and float settings, the state, the requested times
         (``ints[4]`` is 2 when there are some)."""
+        return self._inputs(kind, mode, x, t, t_end, dt, rtol, atol, max_step, first_step, samples, save, max_steps,
+                            resolve_first, t_eval, stiffness_check)[:5]
+
+    def _inputs(self, kind, mode, x, t, t_end, dt, rtol, atol, max_step, first_step, samples, save, max_steps,
+                resolve_first, t_eval, stiffness_check) -> tuple:
+        """:meth:`call_arrays` and the output code (``ints[4]``) and the cap of steps per instant (``ints[3]``) as
+        Python integers (the arguments positional: a kernel call's fixed cost is mostly this method's)."""
         if kind >= KINDS["rodas-jit"] and self.jacobian_compiler is None:
             raise RuntimeError("the implicit kernel needs the modes' Jacobians: call need_jacobians first")
         tol = self.model.tolerance
@@ -943,13 +949,19 @@ class CompiledModel:
             mode_code = 1 if save else 0
         record = self.record
         if record.atol is not atol:  # each state's absolute tolerance: an array in the states' order, or a number
-            atol = _kernel_array(np.broadcast_to(atol, (self.n,)) if np.ndim(atol) == 0 else atol)
-            record = self._record = record._replace(atol=atol)
+            if isinstance(atol, float) and atol == self._atol_number[0] and record.atol is self._atol_number[1]:
+                pass  # the number of the last call, its array in the record already (~6 µs a call spared)
+            elif np.ndim(atol) == 0:
+                array = _kernel_array(np.broadcast_to(atol, (self.n,)))  # (a new one: records handed out keep theirs)
+                self._atol_number = (atol, array)
+                record = self._record = record._replace(atol=array)
+            else:
+                record = self._record = record._replace(atol=_kernel_array(atol))
         ints = np.array([kind, self.ids[mode], samples, max_instant, mode_code, max_steps, bool(resolve_first),
                          bool(stiffness_check)], dtype=np.int64)
         floats = np.array([t, t_end, dt or 0.0, rtol, 0.0, max_step, first_step or 0.0, tol.rtol, tol.atol,
                            tol.jump_rtol, tol.jump_atol], dtype=float)
-        return record, ints, floats, np.array(x, dtype=float), te
+        return record, ints, floats, np.array(x, dtype=float), te, mode_code, max_instant
 
 
 def _kernel_array(values) -> np.ndarray:

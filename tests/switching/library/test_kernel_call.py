@@ -1,0 +1,45 @@
+"""A kernel call's Python side (switching.library.jit_model.CompiledModel.run): what it keeps between calls."""
+
+import numpy as np
+
+from models import bouncing_ball
+
+
+def _ball():
+    model = bouncing_ball.build()
+    model.simulate(2.5, "RK45", rtol=1e-6, output="events")  # visit both modes: the record covers them
+    return model, model.compiled_model()
+
+
+def _events(compiled, model, atol):
+    result = compiled.run(2, model.initial_mode, model.initial_state(), 0.0, 2.5, dt=None, rtol=1e-6, atol=atol,
+                          max_step=np.inf, first_step=None, samples=3, save=False)
+    arrays = result.arrays()
+    return result.steps, arrays.t_events.copy(), arrays.x_after.copy()
+
+
+def test_a_number_as_atol_is_made_an_array_once_and_records_handed_out_keep_theirs():
+    model, compiled = _ball()
+    first = _events(compiled, model, 1e-9)
+    record = compiled.record
+    again = _events(compiled, model, 1e-9)
+    assert compiled.record is record  # the same number: the record and its array as they were
+    other = _events(compiled, model, 1e-7)
+    assert compiled.record.atol is not record.atol
+    assert np.all(record.atol == 1e-9) and np.all(compiled.record.atol == 1e-7)
+    assert other[0] < first[0]
+    last = _events(compiled, model, 1e-9)
+    for a, b, c in zip(first, again, last):
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, c)
+
+
+def test_the_kernel_inputs_of_a_call_are_those_it_runs_with():
+    model, compiled = _ball()
+    arguments = dict(kind=2, mode=model.initial_mode, x=model.initial_state(), t=0.0, t_end=2.5, dt=None, rtol=1e-6,
+                     atol=1e-8, max_step=np.inf, first_step=None, samples=3, save=False)
+    record, ints, floats, x, te = compiled.call_arrays(**arguments)
+    assert np.all(record.atol == 1e-8) and ints[4] == 0 and ints[3] == model.max_steps_per_instant
+    kept = record.atol.copy()
+    compiled.run(**{**arguments, "atol": 1e-6})
+    np.testing.assert_array_equal(record.atol, kept)  # a record handed out is never written
