@@ -37,6 +37,7 @@ import dataclasses
 import enum
 import functools
 import time as _time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -518,11 +519,11 @@ class HybridRun:
         return trajectory
 
 
-@dataclasses.dataclass(frozen=True)
-class _FlowSettings:
+class _FlowSettings(NamedTuple):
     """What every flow of a run needs: the step options, the guard samples
     per step, whether every step is saved, the progress callback, the guard
-    tolerances, the run's ``max_steps``."""
+    tolerances, the run's ``max_steps``.  (A named tuple: made at every run,
+    in a fifth of a frozen dataclass's time.)"""
 
     stepping: object
     samples: int
