@@ -155,6 +155,18 @@ NOTEBOOKS = {
         "and the run stops there when asked to."),
         py("zeno = bouncing_ball.build(v_rest=0.0).simulate(10.0, 'RK45', rtol=1e-9, on_zeno='stop')\n"
         "print(zeno.stopped, zeno.stats['zeno accumulation time [s]'])"),
+        md("## Sixteen hundred balls in one call\n\n`simulate_batch` runs one model over many sets of values at once: "
+        "each run set up as `simulate` sets it up, all their kernel calls made together over the cores, each run the "
+        "same as its own `simulate`, to the bit.  The instants of a ball with a resting rule over its restitution and "
+        "drop height:"),
+        py("from switching import simulate_batch\nes, heights = np.linspace(0.6, 0.95, 40), np.linspace(0.5, 2.0, 40)\n"
+        "sets = [{'e': e, 'y0': h} for e in es for h in heights]\n"
+        "batch = simulate_batch(bouncing_ball.build(v_rest=0.3), sets, 3.0, 'RK45-jit', rtol=1e-9)\n"
+        "print(len(batch), 'runs,', int(batch.in_kernel.sum()), 'finished in the batch call;', sorted(set(batch.status)))\n"
+        "fig, ax = plt.subplots(figsize=(5, 4))\n"
+        "mesh = ax.pcolormesh(heights, es, batch.event_counts.reshape(len(es), len(heights)), shading='nearest')\n"
+        "ax.set_xlabel('drop height y0 [m]'); ax.set_ylabel('restitution e')\n"
+        "fig.colorbar(mesh, label='instants in 3 s');"),
         md("## Two balls"),
         py("from models import colliding_balls\npair = colliding_balls.build()\n"
         "run = pair.simulate(**colliding_balls.RUN)\nplot_trajectory(run, ['x1', 'x2', 'v1', 'v2']);"),
