@@ -35,7 +35,7 @@ from .calls import Model
 from .compiler import stamp_with_rules
 from .loop import run
 
-__all__ = ["run_many"]
+__all__ = ["run_many", "run_many_serial"]
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -61,5 +61,9 @@ def run_many(M, P, U, ATOL, ints, floats, X0, te, outs, works, ends, t_stop, imp
             ends[r, 5] = n_te
             t_stop[r] = t
 
+
+#: :func:`run_many` on the calling thread alone (``prange`` is ``range`` there): for one thread, and where the
+#: threading layer cannot start (a process forked from one whose GNU OpenMP pool ran: see kernel_batch)
+run_many_serial = njit(cache=True, error_model="numpy")(run_many.py_func)
 
 stamp_with_rules(globals(), __name__)

@@ -29,6 +29,7 @@ call answered by the batch's (:class:`FirstCallAnswered`).
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -223,16 +224,17 @@ class _Slab:
                      np.empty((R, samples_a_run), dtype=np.int64), np.empty((R, event_capacity, 1 + 2 * n)),
                      np.empty((R, event_capacity, 3), dtype=np.int64), np.zeros((R, 5 + n)))
         samples, max_instant = int(inputs[0][1][2]), int(inputs[0][1][3])
+        from ..kernel import batch
+
         threads = _threads()
-        chunks = min(R, threads)
+        entry = batch.run_many if threads > 1 and _parallel_here() else batch.run_many_serial
+        chunks = min(R, threads) if entry is batch.run_many else 1
         floats, ints_, bools = kernel().workspace_sizes(record, n, samples, max_instant)
         works = (np.empty((chunks, floats)), np.empty((chunks, ints_), dtype=np.int64),
                  np.empty((chunks, bools), dtype=np.bool_))
         self.ends = np.zeros((R, 6), dtype=np.int64)
         self.t_stop = np.zeros(R)
-        from ..kernel.batch import run_many
-
-        run_many(record, np.array([i[0].p for i in inputs]).reshape(R, -1),
+        entry(record, np.array([i[0].p for i in inputs]).reshape(R, -1),
                  np.array([i[0].u for i in inputs]).reshape(R, -1), np.array([i[0].atol for i in inputs]),
                  np.array([i[1] for i in inputs]), np.array([i[2] for i in inputs]), np.array([i[3] for i in inputs]),
                  te, self.outs, works, self.ends, self.t_stop,
@@ -274,6 +276,26 @@ def _threads() -> int:
     import numba
 
     return max(1, int(numba.get_num_threads()))
+
+
+_PARALLEL_IN = []  # the process that first ran the batch in parallel
+
+
+def _parallel_here() -> bool:
+    """Can this process run the batch on numba's threads?  Not in a process forked from one whose GNU
+    OpenMP pool ran (numba's ``omp`` layer): that pool does not survive ``fork`` (the child would be
+    terminated), so such a child runs its batches on one thread."""
+    import numba
+
+    pid = os.getpid()
+    if not _PARALLEL_IN:
+        _PARALLEL_IN.append(pid)
+    if _PARALLEL_IN[0] == pid:
+        return True
+    try:
+        return numba.threading_layer() != "omp"
+    except ValueError:  # (no parallel region ran in this process's line yet)
+        return True
 
 
 # ------------------------------------------------------------ the batch

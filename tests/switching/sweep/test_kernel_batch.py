@@ -261,3 +261,28 @@ def test_hbg_sweep_batch_writes_the_rows_of_simulate_s_runs(tmp_path, capsys):
         assert row["max:v"] == pytest.approx(trajectory.signal("v").max(), rel=0, abs=0)
     assert cli.main(["sweep", "ball-chain", "--grid", "N=2,3", "--batch", "--csv", str(csv)]) != 0
     assert "--batch: N is not a parameter or a state" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="os.fork: POSIX only")
+def test_a_process_forked_after_a_batch_runs_its_own_batches(ball):
+    import os
+    import pickle
+
+    sets = [{"e": e} for e in (0.7, 0.75, 0.8, 0.85)]
+    here = simulate_batch(ball, sets, T_END, "RK45-jit", rtol=1e-8)  # (numba's thread pool has run here)
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: GNU OpenMP's pool would terminate it; its batch runs on one thread
+        try:
+            there = simulate_batch(ball, sets, T_END, "RK45-jit", rtol=1e-8)
+            os.write(write, pickle.dumps((there.x, there.event_times)))
+        finally:
+            os._exit(0)
+    os.close(write)
+    with os.fdopen(read, "rb") as pipe:
+        received = pipe.read()
+    _, status = os.waitpid(pid, 0)
+    assert status == 0 and received, "the forked process's batch did not finish"
+    x, times = pickle.loads(received)
+    np.testing.assert_array_equal(x, here.x)
+    np.testing.assert_array_equal(times, here.event_times)
