@@ -1,9 +1,10 @@
 """Many runs of one model in one call of the compiled kernel.
 
 :func:`simulate_batch` runs one model (a :class:`HybridModel` built once)
-for many parameter sets — its parameters and the parameters of its initial
-state (a drop height, an initial angle) — with a compiled method (``euler-jit``,
-``rk4-jit``, ``RK45-jit``, ``rodas-jit``).  Each run is set up exactly as
+for many sets of values — of its parameters, of the parameters of its
+initial state (a drop height, an initial angle), of its states' initial
+values — with a compiled method (``euler-jit``, ``rk4-jit``, ``RK45-jit``,
+``rodas-jit``).  Each run is set up exactly as
 :func:`switching.simulate` sets it up (its options checked, its initial
 state projected, its starting mode, each state's tolerance, the step bound:
 :func:`switching.simulate.driver.prepared_run`), and the first kernel call
@@ -18,8 +19,11 @@ taken from the batch only where its kernel call ended it, its instants
 passing the checks a run makes (the Zeno watch, ``max_events``); any other
 run — a mode met that is not compiled yet, an instant left to Python, more
 instants than a run's record holds (``event_capacity``), Zeno behaviour, an
-error — is run again by ``simulate`` itself, which then compiles what it
-meets for the runs after.  The model's own values are restored afterwards.
+error — is finished by ``simulate``'s own recording from that call on
+(:class:`FirstCallAnswered`), which compiles what it meets for the runs
+after.  The first set runs alone, so that the modes it meets are compiled
+for the others' batch calls.  The model's own values are restored afterwards
+(DESIGN §7c).
 
 :func:`switching.simulate_many` given a model (not a build function) runs
 its sets this way too and gives each run's :class:`RunResult`: each run's
@@ -37,7 +41,7 @@ from functools import partial
 
 import numpy as np
 
-from bondgraph.errors import HybridBondGraphError, ParameterValueError, UnknownParameterError
+from bondgraph.errors import HybridBondGraphError, ParameterValueError, UnknownNameError, UnknownParameterError
 
 from ..library.jit_model import KINDS, STATUS, KernelResult, kernel
 from ..model.definition import initial_only_names
@@ -109,7 +113,8 @@ class BatchResult:
 
     def _column(self, name: str) -> int:
         if name not in self.state_names:
-            raise UnknownParameterError([name], self.state_names)
+            raise UnknownNameError(f"the batch's model has no state {name!r}; its states: "
+                                   f"{', '.join(self.state_names)}", name)
         return self.state_names.index(name)
 
 

@@ -286,3 +286,13 @@ def test_a_process_forked_after_a_batch_runs_its_own_batches(ball):
     x, times = pickle.loads(received)
     np.testing.assert_array_equal(x, here.x)
     np.testing.assert_array_equal(times, here.event_times)
+
+
+def test_a_batch_s_arrays_are_read_by_state_name(ball):
+    from bondgraph.errors import UnknownNameError
+
+    batch = simulate_batch(ball, SETS[:2], T_END, "RK45-jit")
+    with pytest.raises(UnknownNameError, match="no state 'v'.*p, y"):
+        batch.final("v")
+    with pytest.raises(ParameterValueError, match="t_eval"):
+        batch.at_times("y")
