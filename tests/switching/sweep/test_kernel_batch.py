@@ -235,12 +235,13 @@ def test_a_boost_converter_batch_over_duty_load_and_initial_voltage_is_simulate_
     from models import boost_converter
 
     sets = [{"D": d, "R_load": r, "v_C0": v} for d in (0.3, 0.7) for r in (5.0, 20.0) for v in (0.0, 12.0)]
-    batch = simulate_batch(boost_converter.build(), sets, 5e-4, "RK45-jit", rtol=1e-8)
-    for r, p in enumerate(sets):
-        trajectory = boost_converter.build(**p).simulate(5e-4, "RK45-jit", rtol=1e-8, output="events")
-        np.testing.assert_array_equal(batch.x[r], trajectory.x[-1])
-        np.testing.assert_array_equal(batch.event_times[r, :batch.event_counts[r]], trajectory.event_times)
-    assert batch.in_kernel[1:].all() and (batch.event_counts == 10).all()
+    for method, options in (("RK45-jit", {"rtol": 1e-8}), ("rk4-jit", {"dt": 2e-7})):
+        batch = simulate_batch(boost_converter.build(), sets, 5e-4, method, **options)
+        for r, p in enumerate(sets):
+            trajectory = boost_converter.build(**p).simulate(5e-4, method, output="events", **options)
+            np.testing.assert_array_equal(batch.x[r], trajectory.x[-1])
+            np.testing.assert_array_equal(batch.event_times[r, :batch.event_counts[r]], trajectory.event_times)
+        assert batch.in_kernel[1:].all() and (batch.event_counts == 10).all()
 
 
 def test_hbg_sweep_batch_writes_the_rows_of_simulate_s_runs(tmp_path, capsys):
