@@ -391,6 +391,21 @@ def _names_and_doc(spec: FunctionSpec, memo: PrintMemo | None):
     return table, table["names"], table["doc"]
 
 
+def _positions(arguments, table: dict | None) -> list:
+    """Per argument: symbol → its indices in the argument (kept in the print memo's ``table``)."""
+    found = table.get("positions") if table is not None else None
+    if found is None:
+        found = []
+        for arg in arguments:
+            where: dict = {}
+            for k, sym in enumerate(arg.symbols):
+                where.setdefault(sym, []).append(k)
+            found.append(where)
+        if table is not None:
+            table["positions"] = found
+    return found
+
+
 def composed_source(spec: FunctionSpec, blocks: list, memo: PrintMemo | None = None) -> str:
     """The source of function ``spec`` (its outputs are not printed) made of
     calls of the block functions ``blocks`` — ``(name, number of outputs)``
@@ -439,12 +454,15 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     printer.available = set()
 
     lines = [_def_line(spec), *_docstring(spec, len(outputs), argument_doc)]
-    for arg in spec.arguments:
+    positions = _positions(spec.arguments, table)
+    for arg, where in zip(spec.arguments, positions):
         if arg.scalar:
             continue
-        for k, sym in enumerate(arg.symbols):
-            if sym in needed:
-                lines.append(f"    {names[sym]} = {arg.name}[{k}]")
+        if len(needed) < len(arg.symbols) // 4:  # (a block of a scene's function reads a few of a thousand)
+            found = sorted(k for sym in needed for k in where.get(sym, ()))
+        else:
+            found = [k for k, sym in enumerate(arg.symbols) if sym in needed]
+        lines.extend(f"    {names[arg.symbols[k]]} = {arg.name}[{k}]" for k in found)
 
     def text(expr, definition=False):
         if table is None:

@@ -253,6 +253,56 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
     return mode_module(model, me)[:2]
 
 
+#: a guard's entries for at most this many offsets of its comparisons are kept (:func:`_mode_guards`)
+GUARD_OFFSETS_KEPT = 8
+
+
+def _mode_guards(model, me) -> tuple:
+    """``(guards, their reprs, comparisons, raw sides, spans)`` of a mode: each guard's ``META`` entry
+    (its comparisons numbered after those of the guards before it), the comparisons in order, their
+    left and right sides, and per guard (the block of its automaton, its first comparison, the
+    comparison after its last).
+
+    A guard's entry, its text and its comparisons are kept by the library per guard (its transition
+    and condition, the same objects in every mode where the condition reads no bond of the mode) and
+    offset of its comparisons: a scene's modes repeat nearly all their thousand guards, and printing
+    and building them again was a fifth of a mode's generation."""
+    library = model.library
+    kept, automaton_index = library.guard_entries, model.automaton_index
+    guards, texts, relations, raw_sides, spans = [], [], [], [], []
+    for guard in me.guards:
+        tr, condition = guard.transition, guard.condition
+        found = kept.get((id(tr), id(condition)))
+        if found is None or found[0] is not tr or found[1] is not condition or found[2] != (guard.automaton,
+                                                                                              guard.text):
+            own: list = []
+            tree = library.guard_tree(condition, own)
+            entry = {"automaton": guard.automaton, "source": tr.source, "target": tr.target, "when": tr.when,
+                     "pulses": tr.pulses, "text": guard.text, "tree": tree}
+            sides = tuple(side for rel in own for side in (rel.lhs, rel.rhs))
+            found = (tr, condition, (guard.automaton, guard.text), entry, tuple(own), sides, {},
+                     automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA)
+            kept[(id(tr), id(condition))] = found  # (the transition and condition held: their ids stay theirs)
+        start = len(relations)
+        shifted = found[6].get(start)
+        if shifted is None:
+            entry = found[3] if not start else {**found[3], "tree": shifted_tree(found[3]["tree"], start)}
+            shifted = (entry, repr(entry))
+            if len(found[6]) < GUARD_OFFSETS_KEPT:
+                found[6][start] = shifted
+        guards.append(shifted[0])
+        texts.append(shifted[1])
+        relations.extend(found[4])
+        raw_sides.extend(found[5])
+        spans.append((found[7], start, len(relations)))
+    return guards, texts, relations, raw_sides, spans
+
+
+def _tuple_text(items: list) -> str:
+    """``repr`` of a tuple of items whose reprs are ``items``."""
+    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+
+
 def _arguments(model, states, rates, params, inputs) -> tuple:
     """The argument lists of a mode's functions and of its raw ones: the same tuples for every mode of a model
     (kept by its library) while they hold the same symbols, so that the print memo finds its table by them at
@@ -286,28 +336,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     label = me.mode.describe()
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
-    relations: list = []
-    guards = []
-    spans = []  # per guard: (block of its automaton, its first comparison, the comparison after its last)
-    automaton_index = model.automaton_index
-    for guard in me.guards:
-        tr = guard.transition
-        start = len(relations)
-        guards.append(
-            {
-                "automaton": guard.automaton,
-                "source": tr.source,
-                "target": tr.target,
-                "when": tr.when,
-                "pulses": tr.pulses,
-                "text": guard.text,
-                "tree": model.library.guard_tree(guard.condition, relations),
-            }
-        )
-        spans.append((automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA, start, len(relations)))
-    finite_sides, raw_sides = comparison_triples(me, relations), []
-    for rel in relations:
-        raw_sides += [rel.lhs, rel.rhs]
+    guards, guard_texts, relations, raw_sides, spans = _mode_guards(model, me)
+    finite_sides = comparison_triples(me, relations)
     large = len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA  # a scene: no per-entry lists, rates in blocks
     if large:  # (the docstrings state the arrays' shapes; the module's docstring names the mode)
         side_names = triple_names = ()
@@ -366,7 +396,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
             pieces.append(_blocked_piece(model, spec, state_blocks, 1))
         else:
             pieces.append((spec.name, function_source(spec, model.library.print_memo)))
-    meta_text = repr(meta)
+    meta_text = "{" + ", ".join(f"{k!r}: {v!r}" if k != "guards" else f"{k!r}: {_tuple_text(guard_texts)}"
+                                for k, v in meta.items()) + "}"  # (repr(meta), the guards' texts kept)
     head = header + f"META = {meta_text}\n\n\n"
     source = head + "\n\n".join(text for _, text in pieces)
     chunks = {"META": meta_text}

@@ -185,6 +185,9 @@ class ModeLibrary:
         self.scale_memo: dict = {}
         self.guard_texts: dict = {}
         self.guard_trees: dict = {}
+        #: (ids of a guard's transition and condition) → its META entries and comparisons
+        #: (:func:`switching.library.compiled._mode_guards`)
+        self.guard_entries: dict = {}
         #: guard comparison → (left, right, round-off scale) of its finite sides, where they read no rate
         self.triple_memo: dict = {}
         self.side_block_sources: dict = {}

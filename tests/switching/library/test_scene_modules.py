@@ -178,3 +178,53 @@ def test_a_pinnacle_decides_one_by_one_only_the_guards_that_may_hold(monkeypatch
     assert pinnacles >= 39
     # two calls (decision and record) per fired guard, ~2 fired a pinnacle; it was 39 guards a pinnacle
     assert len(calls) < 8 * pinnacles, len(calls)
+
+
+def test_a_modules_meta_is_the_repr_of_its_value_with_its_guards_kept(chain):
+    """``META``'s text is assembled of the guards' kept texts: the very ``repr`` of the value."""
+    for mode in list(chain.visited_modes)[:5]:
+        source, meta, chunks = compiled.mode_module(chain, chain.mode_equations(mode))
+        assert chunks["META"] == repr(meta)
+    small = ball_chain.build(N=3, e=0.5)
+    small.simulate(0.3, "RK45", rtol=1e-9)
+    for mode in small.visited_modes:
+        source, meta, chunks = compiled.mode_module(small, small.mode_equations(mode))
+        assert chunks["META"] == repr(meta)
+    kept = chain.library.guard_entries
+    assert kept and all(len(found[6]) <= compiled.GUARD_OFFSETS_KEPT for found in kept.values())
+
+
+def test_a_new_mode_builds_only_the_guard_entries_it_changes(tmp_path):
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    model.compiled_mode(model.initial_mode)
+    calls = []
+    tree = model.library.guard_tree
+    model.library.guard_tree = lambda *a: calls.append(a) or tree(*a)
+    model.compiled_mode(mode)
+    assert len(calls) == 1  # the contact that collides (its other 38 guards kept; it was 39)
+
+
+def test_a_function_reading_few_of_many_states_unpacks_them_without_a_pass_over_all():
+    """A block of a scene's functions reads a few of a thousand states: with the print memo, its source
+    is written without walking the state vector (the argument lists' positions are kept)."""
+    import sympy as sp
+
+    from codegen.source import Argument, FunctionSpec, PrintMemo, function_source
+
+    class Counted(tuple):
+        passes = 0
+
+        def __iter__(self):
+            Counted.passes += 1
+            return super().__iter__()
+
+    x = Counted(sp.symbols("x0:1000"))
+    arguments = (Argument("x", x, doc="states"), Argument("t", (sp.Symbol("t"),), scalar=True),
+                 Argument("p", (), doc="parameters"), Argument("u", (), doc="inputs"))
+    memo = PrintMemo()
+    first = function_source(FunctionSpec("_block_", arguments, (x[3] * x[700], x[5]), "a", brief=True), memo)
+    passes = Counted.passes
+    second = function_source(FunctionSpec("_block_", arguments, (x[9] - x[2],), "b", brief=True), memo)
+    assert Counted.passes == passes  # (it was one pass over the thousand states a function)
+    assert "    x3 = x[3]\n    x5 = x[5]\n    x700 = x[700]\n" in first
+    assert "    x2 = x[2]\n    x9 = x[9]\n" in second
