@@ -112,11 +112,11 @@ def _guard_cache(module_name: str, dispatcher) -> None:
     cache = numba_internals.disk_cache(dispatcher)
     if cache is None:
         return
-    load, save = cache.load_overload, cache.save_overload
+    save = cache.save_overload
 
     def load_overload(sig, target_context):
         try:
-            return load(sig, target_context)
+            return numba_internals.load_cached(cache, sig, target_context)
         except Exception as exc:
             files = numba_internals.cache_files(cache)
             for path in files:

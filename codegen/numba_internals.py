@@ -24,8 +24,8 @@ import os
 import pickle
 
 __all__ = ["KNOWN_VERSIONS", "cache_directory", "cache_files", "cached_signatures", "compile_library",
-           "compiler_lock", "disk_cache", "host_cpu", "is_dispatcher", "load_library", "make_cfunc",
-           "native_unsupported", "serialize_library"]
+           "compiler_lock", "disk_cache", "host_cpu", "is_dispatcher", "load_cached", "load_library",
+           "make_cfunc", "native_unsupported", "serialize_library"]
 
 #: the numba releases (major, minor) whose internals this module was written and tested for
 KNOWN_VERSIONS = tuple((0, minor) for minor in range(58, 69))
@@ -155,6 +155,27 @@ def disk_cache(compiled):
     if cache is None or not hasattr(cache, "load_overload") or not hasattr(cache, "save_overload"):
         return None
     return cache
+
+
+def load_cached(cache, signature, target_context):
+    """``cache.load_overload(signature, target_context)`` (numba's disk cache ``cache``: the compiled result, or
+    ``None``) without the refresh of ``target_context`` numba makes first: its lowering and typing registries
+    (numba's modules of implementations, imported and installed: 0.2–0.3 s, the most of a process's first
+    use of numba) serve compilation only, and numba's compiler refreshes the contexts itself before it
+    compiles; machine code loaded from the cache needs numba's runtime (NRT) and its helpers' symbols, which
+    this initialises.  Another numba version (no such internals): numba's own load."""
+    load = getattr(cache, "_load_overload", None)
+    guard = getattr(cache, "_guard_against_spurious_io_errors", None)
+    try:
+        from numba.core.runtime import rtsys
+    except ImportError:
+        rtsys = None
+    if load is None or guard is None or rtsys is None or not callable(getattr(rtsys, "initialize", None)):
+        return cache.load_overload(signature, target_context)
+    rtsys.initialize(target_context)
+    with guard():
+        return load(signature, target_context)
+    return None  # (the guard swallowed an error: not found)
 
 
 def cache_files(cache) -> list:

@@ -43,3 +43,38 @@ def test_the_kernel_inputs_of_a_call_are_those_it_runs_with():
     kept = record.atol.copy()
     compiled.run(**{**arguments, "atol": 1e-6})
     np.testing.assert_array_equal(record.atol, kept)  # a record handed out is never written
+
+
+_LOAD_ONLY = """
+import sys
+sys.path.insert(0, {root!r})
+from numba.core import base
+calls = []
+refresh = base.BaseContext.refresh
+base.BaseContext.refresh = lambda self: (calls.append(1), refresh(self))[1]
+from models import bouncing_ball
+model = bouncing_ball.build()
+trajectory = model.simulate(2.5, "RK45-jit", rtol=1e-6, output="events")
+print(len(calls), repr([float(t) for t in trajectory.event_times]))
+"""
+
+
+def test_a_new_process_loads_the_cached_kernel_without_numbas_compilation_set_up(tmp_path):
+    """numba's first use refreshes its contexts (its registries of implementations: 0.2–0.3 s) before it loads
+    machine code from its disk cache; the kernel's loads skip that (codegen.numba_internals.load_cached), and
+    numba refreshes them itself before it compiles anything."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    model = bouncing_ball.build()
+    events = model.simulate(2.5, "RK45-jit", rtol=1e-6, output="events").event_times  # the kernel cached now
+    root = str(Path(__file__).resolve().parents[3])
+    environment = {**os.environ, "HBG_CACHE_DIR": str(tmp_path)}
+    script = _LOAD_ONLY.format(root=root)
+    subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True, check=True)
+    done = subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True, check=True)
+    refreshes, times = done.stdout.split(" ", 1)
+    assert int(refreshes) == 0
+    assert eval(times) == [float(t) for t in events]
