@@ -42,12 +42,44 @@ once per argument list); a mode's storage co-energies, its rates' symbols
 and its rate-free guard comparisons were derived again (now kept); guards on
 plain numbers made Hyper values; the cyclic garbage collector walked every
 earlier mode's objects while a mode was prepared (now it waits until the
-mode is made).  Left: a mode's module is still written whole — every
-function lists every state, ``rates``, ``phi`` and ``jump`` print every
-state's entry and META every guard (≈ 1.6 kB per ball a mode: 1.6 MB a mode
-at N = 1000, over the cache's 500 MB cap after 300 modes) — so generating,
-hashing, storing and compiling it, and deciding every guard at each
-pinnacle, still cost O(N) a mode.
+mode is made).
+
+Then (commits 136648c, 1ed25cf, bf9aa2a; CPU seconds of the child, the
+machine shared with two other workers at a load of 2–3, before and after
+measured one after the other under that load; before: commit ae326a3)::
+
+    N      modes   before cpu [s]   ms/mode   after cpu [s]   ms/mode
+    50        50             2.38        48            1.85        37
+    200      200             7.56        38            6.15        31
+    500      500            27.79        56           21.21        42
+    1000    1000           102.65       103           66.52        67
+
+(the CPU seconds include the imports, ≈ 0.6 s; wall seconds in the same
+runs, before → after: 1.52 → 2.25 (a load spike), 9.03 → 8.17, 39.76 →
+29.30, 145.1 → 95.3.)  A scene's mode module was
+written whole (≈ 1.6 kB a ball: 1.6 MB a mode at N = 1000); now its rates
+call blocks of ``STATE_BLOCK`` states as its guard sides call blocks of
+automata, every block is stored in the disk cache once under its own key
+instead of inside each module, and its functions' docstrings state the
+arrays' shapes (a 160-ball mode's functions: 5.7 kB, were ≈ 200 kB; the
+module is now mostly ``META``, ≈ 280 B a guard).  Each pinnacle decided
+every guard one by one (now all at once on arrays, the few that may hold one
+by one); each mode built and printed every guard's ``META`` entry again (now
+kept per guard and offset); a block's source walked the whole state vector
+for the few states it reads.  Where the time goes at N = 1000 now (wall ms
+a mode, timers around each part, 67 s in all): derivation
+(``ModeEquations``) 25, generation 17.5, guards at the pinnacles 6.5 (of
+which the ``sides`` functions 4.7), the disk cache's stores 3, compiling 3,
+``CompiledMode`` 1; besides, the model's build 4.8 s and ≈ 7 s more (the
+initial state's projection, the collector after each mode, the instant's
+bookkeeping).
+
+Left, all O(N) a mode: a mode's equations are whole dicts of every state,
+bond and guard, merged from the islands' (``bondgraph.islands.merge_*``),
+with every bond's raw value and every guard's raw condition
+(``switching.model.modes``); ``META`` lists every guard; ``sides`` computes
+every comparison at each pinnacle; the collector's young pass walks what a
+mode made.  The targets need those per island, shared by the modes.
 """
 
 from __future__ import annotations
