@@ -255,6 +255,9 @@ def mode_source_and_meta(model, me) -> tuple[str, dict]:
 
 #: a guard's entries for at most this many offsets of its comparisons are kept (:func:`_mode_guards`)
 GUARD_OFFSETS_KEPT = 8
+#: guards whose entries a library keeps: where a guard's condition reads a bond of the mode it is a new object in
+#: every mode, and its entry would never be met again (the kept entries are dropped at this many)
+GUARD_ENTRIES_KEPT = 20_000
 
 
 def _mode_guards(model, me) -> tuple:
@@ -282,6 +285,8 @@ def _mode_guards(model, me) -> tuple:
             sides = tuple(side for rel in own for side in (rel.lhs, rel.rhs))
             found = (tr, condition, (guard.automaton, guard.text), entry, tuple(own), sides, {},
                      automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA)
+            if len(kept) >= GUARD_ENTRIES_KEPT:
+                kept.clear()
             kept[(id(tr), id(condition))] = found  # (the transition and condition held: their ids stay theirs)
         start = len(relations)
         shifted = found[6].get(start)

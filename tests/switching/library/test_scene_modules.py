@@ -228,3 +228,21 @@ def test_a_function_reading_few_of_many_states_unpacks_them_without_a_pass_over_
     assert Counted.passes == passes  # (it was one pass over the thousand states a function)
     assert "    x3 = x[3]\n    x5 = x[5]\n    x700 = x[700]\n" in first
     assert "    x2 = x[2]\n    x9 = x[9]\n" in second
+
+
+def test_the_guard_entries_a_library_keeps_are_bounded(monkeypatch, tmp_path):
+    """Where a guard's condition is a new object in every mode its entry is never met again: the library
+    drops its kept entries at GUARD_ENTRIES_KEPT instead of growing by every guard of every mode."""
+    from models import boost_converter
+
+    monkeypatch.setattr(compiled, "GUARD_ENTRIES_KEPT", 2)
+    model = boost_converter.build()
+    model.cache = SourceCache(tmp_path / "a")  # (every mode generated here, none loaded)
+    made, tree = [], model.library.guard_tree
+    model.library.guard_tree = lambda *a: made.append(a) or tree(*a)
+    run = model.simulate(1e-4, "RK45", rtol=1e-8)
+    assert len(made) > 2 and len(model.library.guard_entries) <= 2
+    monkeypatch.undo()
+    fresh = boost_converter.build()
+    fresh.cache = SourceCache(tmp_path / "b")
+    np.testing.assert_array_equal(fresh.simulate(1e-4, "RK45", rtol=1e-8).x, run.x)
