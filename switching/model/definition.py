@@ -282,7 +282,8 @@ def parameter_values(model, values: Mapping) -> dict:
         raise MissingParameterError(missing, _text_only_names(model, missing))
     out = {}
     for name, v in given.items():
-        v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)
+        if not isinstance(v, float):  # (a float is real: its check and message are not made)
+            v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)
         try:
             value = float(v)
         except (TypeError, ValueError, OverflowError):
@@ -371,9 +372,12 @@ def initial_parameter_values(model, values: Mapping) -> dict:
     """symbol → float of the parameters only the initial state uses (each real and finite)."""
     out = {}
     check_parameter_names(model, [k.name if isinstance(k, sp.Symbol) else str(k) for k in values])
+    symbols = {s.name: s for s in getattr(model, "initial_parameters", ())}  # (the last values' symbols, taken
+    # again rather than made: sp.Symbol costs ~1 µs a name)
     for name, v in values.items():
         name = name.name if isinstance(name, sp.Symbol) else str(name)
-        v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)
+        if not isinstance(v, float):  # (a float is real: its check and message are not made)
+            v = real_number(v, f"parameter {name!r} of model {model.name!r}", name)
         try:
             value = float(v)
         except (TypeError, ValueError, OverflowError):
@@ -381,7 +385,8 @@ def initial_parameter_values(model, values: Mapping) -> dict:
         if not math.isfinite(value):
             raise ParameterValueError(f"parameter {name!r} of model {model.name!r} is {value}: the initial state "
                                       "needs a finite value", name, value)
-        out[sp.Symbol(name)] = value
+        symbol = symbols.get(name)
+        out[sp.Symbol(name) if symbol is None else symbol] = value
     return out
 
 
