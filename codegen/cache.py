@@ -159,6 +159,10 @@ def write_atomically(path: Path, data: str | bytes) -> None:
             os.unlink(temporary)
 
 
+#: characters of generated source a cache with a directory holds in memory (the older are read again from disk)
+MEMORY_CHARACTERS = 64 * 2**20
+
+
 class SourceCache:
     """Generated sources by key, in memory and (optionally) in ``directory``,
     which is kept under ``max_bytes`` (default :func:`default_max_bytes`) by
@@ -167,7 +171,8 @@ class SourceCache:
     def __init__(self, directory: str | os.PathLike | None, max_bytes: float | None = None):
         self.directory = Path(directory) if directory else None
         self.max_bytes = default_max_bytes() if max_bytes is None else float(max_bytes)
-        self.memory: dict[str, str] = {}
+        self.memory: dict[str, str] = {}  # (with a directory: the latest, within MEMORY_CHARACTERS; see _keep)
+        self._in_memory = 0  # characters held in memory
         self.hits = {"memory": 0, "disk": 0, "built": 0, "rejected": 0}
         self.evicted = 0  # entries this cache deleted to keep under max_bytes
         self.scans = 0  # listings of the directory by :meth:`evict` (each costs a stat of every entry's files)
@@ -212,15 +217,30 @@ class SourceCache:
                 pass
             return None
         self.hits["disk"] += 1
-        self.memory[key] = body
+        self._keep(key, body)
         try:
             os.utime(path)  # recently used: the last to be evicted
         except OSError:
             pass
         return body
 
+    def _keep(self, key: str, text: str) -> None:
+        """Hold ``text`` in memory under ``key``.  A cache with a directory holds the latest sources within
+        :data:`MEMORY_CHARACTERS` and reads older ones again from the directory (a scene stores a module and
+        its blocks per mode: a thousand modes' texts would stay in the process for good); one without a
+        directory holds them all (memory is all it has)."""
+        held = self.memory.pop(key, None)
+        if held is not None:
+            self._in_memory -= len(held)
+        self.memory[key] = text
+        self._in_memory += len(text)
+        if self.directory is None:
+            return
+        while self._in_memory > MEMORY_CHARACTERS and len(self.memory) > 1:
+            self._in_memory -= len(self.memory.pop(next(iter(self.memory))))
+
     def store(self, key: str, source: str) -> None:
-        self.memory[key] = source
+        self._keep(key, source)
         self.hits["built"] += 1
         if self.directory is None:
             return
@@ -254,7 +274,8 @@ class SourceCache:
         may have written it since); ``None`` if there is none or it is unreadable."""
         body = None
         if self.directory is not None:
-            self.memory.pop(key, None)
+            held = self.memory.pop(key, None)
+            self._in_memory -= 0 if held is None else len(held)
             body = self.load(key)
         elif key in self.memory:
             body = self.memory[key]

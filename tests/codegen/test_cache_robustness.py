@@ -574,3 +574,24 @@ def test_eviction_takes_a_real_kernel_whole(ball_kernel, tmp_path):
     assert not (cache / "jit" / f"{name}.py").exists()
     print(f"ball cache copy {total / 1e6:.2f} MB ({len(entries)} entries, the kernel {size / 1e6:.2f} MB in "
           f"{len(files)} files); cap {size / 2e6:.2f} MB: {tree_bytes(cache) / 1e6:.3f} MB left")
+
+
+def test_a_cache_with_a_directory_holds_only_its_latest_sources_in_memory(tmp_path, monkeypatch):
+    import codegen.cache as c
+
+    monkeypatch.setattr(c, "MEMORY_CHARACTERS", 25_000)
+    cache = c.SourceCache(tmp_path)
+    texts = {f"{k:032x}": f"RECORD = {k}\n" + "#" * 10_000 + "\n" for k in range(5)}
+    for key, text in texts.items():
+        cache.store(key, text)
+    assert list(cache.memory) == list(texts)[-2:]  # the latest, within the bound
+    keys = list(texts)
+    assert cache.load(keys[0]) == texts[keys[0]] and cache.hits["disk"] == 1  # an older one read again from disk
+    assert cache.load(keys[-1]) == texts[keys[-1]] and cache.hits["memory"] == 1  # the latest still held
+    for key, text in texts.items():
+        assert cache.load(key) == text
+    assert sum(map(len, cache.memory.values())) <= 25_000
+    alone = c.SourceCache(None)
+    for key, text in texts.items():
+        alone.store(key, text)
+    assert list(alone.memory) == list(texts)  # memory is all it has
