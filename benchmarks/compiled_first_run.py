@@ -20,6 +20,46 @@ summary).  States of the caches:
 Then the compile time of each mode's function (a new process per model,
 the kernel cached), the kernel's own reload time after numba's import, and
 where a second process's time goes (the phases of the run, caches warm).
+
+Each row names its method (``--method RK45``): the CLI's default is ``auto``,
+which runs ``RK45-jit`` once the kernel and the modes are cached, so the
+"RK45" rows of earlier tables (before issue 46's second round) compared the
+compiled path with itself in the second process.
+
+Measured (issue 46, falling rod, ``--repeats 3``, medians; a 2-core machine
+shared with two other workers' test runs, load average ~2, so a row moves
+by ±0.2 s between runs; this environment sets ``PYTHONDONTWRITEBYTECODE=1``:
+every import compiles its module, for both paths):
+
+  second process, wall time of hbg run     before (6e04426)   after (7fb1f7e)
+    RK45      (the Python path)                 1.49 s             1.28 s
+    RK45-jit                                    2.09 s             1.79 s
+    ratio                                       1.40               1.40
+
+The CPU time of the first ``simulate`` of a process with the CLI's imports
+done (``models.cli``, ``models.spice``), caches warm, median of 5 processes:
+
+                                   before (6e04426)   after (7fb1f7e)
+    falling rod    RK45               0.060 s             0.058 s
+                   RK45-jit           0.410 s             0.361 s
+    bouncing ball  RK45               0.080 s             0.080 s
+                   RK45-jit           0.441 s             0.359 s
+
+Where the compiled path's extra 0.3 s of a second process goes (after):
+``import numba`` 0.12 s; the kernel's modules 0.04 s (88 dispatchers made,
+the sources hashed for the cache stamp); the modes' functions 0.02 s; the
+kernel's three cached functions loaded (workspace_sizes, run, merged_rows:
+their environments import numba's array implementations) and numba's runtime
+initialised (it compiles its atomic helpers) 0.05–0.07 s; and the
+interpreter's exit, which tears numba's modules down: 0.36 s against 0.25 s.
+Numba's refresh of its target and typing contexts (its registries of
+implementations imported and installed, ~0.2 s), which every load from its
+disk cache made first, is no longer made (``codegen.numba_internals.
+load_cached``; numba's compiler refreshes them itself before it compiles):
+the kernel's environments still import part of those modules, so the first
+run's CPU time fell by 0.05–0.08 s.  The rest is numba's own import and
+exit, which the Python path does not pay at all: the compiled path's second
+process stays ~1.3–1.4× the Python path's while it imports numba.
 """
 
 from __future__ import annotations
@@ -116,7 +156,7 @@ def main(argv=None):
             with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as numba_cache, \
                     tempfile.TemporaryDirectory() as cache2:
                 base = {**os.environ, "HBG_CACHE_DIR": cache}
-                command = ["run", args.model] + (["--method", method] if method != "RK45" else [])
+                command = ["run", args.model, "--method", method]  # (the CLI's default is auto: RK45-jit once cached)
                 if method == "RK45-jit":
                     rows.setdefault((method, "cold (new installation)"), []).append(
                         timed_run(command, {**base, "NUMBA_CACHE_DIR": numba_cache}))

@@ -26,6 +26,47 @@ Rows (median wall time of N interleaved rounds after a warm-up that compiles; se
 Also: the compile time of the kernel (once per installation) and of a
 model's mode functions, and their reload time in a fresh process (numba's
 disk cache), each in a new process.
+
+Measured (issue 46, ``--repeats 5``, medians, µs; a 2-core machine shared
+with two other workers' test runs, load average 2–3: a figure moves by
+±10 % between runs; before and after measured one after the other):
+
+  problem, setting       hand  kernel s=3  kernel s=0 | s=3/hand  s=0/hand
+  before (6e04426)
+  ball 2.5 s, rtol 1e-6   7.9     45.7        33.2    |   5.8       4.2
+  rod 1 s, rtol 1e-3      2.7     15.6        14.3    |   5.8       5.3
+  rod 1 s, rtol 1e-6      4.6     18.9        18.1    |   4.1       3.9
+  rod 1 s, rtol 1e-9     12.5     36.5        34.0    |   2.9       2.7
+  after (97b068e)
+  ball 2.5 s, rtol 1e-6   7.5     36.9        26.0    |   4.9       3.5
+  rod 1 s, rtol 1e-3      2.8     10.8         7.5    |   3.8       2.6
+  rod 1 s, rtol 1e-6      4.7     12.7        10.5    |   2.7       2.3
+  rod 1 s, rtol 1e-9     13.2     29.1        23.6    |   2.2       1.8
+
+The kernel's own call (its compiled entry point called with the arguments
+``CompiledModel.run`` makes, least of 5–9 batches), before → after: ball
+s=0 22.7 → 20.4, s=3 26.3 → 24.2; rod 1e-3 4.67 → 4.29, 1e-6 8.12 → 7.23,
+1e-9 22.2 → 19.2 µs (1.45–1.5× the hand loop on the rod).  Where the rest
+goes:
+
+* ``CompiledModel.run``'s Python side: ~3.7 µs a call (was ~10: an ``atol``
+  given as a number was broadcast to an array, and the record replaced, at
+  every call), mostly the settings' two arrays and the state's copy (1.2 µs),
+  the model record and the result (0.5 µs); numba's unboxing of the ~24
+  arrays of ``run``'s arguments, ~0.9 µs.  The hand loop's whole call at one
+  step is 1.6 µs, the kernel's 2.6 µs plus the Python side: what keeps the
+  short rows (rod at 1e-3: 7 steps) above 2×;
+* the rod's model: 4 states, ``sin`` and ``cos`` at each rate (the hand loop
+  integrates 2 states with ``cos``): the kernel's step 0.24 µs, the hand
+  loop's 0.15 µs;
+* each of the ball's 4 events, ~3 µs: ~54 evaluations of the mode's guards
+  through its function (the bisection of the step's interpolant down to
+  adjacent floating-point numbers, 51 halvings, each the whole guard: 15
+  sides, 5 comparisons with their round-off bands), where the hand loop
+  tests ``y ≤ 0`` on one component;
+* the rod has no guards, so "s=3" is the same work as "s=0" (8.2 µs each
+  timed alone at 1e-3); the table's s=3 column, timed right after the hand
+  loop, reads higher on this loaded machine.
 """
 
 from __future__ import annotations
