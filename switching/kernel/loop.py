@@ -204,14 +204,15 @@ def _carve(x0, M, samples, max_instant, work):
 
 
 @inline
-def _record(ev_f, ev_i, j, t, m_before, m_after, at, xb, xa):
+def _record(ev_f, ev_i, j, t, m_before, m_after, at, steps, xb, xa):
     """Event ``j``: its time, the states before and after, the modes before and after, the samples saved
-    before it."""
+    and the steps taken (by this call) before it."""
     n = xb.shape[0]
     ev_f[j, 0] = t
     ev_i[j, 0] = m_before
     ev_i[j, 1] = m_after
     ev_i[j, 2] = at
+    ev_i[j, 3] = steps
     for i in range(n):
         ev_f[j, 1 + i] = xb[i]
         ev_f[j, 1 + n + i] = xa[i]
@@ -230,9 +231,9 @@ def run(M, ints, floats, x0, te, out, work, implicit):
           flow goes on whatever the step's |h·λ|);
     floats[11]: t0, t_end, dt, rtol, (unused: each state's atol is M.atol's), max_step, first_step (0:
           select) [s, -]; rtol_g, atol_g, jrtol, jatol: the guards' and the jump's tolerances;
-    out = (out_t[N], out_x[N, n], out_m[N], ev_f[E, 1 + 2n], ev_i[E, 3], info[5 + n]): saved steps, or the
+    out = (out_t[N], out_x[N, n], out_m[N], ev_f[E, 1 + 2n], ev_i[E, 4], info[5 + n]): saved steps, or the
           samples at te (N ≥ len(te) when save is 2); each event's time, state before, after; its mode before,
-          mode after, samples saved before it; stiffness |h·λ| and h, 1 if the first event is the initial
+          mode after, samples saved and steps taken by this call before it; stiffness |h·λ| and h, 1 if the first event is the initial
           instant, stiffness limit, dominant component of y, then the state where the call stopped;
     work = (wf, wi, wb): float, integer and boolean workspaces of at least workspace_sizes(M, n, samples,
           max_instant);
@@ -258,7 +259,7 @@ def _run(M, ints, floats, x0, te, out, work, implicit):
     floats_needed, ints_needed, bools_needed = _layout(n, M.radix.shape[0], M.tables[3].shape[1], M.n_sides, samples,
                                                        max_instant)
     if (wf.shape[0] < floats_needed or wi.shape[0] < ints_needed or wb.shape[0] < bools_needed
-            or info.shape[0] < 5 + n):
+            or info.shape[0] < 5 + n or ev_i.shape[1] < 4):
         return WORKSPACE, 0, 0, t0, mode, 0, 0
     for i in range(5):
         info[i] = 0.0
@@ -278,7 +279,7 @@ def _run(M, ints, floats, x0, te, out, work, implicit):
         if m_new < 0:
             return _stop(info, x0, RESOLVE, n_saved, n_ev, t, m, steps, pos)
         if passes > 1:
-            _record(ev_f, ev_i, 0, t, m, m_new, 0, x0, xa)
+            _record(ev_f, ev_i, 0, t, m, m_new, 0, steps, x0, xa)
             n_ev = 1
             info[2] = 1.0
         for i in range(n):
@@ -302,7 +303,7 @@ def _run(M, ints, floats, x0, te, out, work, implicit):
         m_new, passes = resolve(m, x_out, t, M, tol_g, max_instant, R)
         if m_new < 0:
             return _stop(info, x_out, RESOLVE, n_saved, n_ev, t, m, steps, pos)
-        _record(ev_f, ev_i, n_ev, t, m, m_new, n_saved, x_out, xa)
+        _record(ev_f, ev_i, n_ev, t, m, m_new, n_saved, steps, x_out, xa)
         for i in range(n):
             template[i] = xa[i]
         n_ev += 1

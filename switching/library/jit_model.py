@@ -890,7 +890,7 @@ class CompiledModel:
             n = self.n
             size = 1 if save == 0 else (max(capacity, 1) if save == 2 else capacity)
             self._buffers[save] = (np.empty(size), np.empty((size, n)), np.empty(size, dtype=np.int64),
-                                   np.empty((event_capacity, 1 + 2 * n)), np.empty((event_capacity, 3), np.int64),
+                                   np.empty((event_capacity, 1 + 2 * n)), np.empty((event_capacity, 4), np.int64),
                                    np.zeros(5 + n))
         return self._buffers[save]
 
@@ -1057,12 +1057,16 @@ class KernelResult:
         return merged_rows(self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.n_saved,
                            self.n_events if pairs else 0, lead, kind, before, after)
 
+    def steps_before(self, event: int) -> int:
+        """The steps this call took before its event number ``event`` (the step that found it included)."""
+        return int(self._ev_i[event, 3])
+
     def events(self):
         """(samples saved before it, t, mode before, x before, mode after, x after) of each event (copies)."""
         modes = self.compiled.modes
         n = self._out_x.shape[1]
         for j in range(self.n_events):
             row = self._ev_f[j]
-            mode_before, mode_after, at = self._ev_i[j]
+            mode_before, mode_after, at = self._ev_i[j, :3]
             yield (int(at), float(row[0]), modes[mode_before], row[1:1 + n].copy(), modes[mode_after],
                    row[1 + n:].copy())

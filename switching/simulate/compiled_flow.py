@@ -57,7 +57,8 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
     test fires flows with RODAS4P from there on.
     Returns ``(event or None, t, x, mode, steps, stop)``: ``event = (t_ev,
     x_ev)`` is an instant the kernel left to Python; ``stop`` is ``True`` on
-    Zeno behaviour with ``on_zeno='stop'``, ``"initial"`` when the initial
+    Zeno behaviour with ``on_zeno='stop'`` (``steps`` then those taken up to
+    the instant that stopped it), ``"initial"`` when the initial
     instant is left to Python."""
     kind = kernel_kind(compiled, method, auto)
     steps = 0
@@ -93,8 +94,8 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
                 instant = CompiledInstant(model, t_ev, before, x_before, after, x_after)
                 if j == 0 and initial and result.info[2]:
                     recorder.event(instant)  # the initial instant, as in the Python path: not a Zeno candidate
-                elif after_event(instant):
-                    return None, t, x, mode, steps, True
+                elif after_event(instant):  # (the steps up to this instant: the kernel went on past it)
+                    return None, t, x, mode, steps - result.steps + result.steps_before(j), True
         initial = False
         if result.n_saved > saved:
             for sample in result.samples(saved, result.n_saved):

@@ -416,6 +416,7 @@ class HybridRun:
                         continue
                     initial_in_kernel = False
                     if stop:
+                        self.n_steps += steps
                         return Status.ZENO
                 else:
                     cm = model.compiled_mode(self.mode)

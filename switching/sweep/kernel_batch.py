@@ -227,7 +227,7 @@ class _Slab:
         samples_a_run = max(len(te), 1) if save == 2 else (STEP_CAPACITY if save == 1 else 1)
         self.outs = (np.empty((R, samples_a_run)), np.empty((R, samples_a_run, n)),
                      np.empty((R, samples_a_run), dtype=np.int64), np.empty((R, event_capacity, 1 + 2 * n)),
-                     np.empty((R, event_capacity, 3), dtype=np.int64), np.zeros((R, 5 + n)))
+                     np.empty((R, event_capacity, 4), dtype=np.int64), np.zeros((R, 5 + n)))
         samples, max_instant = int(inputs[0][1][2]), int(inputs[0][1][3])
         from ..kernel import batch
 
@@ -336,7 +336,7 @@ def _slabs(count: int, n: int, options: dict, event_capacity: int) -> int:
     te = options.get("t_eval")
     per_sample = 8 * (n + 2)
     samples = len(te) if te is not None else (STEP_CAPACITY if options["output"] == "steps" else 1)
-    per_run = samples * per_sample + event_capacity * 8 * (4 + 2 * n) + 8 * (5 + n)
+    per_run = samples * per_sample + event_capacity * 8 * (5 + 2 * n) + 8 * (5 + n)
     return max(1, min(count, SLAB_BYTES // max(per_run, 1)))
 
 

@@ -158,6 +158,17 @@ def test_zeno_is_detected_on_the_compiled_path_too(ball):
     assert info.value.accumulation_time == pytest.approx(0.451523640986 * 9, abs=1e-6)
 
 
+def test_a_run_stopped_at_a_zeno_accumulation_in_the_kernel_counts_the_steps_up_to_it():
+    """The kernel goes on past the instant where the run's Zeno watch stops it; the run counts the steps up to
+    that instant (each event records the steps before it), as the Python path does: its RK45 takes the same
+    steps as the kernel's on the ball (it was 0, the stopping call's steps dropped)."""
+    runs = {method: bouncing_ball.build(e=0.5).simulate(3.0, method, rtol=1e-8, on_zeno="stop", output=output)
+            for method in ("RK45", "RK45-jit") for output in ("events", "steps")}
+    steps = {method: run.stats["steps"] for method, run in runs.items()}
+    assert all(run.stopped == "zeno" for run in runs.values())
+    assert len(set(steps.values())) == 1 and steps[next(iter(steps))] > 0, steps
+
+
 # Dask's workers are new processes: the kernel and the modes' functions come from the disk caches
 def test_simulate_many_runs_a_sweep_on_all_cores_and_keeps_failures_apart():
     from switching import simulate_many
