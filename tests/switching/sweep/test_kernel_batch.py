@@ -297,3 +297,23 @@ def test_a_batch_s_arrays_are_read_by_state_name(ball):
         batch.final("v")
     with pytest.raises(ParameterValueError, match="t_eval"):
         batch.at_times("y")
+
+
+def test_a_new_process_loads_the_batch_from_the_caches_and_gives_the_same_runs(ball):
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    sets = [{"e": e, "y0": 1.0 + e} for e in (0.6, 0.7, 0.8)]
+    here = simulate_batch(ball, sets, T_END, "RK45-jit", rtol=1e-8)  # (compiled or loaded here: cached)
+    code = ("import json; from models import bouncing_ball; from switching import simulate_batch; "
+            f"b = simulate_batch(bouncing_ball.build(), {sets!r}, {T_END!r}, 'RK45-jit', rtol=1e-8); "
+            "print(json.dumps([b.x.tolist(), b.event_times.tolist(), b.in_kernel.tolist()]))")
+    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parents[3], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    x, times, in_kernel = json.loads(done.stdout.strip().splitlines()[-1])
+    np.testing.assert_array_equal(np.array(x), here.x)
+    np.testing.assert_array_equal(np.array(times), here.event_times)
+    assert all(in_kernel[1:])
