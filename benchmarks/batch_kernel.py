@@ -36,18 +36,26 @@ holding the kernel and the batch entry) is timed apart, as is its first compile.
 Every run's end and instants are checked to be the same, to the bit, in the batch and
 in the simulate loop.
 
-Figures (2 shared cores, other work running; ``python benchmarks/batch_kernel.py``)::
+Figures (2 cores, the machine otherwise idle: load 0.6–0.9; ``python benchmarks/batch_kernel.py
+--repeats 7``)::
 
     row                 10 000 runs    per run    ratio
-    hand loop              0.052 s       5.2 µs     1.0
-    hand loop, prange      0.030 s       3.0 µs     0.6
-    simulate_batch         0.86 s       86 µs      16.5
-      its kernel call      0.22 s       22 µs       4.2
-    simulate loop          2.49 s      249 µs      47.9
-    simulate_many          5.5 s       550 µs     106
+    hand loop              0.032 s       3.2 µs     1.0
+    hand loop, prange      0.017 s       1.7 µs     0.5
+    simulate_batch         0.615 s      61.5 µs    19.0
+      its kernel calls     0.090 s       9.0 µs     2.8
+    simulate loop          1.62 s      162 µs      50.0
+    simulate_many          2.10 s      210 µs      64.9
 
-    first batch in a new process (kernel and batch entry in numba's cache): 2.1 s (100 runs)
-    first compile of the batch entry (kernel cached): 37 s, once per installation
+    first batch of 100 in a new process (the kernel and the batch entry in numba's cache): 0.92 s;
+    the batch entry's first compile (the kernel cached): 14.1 s for that process, once per installation
+
+Where a batched run's 52 µs outside the kernel go (the ball; timers around each part): its values set
+on the model (``set_parameter_values``, the initial state given) 11, the run's set-up as ``simulate``
+makes it (options, the projected initial state, the starting mode, the states' tolerances, the step
+bound, the record) 15, its start (the guard sides checked finite, the kernel call's arguments) 10, the
+kernel's inputs 4, the slab's arrays and the checks of the ends 3.  On a loaded machine (another
+process on a core) the kernel calls get one thread and the batch takes 0.74 s (23×).
 """
 
 from __future__ import annotations
