@@ -50,11 +50,11 @@ Figures (2 cores, the machine otherwise idle: load 0.6–0.9; ``python benchmark
     first batch of 100 in a new process (the kernel and the batch entry in numba's cache): 0.92 s;
     the batch entry's first compile (the kernel cached): 14.1 s for that process, once per installation
 
-Where a batched run's 52 µs outside the kernel go (the ball; timers around each part): its values set
-on the model (``set_parameter_values``, the initial state given) 11, the run's set-up as ``simulate``
-makes it (options, the projected initial state, the starting mode, the states' tolerances, the step
-bound, the record) 15, its start (the guard sides checked finite, the kernel call's arguments) 10, the
-kernel's inputs 4, the slab's arrays and the checks of the ends 3.  On a loaded machine (another
+Where a batched run's 52 µs outside the kernel go (the ball; timers around each part, µs): its values
+set on the model (``set_parameter_values``, the initial state given) 14, the run's set-up as
+``simulate`` makes it (options, the projected initial state, the starting mode, the states'
+tolerances, the step bound, the record) 17, its start (the guard sides checked finite, the kernel
+call's arguments) 11, the kernel's inputs 5, the rest (the slab's arrays, the checks of the ends) 5.  On a loaded machine (another
 process on a core) the kernel calls get one thread and the batch takes 0.74 s (23×).
 """
 
