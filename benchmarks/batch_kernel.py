@@ -8,10 +8,10 @@ The runs: the bouncing ball (``models.bouncing_ball``) over a grid of restitutio
 ``rtol = 1e-8``.  Rows (each the least of ``--repeats`` rounds, warm: compiled and
 loaded first):
 
-  hand loop          a hand-written @njit RK45 (Dormand–Prince 5(4), scipy's step
-                     control) with the impact located by bisection on the dense
-                     output and ``v⁺ = −e·v``, one compiled call looping over the
-                     runs on one thread;
+  hand loop          ``benchmarks/compiled_speed.py``'s hand-written @njit RK45
+                     (Dormand–Prince 5(4), scipy's step control) with the impact
+                     located by bisection on the dense output and ``v⁺ = −e·v``,
+                     one compiled call looping over the runs on one thread;
   hand loop, prange  the same over the cores numba is given;
   simulate_batch     ``switching.simulate_batch(model, sets, 2.0, "RK45-jit")``:
                      each run set up as ``simulate`` sets it up (options, initial
@@ -40,12 +40,15 @@ Figures (2 cores, the machine otherwise idle: load 0.6–0.9; ``python benchmark
 --repeats 7``)::
 
     row                 10 000 runs    per run    ratio
-    hand loop              0.032 s       3.2 µs     1.0
-    hand loop, prange      0.017 s       1.7 µs     0.5
-    simulate_batch         0.615 s      61.5 µs    19.0
-      its kernel calls     0.090 s       9.0 µs     2.8
-    simulate loop          1.62 s      162 µs      50.0
-    simulate_many          2.10 s      210 µs      64.9
+    hand loop              0.035 s       3.5 µs     1.0
+    hand loop, prange      0.019 s       1.9 µs     0.5
+    simulate_batch         0.602 s      60.2 µs    17.2
+      its kernel calls     0.088 s       8.8 µs     2.5
+    simulate loop          1.71 s      171 µs      48.6
+    simulate_many          2.12 s      212 µs      60.4
+
+    (a copy of the hand loop for the ball alone, without the problem's dispatch, took 3.2 µs a run:
+    the batch is 19× that)
 
     first batch of 100 in a new process (the kernel and the batch entry in numba's cache): 0.92 s;
     the batch entry's first compile (the kernel cached): 14.1 s for that process, once per installation
@@ -75,11 +78,7 @@ sys.path.insert(0, str(ROOT))
 
 from models import bouncing_ball  # noqa: E402
 from switching import simulate_batch, simulate_many  # noqa: E402
-from switching.kernel.loop import RK_A as A  # noqa: E402
-from switching.kernel.loop import RK_B as B  # noqa: E402
-from switching.kernel.loop import RK_C as C  # noqa: E402
-from switching.kernel.loop import RK_E as EE  # noqa: E402
-from switching.kernel.loop import RK_P as P  # noqa: E402
+from compiled_speed import rk45_run as hand_ball  # noqa: E402  (its hand-written loop)
 
 G = 9.81
 T_END = 2.0
@@ -88,122 +87,18 @@ ATOL = 1e-9
 
 
 @njit(cache=True)
-def _fall(y, out):
-    out[0] = y[1]
-    out[1] = -G
-
-
-@njit(cache=True)
-def _first_step(t, t_end, y, f, rtol, atol, tmp, fn):
-    """scipy's initial step selection."""
-    n = y.shape[0]
-    d0 = d1 = 0.0
-    for i in range(n):
-        sc = atol + abs(y[i]) * rtol
-        d0 += (y[i] / sc) ** 2
-        d1 += (f[i] / sc) ** 2
-    d0, d1 = math.sqrt(d0 / n), math.sqrt(d1 / n)
-    h0 = min(1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1, t_end - t)
-    for i in range(n):
-        tmp[i] = y[i] + h0 * f[i]
-    _fall(tmp, fn)
-    d2 = 0.0
-    for i in range(n):
-        d2 += ((fn[i] - f[i]) / (atol + abs(y[i]) * rtol)) ** 2
-    d2 = math.sqrt(d2 / n) / h0
-    h1 = max(1e-6, h0 * 1e-3) if (d1 <= 1e-15 and d2 <= 1e-15) else (0.01 / max(d1, d2)) ** 0.2
-    return min(100 * h0, h1, t_end - t)
-
-
-@njit(cache=True)
-def hand_ball(e, y0, t_end, rtol, atol):
-    """One ball from rest at height ``y0``: RK45 steps, each impact located by bisection on the step's
-    quartic interpolant, then ``v⁺ = −e·v``.  Returns the state ``(y, v)`` at ``t_end`` and the impacts."""
-    n = 2
-    y = np.array([y0, 0.0])
-    K = np.zeros((7, n))
-    f, tmp, y_new, fn = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    Q = np.empty((n, 4))
-    t, events, restart, h_abs = 0.0, 0, True, 0.0
-    while t < t_end:
-        if restart:
-            _fall(y, f)
-            h_abs = _first_step(t, t_end, y, f, rtol, atol, tmp, fn)
-            restart = False
-        rejected = False
-        while True:
-            h = min(h_abs, t_end - t)
-            K[0, :] = f
-            for s in range(1, 6):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += K[j, i] * A[s, j]
-                    tmp[i] = y[i] + acc * h
-                _fall(tmp, fn)
-                K[s, :] = fn
-            for i in range(n):
-                acc = 0.0
-                for j in range(6):
-                    acc += K[j, i] * B[j]
-                y_new[i] = y[i] + h * acc
-            _fall(y_new, fn)
-            K[6, :] = fn
-            err = 0.0
-            for i in range(n):
-                acc = 0.0
-                for j in range(7):
-                    acc += K[j, i] * EE[j]
-                err += (acc * h / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)) ** 2
-            err = math.sqrt(err / n)
-            if err < 1:
-                factor = 10.0 if err == 0 else min(10.0, 0.9 * err ** -0.2)
-                h_abs = h * (min(1.0, factor) if rejected else factor)
-                break
-            h_abs = h * max(0.2, 0.9 * err ** -0.2)
-            rejected = True
-        if y_new[0] <= 0.0 and y_new[1] < 0.0:
-            for i in range(n):
-                for j in range(4):
-                    acc = 0.0
-                    for m in range(7):
-                        acc += K[m, i] * P[m, j]
-                    Q[i, j] = acc
-            a, b = t, t + h
-            for _ in range(200):
-                mid = 0.5 * (a + b)
-                if mid <= a or mid >= b:
-                    break
-                theta = (mid - t) / h
-                if y[0] + h * (Q[0, 0] * theta + Q[0, 1] * theta**2 + Q[0, 2] * theta**3 + Q[0, 3] * theta**4) <= 0:
-                    b = mid
-                else:
-                    a = mid
-            theta = (b - t) / h
-            for i in range(n):
-                y[i] = y[i] + h * (Q[i, 0] * theta + Q[i, 1] * theta**2 + Q[i, 2] * theta**3 + Q[i, 3] * theta**4)
-            y[1] = -e * y[1]
-            t, events, restart = b, events + 1, True
-            continue
-        y[:] = y_new
-        f[:] = fn
-        t = t + h
-    return y, events
-
-
-@njit(cache=True)
 def hand_grid(es, y0s, t_end, rtol, atol, ends, counts):
-    """:func:`hand_ball` for every run, one thread."""
+    """The hand loop (``compiled_speed``'s, problem 0: the ball) for every run, one thread."""
     for r in range(es.shape[0]):
-        y, k = hand_ball(es[r], y0s[r], t_end, rtol, atol)
+        y, k = hand_ball(0, np.array([y0s[r], 0.0]), 0.0, t_end, rtol, atol, es[r])
         ends[r, 0], ends[r, 1], counts[r] = y[0], y[1], k
 
 
 @njit(cache=True, parallel=True)
 def hand_grid_parallel(es, y0s, t_end, rtol, atol, ends, counts):
-    """:func:`hand_ball` for every run, over the cores."""
+    """The hand loop for every run, over the cores."""
     for r in prange(es.shape[0]):
-        y, k = hand_ball(es[r], y0s[r], t_end, rtol, atol)
+        y, k = hand_ball(0, np.array([y0s[r], 0.0]), 0.0, t_end, rtol, atol, es[r])
         ends[r, 0], ends[r, 1], counts[r] = y[0], y[1], k
 
 
