@@ -259,7 +259,7 @@ def test_hbg_sweep_batch_writes_the_rows_of_simulate_s_runs(tmp_path, capsys):
         trajectory = bouncing_ball.build(e=row["e"], y0=row["y0"], v_rest=0.1).simulate(2.0, "RK45-jit", rtol=1e-8)
         assert row["events"] == len(trajectory.event_times)
         assert row["final_y"] == trajectory.x[-1, list(trajectory.state_names).index("y")]
-        assert row["max:v"] == pytest.approx(trajectory.signal("v").max(), rel=0, abs=0)
+        assert row["max:v"] == trajectory.signal("v").max()
     assert cli.main(["sweep", "ball-chain", "--grid", "N=2,3", "--batch", "--csv", str(csv)]) != 0
     assert "--batch: N is not a parameter or a state" in capsys.readouterr().err
 
