@@ -997,6 +997,17 @@ def _call_run(*arguments):
     return result
 
 
+_MERGED_ROWS: list = []  # switching.library.kernel_rows.merged_rows once imported (it imports numba)
+
+
+def _merged_rows():
+    """:func:`.kernel_rows.merged_rows`, imported on first use (an import statement costs ~1 µs a call)."""
+    from .kernel_rows import merged_rows
+
+    _MERGED_ROWS.append(merged_rows)
+    return merged_rows
+
+
 class KernelArrays(NamedTuple):
     """A kernel call's samples and events as arrays (:meth:`KernelResult.arrays`, views of its buffers):
     the ``S`` samples saved, times ``t`` (S,) [s], states ``x`` (S, n), mode numbers ``modes`` (S,); the
@@ -1052,10 +1063,20 @@ class KernelResult:
         """The saved samples and, with ``pairs``, each event's states before and after, as rows in time
         order after ``lead`` rows left to the caller, marked ``kind``, ``before``, ``after``: new arrays
         ``(t, x, mode numbers, kinds, the rows after the events)`` (:func:`.kernel_rows.merged_rows`)."""
-        from .kernel_rows import merged_rows
-
+        merged_rows = _MERGED_ROWS[0] if _MERGED_ROWS else _merged_rows()
         return merged_rows(self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.n_saved,
                            self.n_events if pairs else 0, lead, kind, before, after)
+
+    def event_lists(self) -> tuple:
+        """``(times [s], mode numbers before, mode numbers after)`` of the events, in order, as lists."""
+        e = self.n_events
+        return self._ev_f[:e, 0].tolist(), self._ev_i[:e, 0].tolist(), self._ev_i[:e, 1].tolist()
+
+    def event_states(self) -> tuple:
+        """``(x_before, x_after)``: the states (E, n) just before and just after each event, views of one
+        new array (copied from the reused buffers: the caller's own)."""
+        n, events = self._out_x.shape[1], self._ev_f[:self.n_events].copy()
+        return events[:, 1:1 + n], events[:, 1 + n:]
 
     def steps_before(self, event: int) -> int:
         """The steps this call took before its event number ``event`` (the step that found it included)."""

@@ -76,15 +76,10 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             return None, t, x, mode, 0, "initial"
         steps += result.steps
         saved, at_once = 0, False
-        keep = recorder.requested if dense is not None else functools.partial(recorder.sample, force=True)
-        if (result.n_events or result.n_saved) and instants_pass is not None:
-            arrays = result.arrays()
-            times = arrays.t_events.tolist()
-            if instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
-                before = arrays.before.tolist()
-                recorder.block(result.rows, compiled.modes, REQUESTED if dense is not None else STATE,
-                               _instants_of_call(model, compiled.modes, times, before, arrays), times, before)
-                saved, at_once = result.n_saved, True
+        if (result.n_events or result.n_saved) and instants_pass is not None \
+                and _recorded_at_once(model, compiled, result, recorder, dense is not None, initial, instants_pass):
+            saved, at_once = result.n_saved, True
+        keep = None if at_once else _keeper(recorder, dense is not None)
         if result.n_events and not at_once:
             for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
                 for sample in result.samples(saved, at):
@@ -161,9 +156,26 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
         raise FlowFailure(NonFiniteStateError, message, t, x, steps, mode)
 
 
-def _instants_of_call(model, modes, times, before, arrays) -> list:
-    """The records of a kernel call's events (:class:`~switching.library.jit_model.KernelArrays`) at
-    ``times`` from the modes numbered ``before``, their states rows of copies of the call's."""
-    return [CompiledInstant(model, t, modes[left], x_before, modes[entered], x_after)
-            for t, left, x_before, entered, x_after in zip(times, before, arrays.x_before.copy(),
-                                                           arrays.after.tolist(), arrays.x_after.copy())]
+def _keeper(recorder, requested: bool):
+    """What records a kernel call's sample ``(t, x, mode)`` one at a time: a requested time's, or a state's."""
+    return recorder.requested if requested else functools.partial(recorder.sample, force=True)
+
+
+def _recorded_at_once(model, compiled, result, recorder, requested: bool, initial: bool, instants_pass) -> bool:
+    """Record a kernel call's samples (of requested times with ``requested``) and instants at once
+    (:meth:`~switching.simulate.recorder.Recorder.block`) if ``instants_pass`` says its instants pass the
+    run's checks (the initial instant, resolved first with ``initial``, not watched); whether it did."""
+    times, before, after = result.event_lists()
+    if not instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
+        return False
+    modes = compiled.modes
+    recorder.block(result.rows, modes, REQUESTED if requested else STATE,
+                   _instants_of_call(model, modes, times, before, after, *result.event_states()), times, before)
+    return True
+
+
+def _instants_of_call(model, modes, times, before, after, x_before, x_after) -> list:
+    """The records of a kernel call's events at ``times`` [s] from the modes numbered ``before`` (into
+    ``modes``) to those numbered ``after``, their states the rows of ``x_before`` and ``x_after`` (E, n)."""
+    return [CompiledInstant(model, t, modes[left], state_before, modes[entered], state_after)
+            for t, left, state_before, entered, state_after in zip(times, before, x_before, after, x_after)]

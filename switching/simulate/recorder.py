@@ -205,9 +205,10 @@ class Recorder:
         for row, (time, state, sort) in enumerate(zip(self._t, self._x, self._kinds)):  # (mostly the start alone)
             t[row], x[row], kinds[row] = time, state, sort
         if pairs:
-            self.event_index.extend((self._in_pieces + after).tolist())
+            self.event_index.extend((self._in_pieces + after if self._in_pieces else after).tolist())
             self.events.extend(instants)
-        self._pieces.append((t, x, self._modes + [modes[k] for k in numbers[lead:].tolist()], kinds))
+        self._modes.extend(map(modes.__getitem__, numbers[lead:].tolist()))
+        self._pieces.append((t, x, self._modes, kinds))
         self._in_pieces += len(t)
         self._t, self._x, self._modes, self._kinds = [], [], [], []
 
