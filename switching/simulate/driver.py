@@ -36,6 +36,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import functools
+import math
 import time as _time
 from typing import NamedTuple
 
@@ -92,11 +93,19 @@ def option_defaults() -> dict:
             if p.kind is inspect.Parameter.KEYWORD_ONLY}
 
 
+@functools.cache
+def _known_option_set() -> frozenset:
+    """:func:`_known_options` as a set (a look-up in it costs one hash, not a scan)."""
+    return frozenset(_known_options())
+
+
 def check_option_names(options, what: str = "simulate") -> None:
     """Raise :class:`UnknownOptionError` for an option ``simulate`` does not
     take (a misspelt ``rtoll=``), naming the closest known ones — before
     anything runs, rather than Python's bare ``TypeError`` (or, in a sweep,
     one failed run per parameter set)."""
+    if _known_option_set().issuperset(options):
+        return
     known = _known_options()
     for name in options:
         if name not in known:
@@ -160,8 +169,8 @@ def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
     model.last_run = {"t_end": float(t_end), "method": method,
                       **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol)}),
                       **({"atol": float(atol)} if dt is None and atol is not None else {}),
-                      **({"max_step": float(max_step)} if np.isfinite(max_step) else {})}
-    if options.stepping.dt is None and max_step == np.inf:  # a step that samples every cycle of the sources
+                      **({"max_step": float(max_step)} if math.isfinite(max_step) else {})}
+    if options.stepping.dt is None and max_step == math.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
             options = _with_stepping(options, "max_step", bound)
@@ -405,7 +414,8 @@ class HybridRun:
             steps_left = settings.max_steps - self.n_steps  # a run stops after max_steps steps
             try:
                 tie = not initial_in_kernel and self._at_tie()
-                if compiled is not None and compiled.covers(self.mode) and not tie:
+                # (a run that starts in the kernel: _start has just asked compiled.covers of this mode)
+                if compiled is not None and (initial_in_kernel or compiled.covers(self.mode)) and not tie:
                     event, self.t, self.x, self.mode, steps, stop = run_kernel(
                         model, compiled, self.method, self.mode, self.x, self.t, self.t_end, settings, steps_left,
                         self.recorder, self.after_event, initial_in_kernel, auto=self.auto,

@@ -366,6 +366,8 @@ def check_work(method: str, t0: float, t_end: float, dt, max_step: float, event_
 
 def check_sensitivity_options(sensitivities, rtol, atol) -> None:
     """``sensitivity_rtol``/``sensitivity_atol`` only with ``sensitivities``, and positive finite numbers."""
+    if rtol is None and atol is None:
+        return  # (a run without them: nothing to check)
     given = [name for name, value in (("sensitivity_rtol", rtol), ("sensitivity_atol", atol)) if value is not None]
     if sensitivities is None and given:
         raise OptionTypeError(f"{' and '.join(given)} set(s) the tolerances of the sensitivities: give "
