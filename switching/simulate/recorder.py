@@ -30,7 +30,7 @@ import numpy as np
 
 from .trajectory import Trajectory
 
-__all__ = ["Recorder", "STATE", "REQUESTED", "BEFORE", "AFTER"]
+__all__ = ["Recorder", "ModeTimes", "STATE", "REQUESTED", "BEFORE", "AFTER"]
 
 #: the kinds of a recorded sample: a state of the run (its start, a step, its end, where it stopped),
 #: a requested time, an instant's state just before it, just after it
@@ -55,8 +55,9 @@ class Recorder:
         self.keep_instants = keep_instants
         self.n_events = 0
         self.last_instant = None
-        self.mode_time: dict = {}  # flow time per mode [s], whatever samples are kept
         self.boundary = None  # the time of the last instant (or the start)
+        self._flows_from = None  # the boundary the flows logged start from (the start)
+        self._flows: list = []  # the flows up to each instant, in order (see ModeTimes), summed when asked
         self.t_eval = None if t_eval is None else np.asarray(sorted(t_eval), dtype=float)
         self.sampling = "steps" if t_eval is None else "samples" if with_instants else "times"
         self.eval_pos = 0
@@ -172,7 +173,13 @@ class Recorder:
             self.eval_pos += 1
 
     def start(self, t):
-        self.boundary = float(t)
+        """The run starts at ``t`` [s] (before anything is recorded): its first flow is counted from there."""
+        self.boundary = self._flows_from = float(t)
+
+    @property
+    def mode_time(self) -> dict:
+        """The time [s] flowed in each mode up to the last instant, whatever samples are kept."""
+        return ModeTimes(self._flows_from, self._flows)()
 
     def event(self, instant):
         self.n_events += 1
@@ -197,7 +204,8 @@ class Recorder:
         self.n_events += len(instants)
         if instants:
             self.last_instant = instants[-1]
-            self._flowed_through(times, before, modes)
+            self._flows.append((times, before, modes))
+            self.boundary = max(times) if self.boundary is None else max(self.boundary, *times)  # (as _flowed)
         pairs, lead = bool(instants) and self.keep_instants, len(self._t)
         t, x, numbers, kinds, after = merge(lead, kind, BEFORE, AFTER, pairs)
         if len(t) == lead:
@@ -212,24 +220,9 @@ class Recorder:
         self._in_pieces += len(t)
         self._t, self._x, self._modes, self._kinds = [], [], [], []
 
-    def _flowed_through(self, times: list, before: list, modes: list) -> None:
-        """:meth:`_flowed` to each instant at ``times`` [s] from the mode numbered ``before`` (into ``modes``),
-        in order: the same sums, each mode hashed once."""
-        boundary, spent, mode_time = self.boundary, {}, self.mode_time
-        for t, number in zip(times, before):
-            if boundary is None:
-                boundary = t
-            elif t > boundary:
-                total = spent.get(number)
-                spent[number] = (mode_time.get(modes[number], 0.0) if total is None else total) + (t - boundary)
-                boundary = t  # (the later of the two)
-        self.boundary = boundary
-        for number, total in spent.items():
-            self.mode_time[modes[number]] = total
-
     def _flowed(self, t, mode):
-        if self.boundary is not None and t > self.boundary:
-            self.mode_time[mode] = self.mode_time.get(mode, 0.0) + (t - self.boundary)
+        """The run flowed in ``mode`` up to an instant at ``t`` [s] (logged; :class:`ModeTimes` sums it)."""
+        self._flows.append(((t,), (0,), (mode,)))
         self.boundary = max(self.boundary if self.boundary is not None else t, t)
 
     def rows(self, complete: bool = True) -> tuple:
@@ -263,9 +256,8 @@ class Recorder:
         stats = dict(stats or {})
         stats["instants"] = self.n_events
         times, x, modes, kinds = self.columns()
-        mode_time = dict(self.mode_time)
-        if len(times) and self.boundary is not None and times[-1] > self.boundary:
-            mode_time[modes[-1]] = mode_time.get(modes[-1], 0.0) + (float(times[-1]) - self.boundary)
+        last = (float(times[-1]), modes[-1]) if len(times) else None  # (the flow since the last instant ends there)
+        mode_time = ModeTimes(self._flows_from, list(self._flows), last)
         if all_rows or self.sampling == "steps":  # every sample recorded
             event_index = list(self.event_index)
         else:
@@ -274,3 +266,30 @@ class Recorder:
         return Trajectory(self.model, times, x, modes, self.events, event_index, stopped, stats,
                           mode_time=mode_time, instants_kept=self.keep_instants, initial_projection=self.projection,
                           sampling=self.sampling)
+
+
+class ModeTimes:
+    """The time [s] a run flowed in each mode, summed when first asked (:meth:`Trajectory.time_in_modes
+    <switching.simulate.trajectory.Trajectory.time_in_modes>`): ``flows`` are the flows up to each instant
+    in order, as ``(times [s], numbers, modes)`` (flowing in ``modes[numbers[k]]`` up to ``times[k]``),
+    from the boundary ``start`` [s] (``None``: from the first time); ``end`` ``(t [s], mode)``: the run's
+    last row, flowed in that mode since the last instant (``None``: none).  Calling it gives ``{mode:
+    seconds}``, each sum made in the order the run flowed (the operations of counting as it went)."""
+
+    def __init__(self, start, flows: list, end=None):
+        self.start, self.flows, self.end = start, flows, end
+
+    def __call__(self) -> dict:
+        mode_time, boundary = {}, self.start
+        for times, numbers, modes in self.flows:
+            for t, number in zip(times, numbers):
+                if boundary is None:
+                    boundary = t
+                elif t > boundary:
+                    mode = modes[number]
+                    mode_time[mode] = mode_time.get(mode, 0.0) + (t - boundary)
+                    boundary = t  # (the later of the two)
+        if self.end is not None and boundary is not None and self.end[0] > boundary:
+            t, mode = self.end
+            mode_time[mode] = mode_time.get(mode, 0.0) + (t - boundary)
+        return mode_time

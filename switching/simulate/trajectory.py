@@ -163,7 +163,9 @@ class Trajectory:
         self.event_index = list(event_index)
         self.stopped = stopped
         self.stats = dict(stats or {})
-        self._mode_time = None if mode_time is None else dict(mode_time)
+        #: the time [s] flowed in each mode as the run counted it: a dict, or what makes it when first asked
+        #: (:class:`switching.simulate.recorder.ModeTimes`), or None
+        self._mode_time = None if mode_time is None else mode_time if callable(mode_time) else dict(mode_time)
         self.instants_kept = instants_kept
         self.sampling = sampling
         #: ``(t0, given, projected)`` when the run started from the model's initial state projected onto
@@ -173,6 +175,7 @@ class Trajectory:
         self.sensitivities = None
 
     def __getstate__(self):
+        self._counted_mode_time()
         state = dict(self.__dict__)
         state["model"] = None
         state.pop("_numbers", None)  # (keyed by the list's id: made again after unpickling)
@@ -396,13 +399,19 @@ class Trajectory:
     def time_in_modes(self) -> dict:
         """Total time spent flowing in each mode [s], as the run counted it
         (exact whatever samples were kept), else from the samples."""
-        if self._mode_time is not None:
+        if self._counted_mode_time() is not None:
             return {mode: spent for mode, spent in self._mode_time.items() if spent > 0}
         spent: Counter = Counter()
         for k in range(len(self.t) - 1):
             if self.modes[k] == self.modes[k + 1]:
                 spent[self.modes[k]] += self.t[k + 1] - self.t[k]
         return dict(spent)
+
+    def _counted_mode_time(self) -> dict | None:
+        """The run's count of the time in each mode (made now if it was left to be made when asked)."""
+        if callable(self._mode_time):
+            self._mode_time = self._mode_time()
+        return self._mode_time
 
     def summary(self) -> str:
         """Modes visited, time in each, event count, mythical modes passed."""
