@@ -166,15 +166,27 @@ def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
     options = checked_options(model, t_end, method, keywords)
     dt, rtol, atol, max_step = keywords["dt"], keywords["rtol"], keywords["atol"], keywords["max_step"]
     #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
-    model.last_run = {"t_end": float(t_end), "method": method,
-                      **({"dt": float(dt)} if dt is not None else {"rtol": float(rtol)}),
-                      **({"atol": float(atol)} if dt is None and atol is not None else {}),
-                      **({"max_step": float(max_step)} if math.isfinite(max_step) else {})}
+    model.last_run = _last_run(t_end, method, dt, rtol, atol, max_step)
     if options.stepping.dt is None and max_step == math.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
             options = _with_stepping(options, "max_step", bound)
     return HybridRun(model, options)
+
+
+def _last_run(t_end, method: str, dt, rtol, atol, max_step) -> dict:
+    """The settings a run's ``[run]`` section of a model file holds: ``t_end`` [s], ``method``, ``dt`` [s] or
+    ``rtol`` (and ``atol`` when given), ``max_step`` [s] when finite."""
+    settings = {"t_end": float(t_end), "method": method}
+    if dt is not None:
+        settings["dt"] = float(dt)
+    else:
+        settings["rtol"] = float(rtol)
+        if atol is not None:
+            settings["atol"] = float(atol)
+    if math.isfinite(max_step):
+        settings["max_step"] = float(max_step)
+    return settings
 
 
 #: (options, a step option, its value) → the options with that value: the last kept

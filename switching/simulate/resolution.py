@@ -43,6 +43,7 @@ from bondgraph.errors import (AlgebraicLoopError, CausalityConflictError, Floati
 from codegen.runtime import PulseError
 
 from ..model.automaton import A_POSTERIORI
+from ..library.collection import collection_paused
 from ..library.compiled import decide_tree, holds_strictly
 from ..errors import DivergenceOfTimeError, ImpulseError, TooManyStepsError
 from ..model.modes import Mode
@@ -412,7 +413,15 @@ def _too_many_message(model, t, steps, max_steps: int) -> str:
 def resolve_instant(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) -> Instant:
     """Resolve the instant at ``t`` from a priori ``x`` in ``mode`` by the rule
     :mod:`switching.rules.instants` (the passes, the divergences of time, the
-    cap on steps), recording every mode passed; see the module docstring."""
+    cap on steps), recording every mode passed; see the module docstring.  The
+    modes it derives are one block for the cyclic garbage collector
+    (:func:`~switching.library.collection.collection_paused`)."""
+    with collection_paused():
+        return _resolved(model, x, mode, t, max_steps)
+
+
+def _resolved(model, x: np.ndarray, mode: Mode, t: float, max_steps: int) -> Instant:
+    """:func:`resolve_instant`'s passes."""
     x = np.array(x, dtype=float)
     steps: list[Step] = []
     instant = Instant(t, steps, model)
@@ -533,12 +542,13 @@ class CompiledInstant(Instant):
     guards) are replayed in Python on first access — the resolution is
     deterministic, so the replay passes the same modes."""
 
+    _steps = None  # (the replayed steps once asked: an instance's own then)
+
     def __init__(self, model, t, mode_before, x_before, mode_after, x_after):
         self.model = model
         self.t = t
         self._before = (mode_before, x_before)
         self._after = (mode_after, x_after)
-        self._steps = None
 
     @property
     def steps(self) -> list:

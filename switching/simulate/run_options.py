@@ -415,18 +415,23 @@ _CHECKED_KEPT = 64
 
 def _checked_key(t_end, method, keywords: dict):
     """The key of options that no model's size enters (no ``x0``, ``t_eval``
-    or ``samples``) and whose values are all hashable: the names, the values
-    and their types (``1`` and ``1.0``, ``True`` and ``1``, a float and
-    numpy's are told apart: the run sees the very values given), else ``None``."""
+    or ``samples``): the names, the values and their types (``1`` and ``1.0``,
+    ``True`` and ``1``, a float and numpy's are told apart: the run sees the
+    very values given), else ``None``.  (It may not hash: :func:`_kept_options`.)"""
     if keywords.get("x0") is not None or keywords.get("t_eval") is not None or keywords.get("samples") is not None:
         return None
     values = tuple(keywords.values())
-    key = (method, t_end, type(t_end), tuple(keywords), values, tuple(map(type, values)))
+    return method, t_end, type(t_end), tuple(keywords), values, tuple(map(type, values))
+
+
+def _kept_options(key) -> tuple:
+    """``(the options kept under key or None, key)``; the key ``None`` when its values do not all hash."""
+    if key is None:
+        return None, None
     try:
-        hash(key)
+        return _CHECKED.get(key), key
     except TypeError:  # (a mode given as a dict, an unhashable callback)
-        return None
-    return key
+        return None, None
 
 
 def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
@@ -441,11 +446,9 @@ def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
     depend on the model's size or are arrays) are kept by their values and
     types, frozen, and handed to the next run that gives the same (the last
     64 kept)."""
-    key = _checked_key(t_end, method, keywords)
-    if key is not None:
-        found = _CHECKED.get(key)
-        if found is not None:
-            return found
+    found, key = _kept_options(_checked_key(t_end, method, keywords))
+    if found is not None:
+        return found
     t_eval, x0 = check_run(model, t_end, method, keywords)
     options = RunOptions.from_keywords(method, t_end, {**keywords, "t_eval": t_eval, "x0": x0})
     if key is not None:

@@ -76,7 +76,9 @@ def _slopes(model) -> _Slopes:
     """The slopes of the storage whose law's slope reads only its state and the parameters (compiled
     once per graph and parameter list)."""
     symbols = tuple(model.parameter_symbols)
-    return model.graph.derived.memo(("storage slopes", symbols), lambda: _compiled_slopes(model, symbols))
+    key, derived = ("storage slopes", symbols), model.graph.derived
+    found = derived.entries.get(key)  # (the memo's own look-up, the key hashed once: its symbols hash in Python)
+    return found if found is not None else derived.memo(key, lambda: _compiled_slopes(model, symbols))
 
 
 def _compiled_slopes(model, symbols) -> _Slopes:
