@@ -852,8 +852,9 @@ class CompiledModel:
                 self._record = None
                 self._workspaces.clear()
         visited = self.model.visited_modes
-        if mode not in self.ids or len(visited) > len(self.ids) + len(self.refused):
-            self.add([mode, *visited])
+        if mode in self.ids and len(visited) <= len(self.ids) + len(self.refused):
+            return True  # (the warm case: nothing to add)
+        self.add([mode, *visited])
         return mode in self.ids
 
     @property

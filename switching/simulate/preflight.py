@@ -48,6 +48,21 @@ def _parameters_read(model, expr) -> str:
     return f"; it reads {text}"
 
 
+#: the sides' arguments (:func:`_sides_key`) where every side was finite lately: the last kept
+_FINITE_SIDES: dict = {}
+_FINITE_SIDES_KEPT = 64
+
+
+def _sides_key(cm, x, t) -> tuple:
+    """Everything ``cm.sides(x, t)`` reads: the mode's generated function (held, with the mode, by the
+    key), the state (its type and bits), the time [s], the parameters and the inputs at ``t`` of the
+    mode's model, to the bit (``-0.0`` is not ``0.0``).  A loop of runs from the same state with other
+    tolerances, ends or outputs (a tolerance study) evaluates the start's sides once."""
+    model = cm.model
+    return (cm, cm._sides, type(x), np.asarray(x, dtype=float).tobytes(), float(t).hex(),
+            model.parameter_array.tobytes(), tuple(float(u).hex() for u in model.input_values(t)))
+
+
 def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str | None:
     """Where the compiled kernel starts a run at ``x`` (n,), ``t`` [s] in the mode of ``cm``: unless a guard
     holds there (the kernel then resolves the instant first), :func:`nonfinite_at_start` with
@@ -56,8 +71,14 @@ def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str |
     ``atol``): where all are finite there is nothing to tell either way."""
     if not cm.n_sides:
         return None
+    key = _sides_key(cm, x, t)
+    if key in _FINITE_SIDES:
+        return None
     sides = cm.sides(x, t)
     if all(map(math.isfinite, np.asarray(sides, dtype=float).tolist())):
+        if len(_FINITE_SIDES) >= _FINITE_SIDES_KEPT:
+            _FINITE_SIDES.clear()
+        _FINITE_SIDES[key] = True
         return None
     if any(decide_tree(g["tree"], sides, rtol, atol) for g in cm.guards):
         return None

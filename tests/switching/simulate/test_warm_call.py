@@ -233,3 +233,23 @@ def test_a_loop_of_runs_keeps_its_options_and_the_kernel_record(monkeypatch):
         ball.simulate(4.02, "RK45-jit", rtol=1e-8)
     assert seen[0] is seen[1] is seen[2]
     assert ball.compiled_model().record is record
+
+
+def test_the_start_guard_check_is_kept_only_for_the_very_same_arguments():
+    """The start's side check remembers sides that were all finite by everything they read
+    (preflight._sides_key): the same model with a parameter, an initial state or a start time that
+    makes a side non-finite is still stopped at once, after warm runs that passed."""
+    model = relay("v/k >= v_hi", {"k": 1.0})
+    values = {s.name: v for s, v in model.parameter_values.items()}
+    for _ in range(2):
+        model.simulate(1.0, "RK45-jit")
+    model.set_parameter_values({**values, "k": 0.0})
+    with pytest.raises(NonFiniteStateError, match="k = 0"):
+        model.simulate(1.0, "RK45-jit")
+    model.set_parameter_values(values)
+    model.simulate(1.0, "RK45-jit", rtol=1e-7)  # (a tolerance study: the same start)
+    inverse = relay("1/v <= 1/v_hi", {})  # (not finite where v = 0)
+    for _ in range(2):
+        inverse.simulate(1.0, "RK45-jit", x0=[0.5])
+    with pytest.raises(NonFiniteStateError, match="'1/v <= 1/v_hi'"):
+        inverse.simulate(1.0, "RK45-jit", x0=[0.0])
