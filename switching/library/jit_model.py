@@ -129,6 +129,8 @@ def input_problem(model, method: str) -> str | None:
     expressions are compiled into the per-mode functions.  An input given as
     a Python function (any other callable) cannot be called from compiled
     code."""
+    if not model._inputs:
+        return None
     others = [name for name, value in model._inputs.items() if not isinstance(value, ExpressionInput)]
     if not others:
         return None

@@ -261,20 +261,22 @@ class HybridRun:
         self.progress_failed_at = None  # the time a progress callback that raised was called with
         self.implicit_python: set = set()  # auto: modes whose Python flow proved stiff (they flow with Radau)
         self.accumulation = None
-        self.compiled, self.flow_method = self._compiled_path()
+        self.compiled, self.flow_method, self.start_functions = self._compiled_path()
 
     def _compiled_path(self):
-        """``(the compiled model or None, the method class of a flow in Python)``."""
+        """``(the compiled model or None, the method class of a flow in Python, the starting mode's generated
+        functions (its CompiledMode) or None)``."""
         method, model = self.method, self.model
         if not self.method_class.compiled:
-            return None, self.method_class.python
+            return None, self.method_class.python, None
         if not _jit_available():
             raise SimulationError(f"method {method!r} needs numba: pip install '.[fast]'")
         problem = _input_problem(model, method)  # inputs that are Python functions cannot run compiled
         if problem:
             raise SimulationError(problem)
-        model.compiled_mode(self.mode)
-        return model.compiled_model(), self.method_class.python  # the modes visited or remembered; one first reached: then
+        cm = model.compiled_mode(self.mode)
+        # the modes visited or remembered; one first reached: then
+        return model.compiled_model(), self.method_class.python, cm
 
     # ------------------------------------------------------------ failures
 
@@ -389,8 +391,8 @@ class HybridRun:
         if not initial_in_kernel:
             self.initial_instant()
         else:  # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
-            problem = nonfinite_sides_at_start(model, model.compiled_mode(self.mode), self.x, self.t, self.rtol_g,
-                                               self.atol_g)
+            cm = self.start_functions  # (of self.mode, which only an initial instant in Python changes)
+            problem = nonfinite_sides_at_start(model, cm, self.x, self.t, self.rtol_g, self.atol_g)
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
         if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)

@@ -130,6 +130,8 @@ class Recorder:
 
     def columns(self) -> tuple:
         """``(t (N,), x (N, n), modes [N], kinds (N,))`` of every sample recorded, in order."""
+        if len(self._pieces) == 1 and self._t:
+            return self._piece_and_rows()
         self._close()
         pieces = self._pieces
         if len(pieces) == 1:
@@ -139,6 +141,16 @@ class Recorder:
             return np.zeros(0), np.zeros((0, len(self.model.states))), [], np.zeros(0, dtype=np.int64)
         return (np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces]),
                 [mode for p in pieces for mode in p[2]], np.concatenate([p[3] for p in pieces]))
+
+    def _piece_and_rows(self) -> tuple:
+        """:meth:`columns` of one piece followed by rows recorded one at a time (an ``output="events"`` run: a
+        kernel call's block, then the state where it ended), each column filled once."""
+        t, x, modes, kinds = self._pieces[0]
+        size, more = len(t), len(self._t)
+        columns = np.empty(size + more), np.empty((size + more, x.shape[1])), np.empty(size + more, np.int64)
+        for column, piece, rows in zip(columns, (t, x, kinds), (self._t, self._x, self._kinds)):
+            column[:size], column[size:] = piece, rows
+        return columns[0], columns[1], modes + self._modes, columns[2]
 
     def sample(self, t, x, mode, force=False):
         """A state of the run (a step, or with ``force`` its start, end or where it stopped)."""
