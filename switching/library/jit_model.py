@@ -793,6 +793,7 @@ class CompiledModel:
         self._buffers = {}
         self._workspaces = {}
         self._atol_number = (math.nan, None)  # the last atol given as a number, and its array (see call_arrays)
+        self._mode_objects = None  # (modes, their count, modes as an object array): see mode_objects
         self.add(sorted(set(modes), key=lambda m: m.label))
 
     def add(self, modes) -> None:
@@ -837,6 +838,17 @@ class CompiledModel:
         if any(self.implicit.get(m) != v for m, v in marks.items()):
             self.implicit.update(marks)
             self._record = None
+
+    def mode_objects(self) -> np.ndarray:
+        """:attr:`modes` as a numpy object array, so that many mode numbers map to their modes at once
+        (``mode_objects()[numbers].tolist()``); made again when the set changes."""
+        held = self._mode_objects
+        if held is None or held[0] is not self.modes or held[1] != len(self.modes):
+            table = np.empty(len(self.modes), dtype=object)
+            for number, mode in enumerate(self.modes):  # (one by one: a mode is never taken for a sequence)
+                table[number] = mode
+            held = self._mode_objects = (self.modes, len(self.modes), table)
+        return held[2]
 
     def covers(self, mode) -> bool:
         """Does the kernel run ``mode``?  A mode not in the set yet is compiled

@@ -169,7 +169,7 @@ def _recorded_at_once(model, compiled, result, recorder, requested: bool, initia
     if not instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
         return False
     modes = compiled.modes
-    recorder.block(result.rows, modes, REQUESTED if requested else STATE,
+    recorder.block(result.rows, compiled.mode_objects(), REQUESTED if requested else STATE,
                    _instants_of_call(model, modes, times, before, after, *result.event_states()), times, before)
     return True
 

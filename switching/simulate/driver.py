@@ -145,10 +145,11 @@ def simulate(
 ) -> Trajectory:
     """Simulate ``model`` from ``t0`` to ``t_end``; see :meth:`HybridModel.simulate`
     (the options, their units and bounds: :mod:`switching.simulate.run_options`)."""
-    keywords = dict(dt=dt, rtol=rtol, atol=atol, t0=t0, x0=x0, mode=mode, output=output, t_eval=t_eval,
-                    samples=samples, max_step=max_step, first_step=first_step, on_zeno=on_zeno, zeno_window=zeno_window,
-                    zeno_min_gap=zeno_min_gap, keep_instants=keep_instants, max_events=max_events, max_steps=max_steps,
-                    progress=progress, event_samples=event_samples, stiffness_check=stiffness_check)
+    keywords = {"dt": dt, "rtol": rtol, "atol": atol, "t0": t0, "x0": x0, "mode": mode, "output": output,
+                "t_eval": t_eval, "samples": samples, "max_step": max_step, "first_step": first_step,
+                "on_zeno": on_zeno, "zeno_window": zeno_window, "zeno_min_gap": zeno_min_gap,
+                "keep_instants": keep_instants, "max_events": max_events, "max_steps": max_steps,
+                "progress": progress, "event_samples": event_samples, "stiffness_check": stiffness_check}
     if progress is not True:
         return prepared_run(model, t_end, method, keywords).execute()
     bar = ProgressBar(t0, t_end)

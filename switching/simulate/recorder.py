@@ -204,15 +204,16 @@ class Recorder:
         self.events.append(instant)
         self.event_index.append(self.n_rows - 1)
 
-    def block(self, merge, modes: list, kind: int, instants: list, times: list, before: list) -> None:
+    def block(self, merge, modes: np.ndarray, kind: int, instants: list, times: list, before: list) -> None:
         """One kernel call's samples and instants at once, recorded as :meth:`sample` (forced; ``kind`` STATE)
         or :meth:`requested` (``kind`` REQUESTED) of each sample and :meth:`event` of each instant would
         record them, in order.  ``merge(lead, kind, before, after, pairs)`` makes the rows
         (:meth:`~switching.library.jit_model.KernelResult.rows`): ``(t, x, mode numbers into modes, kinds,
         the rows after the instants)``, ``lead`` rows left empty, then the samples, each of ``kind``, and with
         ``pairs`` each instant's rows of kinds ``before`` and ``after`` where it falls; ``instants`` are the
-        records of its events, at ``times`` [s], from the modes numbered ``before``.  The rows recorded one
-        at a time since the last piece (the run's start) begin the piece it makes."""
+        records of its events, at ``times`` [s], from the modes numbered ``before``; ``modes``: the modes by
+        number, an object array (:meth:`~switching.library.jit_model.CompiledModel.mode_objects`).  The rows
+        recorded one at a time since the last piece (the run's start) begin the piece it makes."""
         self.n_events += len(instants)
         if instants:
             self.last_instant = instants[-1]
@@ -227,7 +228,7 @@ class Recorder:
         if pairs:
             self.event_index.extend((self._in_pieces + after if self._in_pieces else after).tolist())
             self.events.extend(instants)
-        self._modes.extend(map(modes.__getitem__, numbers[lead:].tolist()))
+        self._modes.extend(modes[numbers[lead:]].tolist())
         self._pieces.append((t, x, self._modes, kinds))
         self._in_pieces += len(t)
         self._t, self._x, self._modes, self._kinds = [], [], [], []
