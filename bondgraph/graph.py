@@ -256,8 +256,9 @@ class BondGraph:
         if sign not in (1, -1):
             raise InvalidGraphError(f"displacement {name!r}: sign must be +1 or -1, not {sign!r}")
         symbol = sp.Symbol(name)
-        if symbol in self.displacements or any(
-            isinstance(e, Storage) and e.state == symbol for e in self.elements.values()
+        if symbol in self.displacements or any(  # (names first: a scene declares a thousand displacements)
+            isinstance(e, Storage) and getattr(e.state, "name", None) == name and e.state == symbol
+            for e in self.elements.values()
         ):
             raise DuplicateNameError(f"a state named {name!r} already exists", name)
         bond, orientation = self._bond_for_displacement(of, name)

@@ -99,8 +99,13 @@ class JumpMap:
         if not values:
             return self
         expressions = None
-        if self.expressions is not None:
+        if self.expressions is not None and not self.expressions.keys().isdisjoint(values.keys()):
             expressions = {k: sp.sympify(v).xreplace(values) for k, v in self.expressions.items()}
+        elif self.expressions is not None:  # (the states stay themselves: only the others are substituted)
+            expressions = dict(self.expressions)
+            for k, v in self.expressions.items():
+                if v is not k:
+                    expressions[k] = sp.sympify(v).xreplace(values)
         numeric = self._numeric
         fixed = {k: float(v) for k, v in values.items() if not sp.sympify(v).free_symbols}
         symbolic = {k: sp.sympify(v) for k, v in values.items() if sp.sympify(v).free_symbols}
@@ -139,13 +144,12 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     if law == "impulse balance":
         return _impulse_balance_jump(equations)
 
-    storage = {el.state: el for el in graph.storage}
+    storage = graph.derived.memo("storage by state", lambda: {el.state: el for el in graph.storage})
     constraints = equations.constraints
-    storage_states = set(storage)
     constrained = set().union(*(constraints[d].free_symbols for d in dependent))
-    reached = _reached_by_impulses(equations, graph)
-    participating = tuple(x for x in equations.independent
-                          if x in storage_states and x in constrained and x in reached)
+    candidates = {x for x in constrained if x in storage}  # (few: a scene's other states are not asked about)
+    reached = _reached_by_impulses(equations, graph, candidates)
+    participating = tuple(x for x in equations.independent if x in candidates and x in reached)
     phi = sp.Matrix([constraints[d] for d in dependent])
     K = phi.jacobian(list(participating)) if participating else sp.zeros(len(dependent), 0)
     metrics = {x: _metric(storage[x], x) for x in (*participating, *dependent)}
@@ -153,7 +157,7 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     linear_constraint = all(sp.diff(K[i, j], x) == 0 for i in range(K.rows) for j in range(K.cols) for x in participating)
 
     if linear_storage and linear_constraint:
-        expressions = _linear_jump(states, participating, dependent, phi, K, metrics)
+        expressions = _linear_jump(_identity(graph, states), participating, dependent, phi, K, metrics)
         numeric = _lambdified(states, expressions)
         return JumpMap(states, participating, dependent, expressions, True, _numeric=numeric)
     return JumpMap(
@@ -166,22 +170,36 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     )
 
 
-def _reached_by_impulses(equations, graph=None) -> set:
+def _identity(graph, states: tuple) -> dict:
+    """``{x: x}`` of ``states``, kept with ``graph``'s derivations while they are the same (told apart by
+    their objects, not hashed again: a scene's every mode holds all its thousand states)."""
+    kept = graph.derived.entries.get("identity map")
+    if kept is None or kept[0] != states:
+        kept = graph.derived.entries["identity map"] = (states, {x: x for x in states})
+    return kept[1]
+
+
+def _reached_by_impulses(equations, graph=None, among=None) -> set:
     """The independent states whose implicit rate holds a dependent state's rate (``∂F_i/∂ẋ_d ≠ 0``):
     those an impulse into the dependent storage reaches through the junction structure.  A state
     that a constraint reads only through a modulated source's value (a controlled source, a
     sample-and-hold's buffer) is not among them: the source takes the impulse, the state it reads
     stays (its value enters ``c``).  The symbols of each implicit rate are kept with ``graph``'s
-    derivations: the configurations of a scene share most of their rates (island by island)."""
+    derivations: the configurations of a scene share most of their rates (island by island).  ``among``:
+    only these states are asked about (all the independent ones when ``None``)."""
     rates = {equations.rate_symbols[d] for d in equations.dependent}
+    implicit = equations.implicit_rates
+    asked = implicit if among is None else [x for x in among if x in implicit]
     if graph is None:
-        return {x for x, rate in equations.implicit_rates.items() if not rates.isdisjoint(rate.atoms(sp.Symbol))}
+        return {x for x in asked if not rates.isdisjoint(implicit[x].atoms(sp.Symbol))}
     memo = graph.derived.memo
-    return {x for x, rate in equations.implicit_rates.items()
-            if not rates.isdisjoint(memo(("symbols in", rate), lambda rate=rate: rate.atoms(sp.Symbol)))}
+    return {x for x in asked
+            if not rates.isdisjoint(memo(("symbols in", implicit[x]), lambda rate=implicit[x]: rate.atoms(sp.Symbol)))}
 
 
-def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:
+def _linear_jump(identity, participating, dependent, phi, K, metrics) -> dict:
+    """``x⁺`` of every state (the module docstring's projection): a copy of ``identity`` (state → itself,
+    in state order) with the participating and dependent states' values."""
     xi = sp.Matrix(participating)
     xd = sp.Matrix(dependent)
     c = phi - K * xi if participating else phi
@@ -195,7 +213,7 @@ def _linear_jump(states, participating, dependent, phi, K, metrics) -> dict:
     else:
         xi_plus = sp.zeros(0, 1)
         xd_plus = c
-    expressions = {x: x for x in states}
+    expressions = dict(identity)
     for k, x in enumerate(participating):
         expressions[x] = _tidy(xi_plus[k])
     for k, x in enumerate(dependent):
@@ -256,17 +274,18 @@ def _lambdified(states, expressions):
     """``apply(x, t, parameters)`` evaluating the symbolic map; lambdified on
     first use (the generated mode code evaluates ``g`` itself, so most maps
     never need it)."""
-    symbols = sorted({s for e in expressions.values() for s in e.free_symbols} - set(states), key=str)
     from .symbols import t as time
 
-    params = [s for s in symbols if s != time]
-    compiled = []
+    compiled = []  # (the function and the parameters it reads, made on first use: a scene's map reads all states)
 
     def apply(x, t, parameters):
         if not compiled:
-            compiled.append(sp.lambdify([list(states), time, params], [expressions[x] for x in states], "numpy",
-                                        cse=True))
-        return np.array(compiled[0](x, t, [parameters[s] for s in params]), dtype=float)
+            symbols = sorted({s for e in expressions.values() for s in e.free_symbols} - set(states), key=str)
+            params = [s for s in symbols if s != time]
+            compiled.append((sp.lambdify([list(states), time, params], [expressions[x] for x in states], "numpy",
+                                         cse=True), params))
+        function, params = compiled[0]
+        return np.array(function(x, t, [parameters[s] for s in params]), dtype=float)
 
     return apply
 

@@ -433,7 +433,7 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     functions of the same arguments."""
     table, names, argument_doc = _names_and_doc(spec, memo)
 
-    outputs = [sp.sympify(o) for o in spec.outputs]
+    outputs = [o if isinstance(o, sp.Basic) else sp.sympify(o) for o in spec.outputs]
     copied = _copied_outputs(spec, outputs)
     needed, kinds = set(), set()
     shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
@@ -530,7 +530,7 @@ def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:
     (argument,) = [a for a in spec.arguments if a.name == spec.copy_of]
     if len(argument.symbols) != len(outputs):
         return frozenset()
-    same = frozenset(k for k, (expr, sym) in enumerate(zip(outputs, argument.symbols)) if expr == sym)
+    same = frozenset(k for k, (expr, sym) in enumerate(zip(outputs, argument.symbols)) if expr is sym or expr == sym)
     return same if len(same) >= COPY_MIN else frozenset()
 
 

@@ -178,8 +178,8 @@ _RELATIONS = {"<": sp.Lt, "<=": sp.Le, ">": sp.Gt, ">=": sp.Ge, "==": sp.Eq, "!=
 def _tokenize(text: str, names: Mapping[str, sp.Basic]) -> list[tuple[str, str, int]]:
     tokens, pos = [], 0
     text = text.rstrip(_SPACES)
-    # the most parts of a known hierarchical name: bounds the search below
-    longest = max((name.count("/") + 1 for name in names if "/" in name), default=1)
+    longest = None  # the most parts of a known hierarchical name: bounds the search below (a look at every
+    # name, made once a text needs it: a scene's thousand guards are parsed against thousands of names)
     while pos < len(text):
         m = _TOKEN.match(text, pos)
         if not m or m.end() == pos:
@@ -192,6 +192,8 @@ def _tokenize(text: str, names: Mapping[str, sp.Basic]) -> list[tuple[str, str, 
         if kind == "name" and "/" in value and value not in names:
             # the longest known hierarchical names, divided by what is left
             parts = value.split("/")
+            if longest is None:
+                longest = max((name.count("/") + 1 for name in names if "/" in name), default=1)
             offset, i = start, 0
             while i < len(parts) and len(tokens) <= MAX_TOKENS:
                 j = next(

@@ -336,8 +336,11 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     rates = [me.equations.rate_symbols[s] for s in states]
     params = list(model.parameter_symbols)
     inputs = list(model.input_symbols)
-    dependent = [s for s in states if s in me.equations.dependent]
-    independent = [s for s in states if s not in me.equations.dependent]
+    # (by place in x: a scene's thousand states are not each hashed or compared again)
+    dependent_at = sorted(model.state_index[s] for s in me.equations.dependent)
+    held = frozenset(dependent_at)
+    independent_at = tuple(k for k in range(len(states)) if k not in held)
+    dependent = [states[k] for k in dependent_at]
     label = me.mode.describe()
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
@@ -380,8 +383,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     meta = {
         "mode": tuple(me.mode.states),
         "automata": tuple(me.mode.automata),
-        "independent": tuple(model.state_index[s] for s in independent),
-        "dependent": tuple(model.state_index[s] for s in dependent),
+        "independent": independent_at,
+        "dependent": tuple(dependent_at),
         "moved": tuple(model.state_index[s] for s in (*me.jump.participating, *me.jump.dependent)),
         "jump": jump_kind,
         "guards": tuple(guards),

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import gc
 import re
 import time
 
@@ -56,6 +55,7 @@ from bondgraph.errors import HybridBondGraphError
 from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
+from .collection import collection_paused
 from .compiled import BLOCK_CALLS, MODE_SOURCE_VERSION, CompiledMode, block_checked, called_blocks, mode_module
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
@@ -207,6 +207,7 @@ class ModeLibrary:
         self.preparation_seconds = 0.0
         self._preparing = False
         self._fingerprint = None
+        self._rate_symbols = None
 
     @property
     def fingerprint(self) -> str:
@@ -237,24 +238,16 @@ class ModeLibrary:
     @contextlib.contextmanager
     def _preparation(self):
         """Count the wall time of the block into :attr:`preparation_seconds` (the outermost block only: a
-        mode's functions derive its equations inside theirs).
-
-        The cyclic garbage collector waits until the block ends (it is switched back on if it was on):
-        deriving a mode makes many objects and hardly any cyclic garbage, and the collections its
-        allocations would trigger walk every object the earlier modes left (a scene's thousand modes
-        and their expressions), so that a mode's cost grew with the modes before it (a 300-ball
-        chain: a fifth of its time).  Its allocations are collected after it, in one young collection."""
+        mode's functions derive its equations inside theirs).  The cyclic garbage collector waits until
+        the block ends (:func:`~switching.library.collection.collection_paused`)."""
         if self._preparing:
             yield
             return
         self._preparing, start = True, time.perf_counter()
-        collecting = gc.isenabled()
-        gc.disable()
         try:
-            yield
+            with collection_paused():
+                yield
         finally:
-            if collecting:
-                gc.enable()
             self._preparing = False
             self.preparation_seconds += time.perf_counter() - start
 
@@ -273,6 +266,13 @@ class ModeLibrary:
 
             found = self.symbols_memo[expr] = (frozenset(expr.free_symbols), expr.has(Rate, RateWith))
         return found
+
+    def rate_symbol_set(self, equations) -> frozenset:
+        """The symbols ``ẋ`` of the states' rates (those of ``equations``, a mode's: the same in every mode
+        of the model), kept."""
+        if self._rate_symbols is None:
+            self._rate_symbols = frozenset(equations.rate_symbols.values())
+        return self._rate_symbols
 
     def cross_signal(self, mode: Mode, name: str, current=None) -> sp.Expr:
         """The :class:`~switching.model.hybrid_model.InMode` signal ``name`` seen from ``mode``:

@@ -11,6 +11,7 @@ naming the culprit and saying what to do.
 from __future__ import annotations
 
 import math
+from collections import ChainMap
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -188,13 +189,13 @@ def parse_signals(names: Mapping, signals: Mapping, namespace: Namespace | None 
             )
         if isinstance(expr, InMode):
             inner = expr.expression
-            value = parse_expression(inner, {**names, **parsed}) if isinstance(inner, str) else sp.sympify(inner)
+            value = parse_expression(inner, ChainMap(parsed, names)) if isinstance(inner, str) else sp.sympify(inner)
             computable(value, f"signal {name!r}", name)
             cross[name] = (value, dict(expr.states))
             parsed[name] = sp.Symbol(name)
             continue
         if isinstance(expr, str):
-            value = parse_expression(expr, {**names, **parsed})
+            value = parse_expression(expr, ChainMap(parsed, names))
         elif isinstance(expr, sp.Basic) and not isinstance(expr, (Relational, BooleanFunction, BooleanAtom)):
             value = expr.xreplace({sp.Symbol(k): v for k, v in parsed.items()})
         else:

@@ -24,6 +24,7 @@ class ModeSpace:
         self.automata = tuple(automata)
         self.names = tuple(a.name for a in self.automata)
         self.guards = guards
+        self._leaving: dict = {}  # (automaton, state, its transitions' count) → guards_from's entries
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a mapping
@@ -122,10 +123,14 @@ class ModeSpace:
     def guards_from(self, mode: Mode) -> list:
         """(automaton, transition, condition, text) of every transition leaving ``mode``."""
         out = []
+        leaving = self._leaving
         for automaton, state in zip(self.automata, mode.states):
-            for tr in automaton.transitions_from(state):
-                condition, text = self.guards[(automaton.name, tr)]
-                out.append((automaton.name, tr, condition, text))
+            key = (automaton.name, state, len(automaton.transitions))
+            found = leaving.get(key)
+            if found is None:  # (kept per automaton state: a scene's modes repeat a thousand of them)
+                found = leaving[key] = [(automaton.name, tr, *self.guards[(automaton.name, tr)])
+                                        for tr in automaton.transitions_from(state)]
+            out += found
         return out
 
 

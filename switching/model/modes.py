@@ -157,7 +157,7 @@ class ModeEquations:
             self.free_rates = None
         self.equations = equations.substituted(self.values)
         self.states = self.equations.states
-        self._bond_values = self._raw_bond_values(graph)
+        self.__dict__.pop("_bond_values", None)  # (made again from these equations when first needed)
         #: ``dx/dt`` with the branches of sliding law switches still free (``f`` in other modes)
         self.free_rates = self.free_rates or self.equations.rates
         self.guards = [
@@ -168,6 +168,20 @@ class ModeEquations:
         self._numeric_f = None
 
     # ------------------------------------------------------------ symbolic
+
+    @functools.cached_property
+    def _bond_values(self) -> dict:
+        """Bond symbol → raw expression in this mode (:meth:`_raw_bond_values`), made when an expression
+        first reads a bond: a scene's guards read states and parameters only, and its modes have
+        thousands of bonds."""
+        return self._raw_bond_values(self.model.derivation_graph)
+
+    def _bond_symbols(self) -> frozenset:
+        """The keys of :attr:`_bond_values` (every bond's effort and flow: the same in every mode), kept
+        with the graph's derivations."""
+        graph = self.model.derivation_graph
+        return graph.derived.memo("bond symbols", lambda: frozenset(
+            symbol for bond in graph.bonds.values() for symbol in (bond.effort, bond.flow)))
 
     def _raw_bond_values(self, graph) -> dict:
         """Bond symbol → raw expression in this mode.  A storage element's own
@@ -187,8 +201,8 @@ class ModeEquations:
         """Replace bond variables in ``expr`` by this mode's raw expressions
         (and signals taken in another mode by their expressions of ``x``)."""
         free, has_rates = self.model.library.symbols_of(expr)
-        bonds, values, taken = self._bond_values, self.values, self.model.cross_signals
-        if not (has_rates or taken or not bonds.keys().isdisjoint(free) or not values.keys().isdisjoint(free)):
+        values, taken = self.values, self.model.cross_signals
+        if not (has_rates or taken or not self._bond_symbols().isdisjoint(free) or not values.keys().isdisjoint(free)):
             return expr  # (a guard on states and parameters: every contact of a ball chain)
         if taken:
             cross = {s: self.model.library.cross_signal(self.mode, s.name, self) for s in free
@@ -220,12 +234,19 @@ class ModeEquations:
         if self.restitution is None:
             return dict(base)
         e = self.restitution
-        return {x: x if base[x] is x else x + (1 + e) * (base[x] - x) for x in self.states}
+        out = dict(base)  # (the states that stay are not looked up one by one: a scene has thousands)
+        for x, value in base.items():
+            if value is not x:
+                out[x] = x + (1 + e) * (value - x)
+        return out
 
     def finite(self, raw: sp.Expr) -> sp.Expr:
         """``raw`` with every ``ẋ`` replaced by ``f(x)``."""
+        free = self.model.library.symbols_of(raw)[0]
+        if self.model.library.rate_symbol_set(self.equations).isdisjoint(free):
+            return raw  # (no rate read: the guard comparisons of a scene, on states and parameters)
         rates = self._rates_by_symbol
-        subs = {s: rates[s] for s in self.model.library.symbols_of(raw)[0] if s in rates}
+        subs = {s: rates[s] for s in free if s in rates}
         return raw.xreplace(subs) if subs else raw
 
     @functools.cached_property

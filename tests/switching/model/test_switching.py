@@ -326,7 +326,8 @@ def test_the_co_energies_of_storage_are_derived_once_for_the_modes_of_a_scene():
     model = ball_chain.build(N=6, e=1.0)
     automata = model.initial_mode.automata
     for k in range(len(automata)):  # (derived here: a run may read the modes' functions from the disk cache)
-        model.mode_equations({a: "collide" if j == k else "free" for j, a in enumerate(automata)})
+        me = model.mode_equations({a: "collide" if j == k else "free" for j, a in enumerate(automata)})
+        assert me._bond_values  # (made when an expression first reads a bond)
     entries = [k for k in model.derivation_graph.derived.entries if k[0] == "storage co-energies"]
     assert entries == [("storage co-energies", ())] and model.derivation_count == 5
     me = model.mode_equations(model.derived_modes[-1])
