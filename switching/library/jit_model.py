@@ -1082,16 +1082,14 @@ class KernelResult:
         return merged_rows(self._out_t, self._out_x, self._out_m, self._ev_f, self._ev_i, self.n_saved,
                            self.n_events if pairs else 0, lead, kind, before, after)
 
-    def event_lists(self) -> tuple:
-        """``(times [s], mode numbers before, mode numbers after)`` of the events, in order, as lists."""
-        e = self.n_events
-        return self._ev_f[:e, 0].tolist(), self._ev_i[:e, 0].tolist(), self._ev_i[:e, 1].tolist()
-
-    def event_states(self) -> tuple:
-        """``(x_before, x_after)``: the states (E, n) just before and just after each event, views of one
-        new array (copied from the reused buffers: the caller's own)."""
-        n, events = self._out_x.shape[1], self._ev_f[:self.n_events].copy()
-        return events[:, 1:1 + n], events[:, 1 + n:]
+    def event_columns(self) -> tuple:
+        """``(times [s], mode numbers before, mode numbers after, x_before, x_after)`` of the events, in
+        order: lists, then the states (E, n) just before and just after each, views of one new array
+        (copied from the reused buffers: the caller's own)."""
+        n, e = self._out_x.shape[1], self.n_events
+        states, numbers = self._ev_f[:e].copy(), self._ev_i[:e]
+        return (states[:, 0].tolist(), numbers[:, 0].tolist(), numbers[:, 1].tolist(), states[:, 1:1 + n],
+                states[:, 1 + n:])
 
     def steps_before(self, event: int) -> int:
         """The steps this call took before its event number ``event`` (the step that found it included)."""

@@ -36,10 +36,10 @@ def kernel_arguments(compiled, kind, mode, x, t, t_end, o, steps_left, recorder,
     """The keywords of :meth:`CompiledModel.run <switching.library.jit_model.CompiledModel.run>` for a
     kernel call from ``(t, mode, x)`` of a run with flow settings ``o``, ``steps_left`` steps to go and the
     requested times its ``recorder`` has not sampled yet; ``initial``: the instant at ``t`` is resolved first."""
-    return dict(kind=kind, mode=mode, x=x, t=t, t_end=t_end, **o.stepping.integrator_options(), samples=o.samples,
-                save=o.save, resolve_first=initial,
-                t_eval=None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:],
-                max_steps=min(steps_left, _KERNEL_MAX_STEPS))
+    return {"kind": kind, "mode": mode, "x": x, "t": t, "t_end": t_end, **o.stepping.integrator_options(),
+            "samples": o.samples, "save": o.save, "resolve_first": initial,
+            "t_eval": None if recorder.t_eval is None else recorder.t_eval[recorder.eval_pos:],
+            "max_steps": min(steps_left, _KERNEL_MAX_STEPS)}
 
 
 def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, recorder, after_event, initial=False,
@@ -165,12 +165,11 @@ def _recorded_at_once(model, compiled, result, recorder, requested: bool, initia
     """Record a kernel call's samples (of requested times with ``requested``) and instants at once
     (:meth:`~switching.simulate.recorder.Recorder.block`) if ``instants_pass`` says its instants pass the
     run's checks (the initial instant, resolved first with ``initial``, not watched); whether it did."""
-    times, before, after = result.event_lists()
+    times, before, after, x_before, x_after = result.event_columns()
     if not instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
         return False
-    modes = compiled.modes
-    recorder.block(result.rows, compiled.mode_objects(), REQUESTED if requested else STATE,
-                   _instants_of_call(model, modes, times, before, after, *result.event_states()), times, before)
+    instants = _instants_of_call(model, compiled.modes, times, before, after, x_before, x_after)
+    recorder.block(result.rows, compiled.mode_objects(), REQUESTED if requested else STATE, instants, times, before)
     return True
 
 

@@ -124,19 +124,23 @@ class Recorder:
     def _join(self) -> None:
         """The pieces made rows of the lists again (read one by one: a run that failed or stopped)."""
         if self._pieces:
-            t, x, modes, kinds = self.columns()
+            t, x, modes, kinds = self._columns()  # (new lists where there are several pieces, else the piece's)
             self._pieces, self._in_pieces = [], 0
             self._t, self._x, self._modes, self._kinds = t.tolist(), list(x), modes, kinds.tolist()
 
     def columns(self) -> tuple:
         """``(t (N,), x (N, n), modes [N], kinds (N,))`` of every sample recorded, in order."""
+        t, x, modes, kinds = self._columns()
+        return t, x, list(modes), kinds
+
+    def _columns(self) -> tuple:
+        """:meth:`columns`, its list of modes possibly the record's own (read it, never change it)."""
         if len(self._pieces) == 1 and self._t:
             return self._piece_and_rows()
         self._close()
         pieces = self._pieces
         if len(pieces) == 1:
-            t, x, modes, kinds = pieces[0]
-            return t, x, list(modes), kinds
+            return pieces[0]
         if not pieces:
             return np.zeros(0), np.zeros((0, len(self.model.states))), [], np.zeros(0, dtype=np.int64)
         return (np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces]),
@@ -268,11 +272,11 @@ class Recorder:
         the run reached ``t_end``."""
         stats = dict(stats or {})
         stats["instants"] = self.n_events
-        times, x, modes, kinds = self.columns()
+        times, x, modes, kinds = self._columns()  # (the trajectory copies what it keeps)
         last = (float(times[-1]), modes[-1]) if len(times) else None  # (the flow since the last instant ends there)
         mode_time = ModeTimes(self._flows_from, list(self._flows), last)
         if all_rows or self.sampling == "steps":  # every sample recorded
-            event_index = list(self.event_index)
+            event_index = self.event_index
         else:
             rows, event_index = self._rows(times, kinds, complete)
             times, x, modes = times[rows], x[rows], [modes[k] for k in rows.tolist()]

@@ -156,7 +156,8 @@ class Trajectory:
         self.model = model
         self.model_name = model.name
         self.t = np.asarray(t, dtype=float)
-        self.x = np.asarray(x, dtype=float).reshape(len(self.t), len(model.states))
+        x = np.asarray(x, dtype=float)
+        self.x = x if x.shape == (len(self.t), len(model.states)) else x.reshape(len(self.t), len(model.states))
         self.state_names = [s.name for s in model.states]
         self.modes = list(modes)
         self.events = list(events)
