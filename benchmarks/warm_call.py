@@ -38,40 +38,41 @@ benchmarks/warm_call.py --repeats 9 --calls 300``), before issue 46's second bul
 
 The Python around the kernel, cut again (issue 46: the call's Python to at most half its kernel, a
 ratio of 1.5 on the ball).  The same command with ``--repeats 9 --calls 300``, the code before
-(f158bbd) and after run alternately at the same load (2 shared cores), two runs each (their range):
+(f158bbd) and after run alternately at the same load (2 shared cores), four runs each (their range):
 
-    case          before: call   kernel  ratio     after: call   kernel  ratio    overhead
-    ball           170–173 µs    87–88   1.95–1.96     144 µs    87–88   1.63–1.65   83–85 -> 56–57 µs
-    ball events    174–176 µs    85      2.05–2.06     146 µs    86      1.70–1.71   89–90 -> 60 µs
-    ball sweep         188 µs    55–56   3.37–3.40     174–175   55      3.15–3.19  132–133 -> 119–120 µs
-    boost          274–280 µs    173–174 1.57–1.61     244 µs    173–174 1.41       100–106 -> 71 µs
+    case          before: call   kernel  ratio       after: call   kernel  ratio      overhead µs
+    ball          170–174 µs     87–90   1.94–1.97    141–144 µs    87–88   1.62–1.65   83–85 -> 54–57
+    ball events   174–176 µs     85–88   2.00–2.06    142–146 µs    84–86   1.68–1.71   88–91 -> 58–60
+    ball sweep    188–190 µs     55–57   3.33–3.43    171–175 µs    55      3.07–3.19  132–135 -> 115–20
+    boost         274–284 µs     173–182 1.56–1.61    242–245 µs    173–176 1.39–1.41  100–106 -> 68–72
 
-    The ball is at 1.63, not 1.5.  What remains is spread thin (after, below): the run's set-up, its
-    start, one CompiledInstant record per instant (two row views each: ~0.35 µs an instant), the merge
-    of the kernel's rows, the Zeno watch's look at each gap, the trajectory.  The sweep's call also sets
-    the values (the initial state projected again, the kernel record's parameters) and its start's
-    guard sides are new each call.  First call in a new process: 0.42 s before and after.
+    The ball is at 1.62, not 1.5.  What remains is spread thin (after, below): the run's set-up, one
+    CompiledInstant record per instant (two row views each: ~0.35 µs an instant), the merge of the
+    kernel's rows, the Zeno watch's look at each gap, the trajectory.  The sweep's call also sets the
+    values (the initial state projected again, the kernel record's parameters) and its start's guard
+    sides are new each call.  First call in a new process: 0.42 s before and after.
 
     Parts of a warm ball call, timed in place as below (µs of a call, before -> after; the whole call
-    185 -> 163 with the timers, CompiledModel.run ~93 in both):
+    185 -> 158 with the timers, CompiledModel.run ~93 in both):
 
     part of the call                                                    before   after
-    the kernel's output recorded (Recorder.block)                         17.9     9.7
-        the merge (KernelResult.rows: its import no longer run each call)  7.0     4.4
+    the kernel's output recorded (Recorder.block)                         17.9     9.2
+        the merge (KernelResult.rows: its import no longer run each call)  7.0     4.1
         the time in each mode: summed when first asked (ModeTimes)        ~3.5      —
         the rows' modes: one fancy index of an object array              ~2.2    ~0.9
-    the instants' records (20 CompiledInstant)                             9.3     8.0
+    the instants' records (20 CompiledInstant)                             9.3     8.1
     their checks (instants_pass: the Zeno watch, max_events)               3.1     3.0
-    the events read from the kernel's buffers (arrays -> two reads)        2.8    ~1.5
+    the events read from the kernel's buffers (arrays -> event_columns)    2.8    ~1.5
+    the kernel call's keywords (kernel_arguments)                          2.2     1.4
     the start (HybridRun._start)                                          10.8     4.8
-        its guard sides (kept for the very same start: preflight)          7.7     2.5
-    the result (HybridRun._finish)                                         9.6     8.3
-        the trajectory (Recorder.trajectory; an events run's columns       6.2     5.3
+        its guard sides (kept for the very same start: preflight)          7.7     2.6
+    the result (HybridRun._finish)                                         9.6     7.4
+        the trajectory (Recorder.trajectory; an events run's columns       6.2     4.7
         filled once, not concatenated: ball events 11.1 -> 8.3)
-    the run's set-up (prepared_run)                                       20.2    16.9
-        the options (checked_options: the key hashed once)                 3.0     2.6
-        HybridRun.__init__ (tolerances 3.0 -> 2.3)                        10.9     9.8
-        the step bound                                                     2.0     1.8
+    the run's set-up (prepared_run)                                       20.2    15.6
+        the options (checked_options: the key hashed once)                 3.0     2.5
+        HybridRun.__init__ (tolerances 3.0 -> 2.1)                        10.9     8.8
+        the step bound                                                     2.0     1.7
 
 What a warm ball call spent, timed in place (µs of a call, each wrapped in a timer, both at the
 same load; the kernel through CompiledModel.run: 114 before, 101 after, which no longer rebuilds
