@@ -74,12 +74,22 @@ class Derivations:
 
     def _kept(self, kind: str, derive, graph, parts: list, ports: str) -> list:
         """``derive(graph, island, ports)`` of each island in ``parts``, read straight from the entries
-        where kept (a configuration of a large scene holds hundreds of islands, nearly all kept)."""
+        where kept (a configuration of a large scene holds hundreds of islands, nearly all kept): by the
+        island object first (an island met before is the same object, :class:`IslandCells`; its key, a
+        tuple of its bonds, is not hashed again), else by its key."""
         entries = self.entries
+        by_object = entries.setdefault(("pieces by island", kind, ports), {})
         pieces = []
         for island in parts:
-            found = entries.get((kind, ports, island.key))
-            pieces.append(derive(graph, island, ports) if found is None else found)
+            found = by_object.get(id(island))
+            if found is not None and found[0] is island:
+                pieces.append(found[1])
+                continue
+            piece = entries.get((kind, ports, island.key))
+            if piece is None:
+                piece = derive(graph, island, ports)
+            by_object[id(island)] = (island, piece)  # (the island held: its id stays its own)
+            pieces.append(piece)
         return pieces
 
     def checked(self, graph, ports: str) -> None:

@@ -86,6 +86,12 @@ class ConfigurationEquations:
 
     # ---------------------------------------------------------------- access
 
+    def implicit_rates_of(self, states) -> dict:
+        """``{x: F_x}`` of :attr:`implicit_rates` for those of ``states`` that are independent, in the
+        order of ``states``."""
+        implicit = self.implicit_rates
+        return {x: implicit[x] for x in states if x in implicit}
+
     def substituted(self, values: dict) -> "ConfigurationEquations":
         """A copy with symbols replaced by ``values`` (e.g. mode-dependent
         constants set by an automaton state)."""

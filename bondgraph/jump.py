@@ -188,13 +188,12 @@ def _reached_by_impulses(equations, graph=None, among=None) -> set:
     derivations: the configurations of a scene share most of their rates (island by island).  ``among``:
     only these states are asked about (all the independent ones when ``None``)."""
     rates = {equations.rate_symbols[d] for d in equations.dependent}
-    implicit = equations.implicit_rates
-    asked = implicit if among is None else [x for x in among if x in implicit]
+    implicit = equations.implicit_rates if among is None else equations.implicit_rates_of(among)
     if graph is None:
-        return {x for x in asked if not rates.isdisjoint(implicit[x].atoms(sp.Symbol))}
+        return {x for x, rate in implicit.items() if not rates.isdisjoint(rate.atoms(sp.Symbol))}
     memo = graph.derived.memo
-    return {x for x in asked
-            if not rates.isdisjoint(memo(("symbols in", implicit[x]), lambda rate=implicit[x]: rate.atoms(sp.Symbol)))}
+    return {x for x, rate in implicit.items()
+            if not rates.isdisjoint(memo(("symbols in", rate), lambda rate=rate: rate.atoms(sp.Symbol)))}
 
 
 def _linear_jump(identity, participating, dependent, phi, K, metrics) -> dict:

@@ -220,9 +220,15 @@ def comparison_triples(me, relations) -> list:
     memo, scales = model.library.roundoff_memo, model.library.scale_memo
     kept = model.library.triple_memo  # comparison → its triple, where it reads no rate (the same in every mode)
     clock = None
+    by_id = model.library.triple_by_id  # (the same, by the object held with it: a scene's thousand not hashed)
     for rel in relations:
+        found = by_id.get(id(rel))
+        if found is not None and found[0] is rel:
+            triples += found[1]
+            continue
         found = kept.get(rel)
         if found is not None:
+            _keep_by_id(by_id, rel, found)
             triples += found
             continue
         left, right = me.finite(rel.lhs), me.finite(rel.rhs)
@@ -237,8 +243,17 @@ def comparison_triples(me, relations) -> list:
             scales[(left, right)] = scale
         if left is rel.lhs and right is rel.rhs:  # (no rate substituted: the mode did not enter)
             kept[rel] = (left, right, scale)
+            _keep_by_id(by_id, rel, kept[rel])
         triples += [left, right, scale]
     return triples
+
+
+def _keep_by_id(by_id: dict, rel, triple) -> None:
+    """``triple`` kept for the object ``rel`` (held, so that its id stays its own); at most
+    :data:`GUARD_ENTRIES_KEPT` of them (a comparison reading a bond is a new object in every mode)."""
+    if len(by_id) >= GUARD_ENTRIES_KEPT:
+        by_id.clear()
+    by_id[id(rel)] = (rel, triple)
 
 
 def generate_mode_source(model, me) -> str:
@@ -271,23 +286,17 @@ def _mode_guards(model, me) -> tuple:
     offset of its comparisons: a scene's modes repeat nearly all their thousand guards, and printing
     and building them again was a fifth of a mode's generation."""
     library = model.library
-    kept, automaton_index = library.guard_entries, model.automaton_index
+    kept, automaton_index, by_form = library.guard_entries, model.automaton_index, library.guard_entries_by_form
     guards, texts, relations, raw_sides, spans = [], [], [], [], []
     for guard in me.guards:
-        tr, condition = guard.transition, guard.condition
-        found = kept.get((id(tr), id(condition)))
-        if found is None or found[0] is not tr or found[1] is not condition or found[2] != (guard.automaton,
-                                                                                              guard.text):
-            own: list = []
-            tree = library.guard_tree(condition, own)
-            entry = {"automaton": guard.automaton, "source": tr.source, "target": tr.target, "when": tr.when,
-                     "pulses": tr.pulses, "text": guard.text, "tree": tree}
-            sides = tuple(side for rel in own for side in (rel.lhs, rel.rhs))
-            found = (tr, condition, (guard.automaton, guard.text), entry, tuple(own), sides, {},
-                     automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA)
-            if len(kept) >= GUARD_ENTRIES_KEPT:
-                kept.clear()
-            kept[(id(tr), id(condition))] = found  # (the transition and condition held: their ids stay theirs)
+        held = by_form.get(id(guard))  # (a guard form shared by the modes: ModeEquations._guard_forms)
+        if held is not None and held[0] is guard:
+            found = held[1]
+        else:
+            found = _guard_entry(library, kept, automaton_index, guard)
+            if len(by_form) >= GUARD_ENTRIES_KEPT:
+                by_form.clear()
+            by_form[id(guard)] = (guard, found)  # (the form held: its id stays its own)
         start = len(relations)
         shifted = found[6].get(start)
         if shifted is None:
@@ -301,6 +310,36 @@ def _mode_guards(model, me) -> tuple:
         raw_sides.extend(found[5])
         spans.append((found[7], start, len(relations)))
     return guards, texts, relations, raw_sides, spans
+
+
+def _guard_entry(library, kept: dict, automaton_index: dict, guard) -> tuple:
+    """The library's entry of ``guard`` (:func:`_mode_guards`), kept by its transition and condition:
+    ``(transition, condition, (automaton, text), META entry, comparisons, their sides, entries by offset,
+    the block of its automaton)``."""
+    tr, condition = guard.transition, guard.condition
+    found = kept.get((id(tr), id(condition)))
+    if found is None or found[0] is not tr or found[1] is not condition or found[2] != (guard.automaton,
+                                                                                      guard.text):
+        own: list = []
+        tree = library.guard_tree(condition, own)
+        entry = {"automaton": guard.automaton, "source": tr.source, "target": tr.target, "when": tr.when,
+                 "pulses": tr.pulses, "text": guard.text, "tree": tree}
+        sides = tuple(side for rel in own for side in (rel.lhs, rel.rhs))
+        found = (tr, condition, (guard.automaton, guard.text), entry, tuple(own), sides, {},
+                 automaton_index[guard.automaton] // SIDE_BLOCK_AUTOMATA)
+        if len(kept) >= GUARD_ENTRIES_KEPT:
+            kept.clear()
+        kept[(id(tr), id(condition))] = found  # (the transition and condition held: their ids stay theirs)
+    return found
+
+
+def _conjunction(tree) -> tuple:
+    """``(comparisons, operators)`` of a guard tree that is one comparison or a conjunction of comparisons
+    (the numbers of its comparisons, :data:`codegen.decision.OPS` of their operators), else ``((), ())``."""
+    leaves = (tree,) if tree[0] == "rel" else tree[1] if tree[0] == "and" else ()
+    if not (leaves and all(leaf[0] == "rel" for leaf in leaves)):
+        return (), ()
+    return tuple(leaf[1] for leaf in leaves), tuple(decision.OPS[leaf[2]] for leaf in leaves)
 
 
 def _tuple_text(items: list) -> str:
@@ -476,6 +515,12 @@ def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tu
     kind = "raw signals (impulse-aware)" if spec.raw else "their round-off scales"
     for start, end in blocks:
         outputs = spec.outputs[per_item * start:per_item * end]
+        # (by the outputs' objects first, which a scene's modes share: its thousands of expressions not hashed)
+        quick = ("by id", spec.name, spec.raw, tuple(map(id, outputs)))
+        held = memo.get(quick)
+        if held is not None and held[0] == outputs:  # (the same objects: compared by identity at once)
+            calls.append((held[1][0], len(outputs)))
+            continue
         key = (spec.name, spec.raw, outputs)
         found = memo.get(key)
         if found is None:
@@ -486,6 +531,7 @@ def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tu
             name = block_name(spec.name, text)
             found = memo[key] = (name, text.replace("def _block_(", f"def {name}(", 1))
             named[name] = found[1]
+        memo[quick] = (outputs, found)  # (the outputs held: their ids stay theirs)
         calls.append((found[0], len(outputs)))
     return spec.name, composed_source(spec, calls, model.library.print_memo)
 
@@ -809,14 +855,17 @@ class CompiledMode:
             return None
         if self._conjunctions is None:
             comparisons, ops, owners = [], [], []
+            kept = self.model.library.conjunctions  # (a guard's entry is shared by a scene's modes)
             for g, guard in enumerate(self.guards):
-                tree = guard["tree"]
-                leaves = (tree,) if tree[0] == "rel" else tree[1] if tree[0] == "and" else ()
-                if leaves and all(leaf[0] == "rel" for leaf in leaves):
-                    for leaf in leaves:
-                        comparisons.append(leaf[1])
-                        ops.append(decision.OPS[leaf[2]])
-                        owners.append(g)
+                found = kept.get(id(guard))
+                if found is None or found[0] is not guard:
+                    if len(kept) >= GUARD_ENTRIES_KEPT:
+                        kept.clear()
+                    found = kept[id(guard)] = (guard, *_conjunction(guard["tree"]))  # (the entry held)
+                if found[1]:
+                    comparisons += found[1]
+                    ops += found[2]
+                    owners += [g] * len(found[1])
             k = np.array(comparisons, dtype=np.intp)
             self._conjunctions = (3 * k, np.array(ops, dtype=np.intp), np.array(owners, dtype=np.intp))
         start, ops, owners = self._conjunctions

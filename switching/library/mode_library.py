@@ -148,8 +148,21 @@ class ModeLibrary:
         guard comparison → its text.
     ``guard_trees``
         guard condition → (its tree, its comparisons) (:meth:`guard_tree`).
+    ``guard_entries``, ``guard_entries_by_form``
+        a guard's ``META`` entry and comparisons (:func:`~switching.library.compiled._mode_guards`), by its
+        transition and condition, and (a bounded number) by its shared guard form.
+    ``conjunctions``
+        a guard's ``META`` entry → the comparisons of its conjunction (:meth:`CompiledMode.maybe_holding
+        <switching.library.compiled.CompiledMode.maybe_holding>`), a bounded number.
+    ``guard_forms``
+        (automaton, state, its transitions' count) → the :class:`~switching.model.modes.GuardForm` of the
+        transitions leaving it, where they are the same in every mode (:meth:`ModeEquations._guard_forms
+        <switching.model.modes.ModeEquations._guard_forms>`).
+    ``triple_memo``, ``triple_by_id``
+        guard comparison reading no rate → its triple of :func:`~switching.library.compiled.comparison_triples`
+        (the same in every mode), by value and (a bounded number) by the object.
     ``side_block_sources``
-        (raw?, outputs) of a block of guard sides → (function name, source).
+        (raw?, outputs) of a block of guard sides → (function name, source); also by the outputs' objects.
     ``side_block_functions``
         name of a block of guard sides or rates → its compiled function (shared by the modes).
     ``block_texts``
@@ -188,8 +201,12 @@ class ModeLibrary:
         #: (ids of a guard's transition and condition) → its META entries and comparisons
         #: (:func:`switching.library.compiled._mode_guards`)
         self.guard_entries: dict = {}
+        self.guard_entries_by_form: dict = {}
+        self.conjunctions: dict = {}
         #: guard comparison → (left, right, round-off scale) of its finite sides, where they read no rate
         self.triple_memo: dict = {}
+        self.triple_by_id: dict = {}
+        self.guard_forms: dict = {}
         self.side_block_sources: dict = {}
         self.side_block_functions: dict = {}
         #: name of a block function (guard sides, rates) → its text; and the names stored in the disk cache

@@ -123,15 +123,20 @@ class ModeSpace:
     def guards_from(self, mode: Mode) -> list:
         """(automaton, transition, condition, text) of every transition leaving ``mode``."""
         out = []
-        leaving = self._leaving
         for automaton, state in zip(self.automata, mode.states):
-            key = (automaton.name, state, len(automaton.transitions))
-            found = leaving.get(key)
-            if found is None:  # (kept per automaton state: a scene's modes repeat a thousand of them)
-                found = leaving[key] = [(automaton.name, tr, *self.guards[(automaton.name, tr)])
-                                        for tr in automaton.transitions_from(state)]
-            out += found
+            out += self.leaving(automaton, state)[1]
         return out
+
+    def leaving(self, automaton, state: str) -> tuple:
+        """``(key, entries)``: :meth:`guards_from`'s entries of the transitions leaving ``state`` of
+        ``automaton``, kept under ``key`` (a scene's modes repeat a thousand of them; the same list
+        while the automaton has the same transitions)."""
+        key = (automaton.name, state, len(automaton.transitions))
+        found = self._leaving.get(key)
+        if found is None:
+            found = self._leaving[key] = (key, [(automaton.name, tr, *self.guards[(automaton.name, tr)])
+                                                for tr in automaton.transitions_from(state)])
+        return found
 
 
 def _words_on_off(automaton) -> bool:

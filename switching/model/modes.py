@@ -160,14 +160,38 @@ class ModeEquations:
         self.__dict__.pop("_bond_values", None)  # (made again from these equations when first needed)
         #: ``dx/dt`` with the branches of sliding law switches still free (``f`` in other modes)
         self.free_rates = self.free_rates or self.equations.rates
-        self.guards = [
-            GuardForm(auto, tr, self.to_raw(cond), text)
-            for auto, tr, cond, text in model.guards_from(mode)
-        ]
+        self.guards = self._guard_forms()
         self._signals: dict[str, SignalForm] = {}
         self._numeric_f = None
 
     # ------------------------------------------------------------ symbolic
+
+    def _guard_forms(self) -> list:
+        """A :class:`GuardForm` of every transition leaving the mode.  The forms of an automaton state
+        whose conditions read no bond, rate or signal taken in another mode are the same in every mode
+        whose automaton states set none of their symbols: kept by the library and shared (a scene's
+        modes hold a thousand contacts' guards)."""
+        space, kept, values = self.model.mode_space, self.model.library.guard_forms, self.values
+        forms: list = []
+        for automaton, state in zip(space.automata, self.mode.states):
+            key, entries = space.leaving(automaton, state)
+            found = kept.get(key)
+            if found is not None and found[0] is entries and (not values or values.keys().isdisjoint(found[2])):
+                forms += found[1]
+                continue
+            group = [GuardForm(auto, tr, self.to_raw(cond), text) for auto, tr, cond, text in entries]
+            if all(self._as_written(cond) for _, _, cond, _ in entries):
+                free = frozenset().union(*(self.model.library.symbols_of(cond)[0] for _, _, cond, _ in entries))
+                if not values or values.keys().isdisjoint(free):  # (as written here too: the forms of every such mode)
+                    kept[key] = (entries, group, free)  # (the entries held: the same list while they are kept)
+            forms += group
+        return forms
+
+    def _as_written(self, expr) -> bool:
+        """Does :meth:`to_raw` leave ``expr`` as it is in every mode whose automaton states set none of its
+        symbols (it reads no bond, no law switch's rate, no signal taken in another mode)?"""
+        free, has_rates = self.model.library.symbols_of(expr)
+        return not (has_rates or self.model.cross_signals) and self._bond_symbols().isdisjoint(free)
 
     @functools.cached_property
     def _bond_values(self) -> dict:

@@ -14,6 +14,7 @@ guard sides per flow started.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -48,18 +49,19 @@ def _parameters_read(model, expr) -> str:
     return f"; it reads {text}"
 
 
-#: the sides' arguments (:func:`_sides_key`) where every side was finite lately: the last kept
-_FINITE_SIDES: dict = {}
+#: per compiled mode (held weakly: a mode and its model go when they are dropped), the sides' arguments
+#: (:func:`_sides_key`) where every side was finite lately: the last kept of each
+_FINITE_SIDES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _FINITE_SIDES_KEPT = 64
 
 
 def _sides_key(cm, x, t) -> tuple:
-    """Everything ``cm.sides(x, t)`` reads: the mode's generated function (held, with the mode, by the
-    key), the state (its type and bits), the time [s], the parameters and the inputs at ``t`` of the
-    mode's model, to the bit (``-0.0`` is not ``0.0``).  A loop of runs from the same state with other
-    tolerances, ends or outputs (a tolerance study) evaluates the start's sides once."""
+    """Everything ``cm.sides(x, t)`` reads besides its mode: the mode's generated function, the state
+    (its type and bits), the time [s], the parameters and the inputs at ``t`` of the mode's model, to
+    the bit (``-0.0`` is not ``0.0``).  A loop of runs from the same state with other tolerances, ends or
+    outputs (a tolerance study) evaluates the start's sides once."""
     model = cm.model
-    return (cm, cm._sides, type(x), np.asarray(x, dtype=float).tobytes(), float(t).hex(),
+    return (cm._sides, type(x), np.asarray(x, dtype=float).tobytes(), float(t).hex(),
             model.parameter_array.tobytes(), tuple(float(u).hex() for u in model.input_values(t)))
 
 
@@ -71,14 +73,14 @@ def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str |
     ``atol``): where all are finite there is nothing to tell either way."""
     if not cm.n_sides:
         return None
-    key = _sides_key(cm, x, t)
-    if key in _FINITE_SIDES:
+    key, finite = _sides_key(cm, x, t), _FINITE_SIDES.get(cm)
+    if finite is not None and key in finite:
         return None
     sides = cm.sides(x, t)
     if all(map(math.isfinite, np.asarray(sides, dtype=float).tolist())):
-        if len(_FINITE_SIDES) >= _FINITE_SIDES_KEPT:
-            _FINITE_SIDES.clear()
-        _FINITE_SIDES[key] = True
+        if finite is None or len(finite) >= _FINITE_SIDES_KEPT:
+            finite = _FINITE_SIDES[cm] = set()
+        finite.add(key)
         return None
     if any(decide_tree(g["tree"], sides, rtol, atol) for g in cm.guards):
         return None
