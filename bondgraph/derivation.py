@@ -25,8 +25,9 @@ class Derivations:
         self.entries.clear()
 
     def per_configuration(self, kind: str, config: dict, compute):
-        """``compute(config)`` kept under ``kind`` for the (normalised) configuration ``config``."""
-        key = (kind, tuple(sorted(config.items())))
+        """``compute(config)`` kept under ``kind`` for the normalised configuration ``config``
+        (:meth:`bondgraph.BondGraph.configuration`: every controlled junction, in the graph's order)."""
+        key = (kind, tuple(config.items()))
         if key not in self.entries:
             self.entries[key] = compute(config)
         return self.entries[key]

@@ -525,9 +525,12 @@ class BondGraph:
 
         Junctions not mentioned are on.  Unknown or uncontrolled names raise.
         """
+        controlled = self.controlled_junctions
+        if not on and type(config) is dict and len(config) == len(controlled) and list(config) == list(controlled) \
+                and all(type(value) is bool for value in config.values()):
+            return dict(config)  # (normalised already: a scene's modes ask again and again, each of a thousand)
         merged = dict(config or {})
         merged.update(on)
-        controlled = self.controlled_junctions
         known = self.derived.memo("controlled junction set", lambda: frozenset(controlled))
         for name, value in merged.items():
             if name in known and isinstance(value, (bool, int)):

@@ -333,6 +333,14 @@ def _guard_entry(library, kept: dict, automaton_index: dict, guard) -> tuple:
     return found
 
 
+def _in_order(values: dict, states: list) -> tuple:
+    """``values[s]`` of each of ``states`` in turn: the dictionary's own order where it is theirs (the same
+    objects, compared at once: a scene's thousand states not hashed again)."""
+    if len(values) == len(states) and list(values) == states:
+        return tuple(values.values())
+    return tuple(values[s] for s in states)
+
+
 def _conjunction(tree) -> tuple:
     """``(comparisons, operators)`` of a guard tree that is one comparison or a conjunction of comparisons
     (the numbers of its comparisons, :data:`codegen.decision.OPS` of their operators), else ``((), ())``."""
@@ -402,7 +410,7 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
                      f"Dependent states of {where} (x_d = phi(x_i, t)).",
                      tuple(model.state_names[model.state_index[s]] for s in dependent),
                      **shaped("x_d, the states at x[k] for k in META['dependent'], in that order")),
-        FunctionSpec("rates", base_args, tuple(me.f[s] for s in states), f"dx/dt in {where}.",
+        FunctionSpec("rates", base_args, _in_order(me.f, states), f"dx/dt in {where}.",
                      model.state_names, **shaped("dx/dt of every state, in the order of x")),
         FunctionSpec("sides", base_args, tuple(finite_sides),
                      f"Guard comparison sides in {where} (finite) with their round-off scales.", triple_names,
@@ -413,7 +421,7 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
                      **shaped("left and right side of guard comparison k at [2k], [2k + 1]")),
     ]
     if jump_kind == "symbolic":
-        specs.append(FunctionSpec("jump", base_args, tuple(g[s] for s in states),
+        specs.append(FunctionSpec("jump", base_args, _in_order(g, states),
                                   f"x+ = g(x) into {where}.", model.state_names, copy_of="x",
                                   **shaped("x+, in the order of x")))
     blocks = _side_blocks(spans) if large else None
