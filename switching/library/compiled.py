@@ -215,7 +215,13 @@ def comparison_triples(me, relations) -> list:
     edges of a PWM carrier ``acos(cos(2·pi·f·t − pi·D))/pi`` (``R ≈ 12·f·t``,
     slope ``2·f``) would lag ``6·rtol·t``, 6e-12 s after 1e5 periods of
     10 kHz instead of the round-off of ``k/f``."""
-    triples = []
+    return _triples(me, relations)[0]
+
+
+def _triples(me, relations) -> tuple:
+    """``(triples, plain)``: :func:`comparison_triples` of ``relations``, and whether every triple is the
+    same in every mode (it reads no rate)."""
+    triples, plain = [], True
     model = me.model
     memo, scales = model.library.roundoff_memo, model.library.scale_memo
     kept = model.library.triple_memo  # comparison → its triple, where it reads no rate (the same in every mode)
@@ -244,8 +250,10 @@ def comparison_triples(me, relations) -> list:
         if left is rel.lhs and right is rel.rhs:  # (no rate substituted: the mode did not enter)
             kept[rel] = (left, right, scale)
             _keep_by_id(by_id, rel, kept[rel])
+        else:
+            plain = False
         triples += [left, right, scale]
-    return triples
+    return triples, plain
 
 
 def _keep_by_id(by_id: dict, rel, triple) -> None:
@@ -285,10 +293,15 @@ def _mode_guards(model, me) -> tuple:
     and condition, the same objects in every mode where the condition reads no bond of the mode) and
     offset of its comparisons: a scene's modes repeat nearly all their thousand guards, and printing
     and building them again was a fifth of a mode's generation."""
+    return _guards_at(model, me.guards, 0)
+
+
+def _guards_at(model, forms: list, offset: int) -> tuple:
+    """:func:`_mode_guards` of the guard ``forms`` whose first comparison is number ``offset``."""
     library = model.library
     kept, automaton_index, by_form = library.guard_entries, model.automaton_index, library.guard_entries_by_form
     guards, texts, relations, raw_sides, spans = [], [], [], [], []
-    for guard in me.guards:
+    for guard in forms:
         held = by_form.get(id(guard))  # (a guard form shared by the modes: ModeEquations._guard_forms)
         if held is not None and held[0] is guard:
             found = held[1]
@@ -297,7 +310,7 @@ def _mode_guards(model, me) -> tuple:
             if len(by_form) >= GUARD_ENTRIES_KEPT:
                 by_form.clear()
             by_form[id(guard)] = (guard, found)  # (the form held: its id stays its own)
-        start = len(relations)
+        start = offset + len(relations)
         shifted = found[6].get(start)
         if shifted is None:
             entry = found[3] if not start else {**found[3], "tree": shifted_tree(found[3]["tree"], start)}
@@ -308,8 +321,40 @@ def _mode_guards(model, me) -> tuple:
         texts.append(shifted[1])
         relations.extend(found[4])
         raw_sides.extend(found[5])
-        spans.append((found[7], start, len(relations)))
+        spans.append((found[7], start, offset + len(relations)))
     return guards, texts, relations, raw_sides, spans
+
+
+def _mode_comparisons(model, me) -> tuple:
+    """``(guards, their reprs, comparisons, raw sides, spans, finite sides)``: :func:`_mode_guards` and
+    :func:`comparison_triples` of a mode, a block of :data:`SIDE_BLOCK_AUTOMATA` automata at a time.  A
+    block's guard forms shared by the modes (``me.guard_starts``: where each automaton's forms begin) at
+    the same first comparison give the same results, kept by the library (a bounded number) where their
+    triples read no rate: a mode of a scene looks at each block once, not at each of its thousand guards."""
+    starts = getattr(me, "guard_starts", None)
+    if starts is None:
+        guards, texts, relations, raw_sides, spans = _mode_guards(model, me)
+        return guards, texts, relations, raw_sides, spans, comparison_triples(me, relations)
+    memo, count = model.library.guard_blocks, len(starts) - 1
+    results: tuple = ([], [], [], [], [], [])
+    for first in range(0, count, SIDE_BLOCK_AUTOMATA):
+        low, high = starts[first], starts[min(first + SIDE_BLOCK_AUTOMATA, count)]
+        if low == high:
+            continue
+        forms, offset = me.guards[low:high], len(results[2])
+        key = (tuple(map(id, forms)), offset)
+        found = memo.get(key)
+        if found is None or found[0] != forms:  # (the same objects: compared by identity at once)
+            block = _guards_at(model, forms, offset)
+            triples, plain = _triples(me, block[2])
+            found = (forms, (*block, triples))
+            if plain:
+                if len(memo) >= GUARD_ENTRIES_KEPT:
+                    memo.clear()
+                memo[key] = found  # (the forms held: their ids stay theirs)
+        for whole, part in zip(results, found[1]):
+            whole += part
+    return results
 
 
 def _guard_entry(library, kept: dict, automaton_index: dict, guard) -> tuple:
@@ -391,8 +436,7 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     label = me.mode.describe()
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
-    guards, guard_texts, relations, raw_sides, spans = _mode_guards(model, me)
-    finite_sides = comparison_triples(me, relations)
+    guards, guard_texts, relations, raw_sides, spans, finite_sides = _mode_comparisons(model, me)
     large = len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA  # a scene: no per-entry lists, rates in blocks
     if large:  # (the docstrings state the arrays' shapes; the module's docstring names the mode)
         side_names = triple_names = ()

@@ -154,6 +154,9 @@ class ModeLibrary:
     ``conjunctions``
         a guard's ``META`` entry → the comparisons of its conjunction (:meth:`CompiledMode.maybe_holding
         <switching.library.compiled.CompiledMode.maybe_holding>`), a bounded number.
+    ``guard_blocks``
+        (the guard forms of a block of automata, its first comparison) → their ``META`` entries,
+        comparisons and triples (:func:`~switching.library.compiled._mode_comparisons`), a bounded number.
     ``guard_forms``
         (automaton, state, its transitions' count) → the :class:`~switching.model.modes.GuardForm` of the
         transitions leaving it, where they are the same in every mode (:meth:`ModeEquations._guard_forms
@@ -203,6 +206,7 @@ class ModeLibrary:
         self.guard_entries: dict = {}
         self.guard_entries_by_form: dict = {}
         self.conjunctions: dict = {}
+        self.guard_blocks: dict = {}
         #: guard comparison → (left, right, round-off scale) of its finite sides, where they read no rate
         self.triple_memo: dict = {}
         self.triple_by_id: dict = {}

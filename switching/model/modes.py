@@ -173,7 +173,11 @@ class ModeEquations:
         modes hold a thousand contacts' guards)."""
         space, kept, values = self.model.mode_space, self.model.library.guard_forms, self.values
         forms: list = []
+        #: where each automaton's forms begin in :attr:`guards` (and the end): the generated module takes
+        #: them a block of automata at a time
+        self.guard_starts = starts = []
         for automaton, state in zip(space.automata, self.mode.states):
+            starts.append(len(forms))
             key, entries = space.leaving(automaton, state)
             found = kept.get(key)
             if found is not None and found[0] is entries and (not values or values.keys().isdisjoint(found[2])):
@@ -185,6 +189,7 @@ class ModeEquations:
                 if not values or values.keys().isdisjoint(free):  # (as written here too: the forms of every such mode)
                     kept[key] = (entries, group, free)  # (the entries held: the same list while they are kept)
             forms += group
+        starts.append(len(forms))
         return forms
 
     def _as_written(self, expr) -> bool:
