@@ -246,3 +246,68 @@ def test_the_guard_entries_a_library_keeps_are_bounded(monkeypatch, tmp_path):
     fresh = boost_converter.build()
     fresh.cache = SourceCache(tmp_path / "b")
     np.testing.assert_array_equal(fresh.simulate(1e-4, "RK45", rtol=1e-8).x, run.x)
+
+
+def test_a_mode_derived_after_many_others_is_the_mode_derived_alone(tmp_path):
+    """What a scene's modes share (guard forms, entries and blocks of automata, island pieces, comparison
+    triples, merged islands read lazily) leaves each mode as it is: a mode derived after a run of
+    pinnacles has the META, guards and numbers (rates, guard sides, jump, to the bit) of the mode derived
+    first in a fresh model.  (The names of the generated temporaries may differ: the print memo names
+    them in the order it meets them.)"""
+    model = ball_chain.build(N=40, e=1.0)
+    model.cache = SourceCache(tmp_path / "warm")
+    model.max_steps_per_instant = 1000
+    model.simulate(1.0, "RK45", rtol=1e-9)  # (the pinnacles: every contact colliding in turn)
+    assert model.derivation_count >= 40
+    x = np.random.default_rng(46).normal(size=len(model.states))
+    for k, mode in enumerate(model.derived_modes[::7]):
+        fresh = ball_chain.build(N=40, e=1.0)
+        fresh.cache = SourceCache(tmp_path / f"cold{k}")
+        alone, after = fresh.compiled_mode(mode), model.compiled_mode(mode)
+        assert alone.meta == after.meta, mode.describe()
+        np.testing.assert_array_equal(alone.rates(x, 0.3), after.rates(x, 0.3))
+        np.testing.assert_array_equal(alone.sides(x, 0.3), after.sides(x, 0.3))
+        if alone.jump_kind == "symbolic":
+            np.testing.assert_array_equal(alone.jump(x, 0.3), after.jump(x, 0.3))
+        assert model.mode_equations(mode).guards == fresh.mode_equations(mode).guards
+
+
+def test_the_modes_of_a_scene_share_the_guard_forms_of_automata_states_they_share(tmp_path):
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    first, second = model.mode_equations(model.initial_mode), model.mode_equations(mode)
+    changed = [k for k, (a, b) in enumerate(zip(first.guards, second.guards)) if a is not b]
+    assert len(changed) == 1 and first.guards[changed[0]].automaton == second.mode.automata[20]
+    assert second.guard_starts == list(range(len(second.guards) + 1))  # (one transition leaves each state)
+
+
+def test_an_instant_pauses_the_cyclic_collector_and_leaves_it_as_it_was(monkeypatch):
+    """The modes an instant derives are one block for the cyclic garbage collector: off while it is
+    resolved, on again after it if it was on (and left off if the caller had it off)."""
+    import gc
+
+    import switching.simulate.resolution as resolution
+    from models import bouncing_ball
+    from switching.library.collection import collection_paused
+
+    model = bouncing_ball.build()
+    seen = []
+    evaluate = resolution.evaluate_guards
+
+    def watched(*args, **kwargs):  # (between the modes' derivations)
+        seen.append(gc.isenabled())
+        return evaluate(*args, **kwargs)
+
+    monkeypatch.setattr(resolution, "evaluate_guards", watched)
+    was = gc.isenabled()
+    try:
+        for enabled in (True, False):
+            (gc.enable if enabled else gc.disable)()
+            model.resolve(np.array([0.0, -1.0]), model.initial_mode, 0.5)
+            assert gc.isenabled() is enabled
+        with collection_paused():
+            with collection_paused():
+                assert not gc.isenabled()
+            assert not gc.isenabled()
+    finally:
+        (gc.enable if was else gc.disable)()
+    assert seen and not any(seen)
