@@ -256,10 +256,8 @@ class BondGraph:
         if sign not in (1, -1):
             raise InvalidGraphError(f"displacement {name!r}: sign must be +1 or -1, not {sign!r}")
         symbol = sp.Symbol(name)
-        if symbol in self.displacements or any(  # (names first: a scene declares a thousand displacements)
-            isinstance(e, Storage) and getattr(e.state, "name", None) == name and e.state == symbol
-            for e in self.elements.values()
-        ):
+        if symbol in self.displacements or any(isinstance(e, Storage) and getattr(e.state, "name", None) == name
+                                               and e.state == symbol for e in self.elements.values()):  # (names first)
             raise DuplicateNameError(f"a state named {name!r} already exists", name)
         bond, orientation = self._bond_for_displacement(of, name)
         self.displacements[symbol] = Displacement(symbol, bond, sign * orientation)
@@ -525,12 +523,9 @@ class BondGraph:
 
         Junctions not mentioned are on.  Unknown or uncontrolled names raise.
         """
-        controlled = self.controlled_junctions
-        if not on and type(config) is dict and len(config) == len(controlled) and list(config) == list(controlled) \
-                and all(type(value) is bool for value in config.values()):
-            return dict(config)  # (normalised already: a scene's modes ask again and again, each of a thousand)
         merged = dict(config or {})
         merged.update(on)
+        controlled = self.controlled_junctions
         known = self.derived.memo("controlled junction set", lambda: frozenset(controlled))
         for name, value in merged.items():
             if name in known and isinstance(value, (bool, int)):
@@ -548,7 +543,7 @@ class BondGraph:
         return {name: bool(merged.get(name, True)) for name in controlled}
 
     def _cached(self, kind: str, config, compute):
-        return self.derived.per_configuration(kind, self.configuration(config), compute)
+        return self.derived.per_configuration(kind, _normalised(self, config), compute)
 
     def open_view(self, port_causality: Mapping[str, str] | None = None) -> "BondGraph":
         """The graph as derived on its own: every declared port left **open**.
@@ -687,3 +682,14 @@ class BondGraph:
 
     def __repr__(self) -> str:
         return f"BondGraph({self.name!r}, {len(self.elements)} elements, {len(self.bonds)} bonds)"
+
+
+def _normalised(graph: BondGraph, config) -> dict:
+    """:meth:`BondGraph.configuration` of ``config``: a copy where it is normalised already (a dict of every
+    controlled junction, in the graph's order, to a bool: a scene's mode asks four times, each of a
+    thousand junctions), else normalised now."""
+    controlled = graph.controlled_junctions
+    if type(config) is dict and len(config) == len(controlled) and list(config) == list(controlled) \
+            and all(type(value) is bool for value in config.values()):
+        return dict(config)
+    return graph.configuration(config)

@@ -295,8 +295,14 @@ class ModeTimes:
 
     def __init__(self, start, flows: list, end=None):
         self.start, self.flows, self.end = start, flows, end
+        self._made = None
 
     def __call__(self) -> dict:
+        if self._made is None:
+            self._made = self._summed()
+        return self._made
+
+    def _summed(self) -> dict:
         mode_time, boundary = {}, self.start
         for times, numbers, modes in self.flows:
             for t, number in zip(times, numbers):

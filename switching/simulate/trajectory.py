@@ -176,9 +176,10 @@ class Trajectory:
         self.sensitivities = None
 
     def __getstate__(self):
-        self._counted_mode_time()
         state = dict(self.__dict__)
         state["model"] = None
+        if callable(self._mode_time):  # (made now: it is made from the run's records)
+            state["_mode_time"] = self._mode_time()
         state.pop("_numbers", None)  # (keyed by the list's id: made again after unpickling)
         return state
 
@@ -400,19 +401,14 @@ class Trajectory:
     def time_in_modes(self) -> dict:
         """Total time spent flowing in each mode [s], as the run counted it
         (exact whatever samples were kept), else from the samples."""
-        if self._counted_mode_time() is not None:
-            return {mode: spent for mode, spent in self._mode_time.items() if spent > 0}
+        counted = self._mode_time() if callable(self._mode_time) else self._mode_time
+        if counted is not None:
+            return {mode: spent for mode, spent in counted.items() if spent > 0}
         spent: Counter = Counter()
         for k in range(len(self.t) - 1):
             if self.modes[k] == self.modes[k + 1]:
                 spent[self.modes[k]] += self.t[k + 1] - self.t[k]
         return dict(spent)
-
-    def _counted_mode_time(self) -> dict | None:
-        """The run's count of the time in each mode (made now if it was left to be made when asked)."""
-        if callable(self._mode_time):
-            self._mode_time = self._mode_time()
-        return self._mode_time
 
     def summary(self) -> str:
         """Modes visited, time in each, event count, mythical modes passed."""
