@@ -24,7 +24,9 @@ graph's own order of elements and bonds; the results are merged back into
 one :class:`~bondgraph.causality.Causality` and one
 :class:`~bondgraph.equations.ConfigurationEquations` with the very
 expressions a derivation of the whole graph gives (``tests/bondgraph/test_islands.py``
-compares them over many configurations of the shipped models).
+compares them over many configurations of the shipped models).  The fields a
+mode of a scene hardly reads — every bond's effort and flow, the implicit
+rates, the causal relations and assignment — are merged when first read.
 """
 
 from __future__ import annotations

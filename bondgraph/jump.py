@@ -149,7 +149,9 @@ def derive_jump_map(graph, equations, law: str = "conservation") -> JumpMap:
     constrained = set().union(*(constraints[d].free_symbols for d in dependent))
     candidates = {x for x in constrained if x in storage}  # (few: a scene's other states are not asked about)
     reached = _reached_by_impulses(equations, graph, candidates)
-    participating = tuple(x for x in equations.independent if x in candidates and x in reached)
+    # (in the order of the independent states, which is the graph's: a scene's thousand are not looked through)
+    places = graph.derived.memo("state places", lambda: {s: k for k, s in enumerate(graph.states)})
+    participating = tuple(sorted((x for x in candidates if x in reached), key=places.__getitem__))
     phi = sp.Matrix([constraints[d] for d in dependent])
     K = phi.jacobian(list(participating)) if participating else sp.zeros(len(dependent), 0)
     metrics = {x: _metric(storage[x], x) for x in (*participating, *dependent)}
