@@ -228,9 +228,9 @@ def _triples(me, relations) -> tuple:
     clock = None
     by_id = model.library.triple_by_id  # (the same, by the object held with it: a scene's thousand not hashed)
     for rel in relations:
-        found = by_id.get(id(rel))
-        if found is not None and found[0] is rel:
-            triples += found[1]
+        found = _found_by_id(by_id, rel)
+        if found is not None:
+            triples += found
             continue
         found = kept.get(rel)
         if found is not None:
@@ -256,12 +256,21 @@ def _triples(me, relations) -> tuple:
     return triples, plain
 
 
-def _keep_by_id(by_id: dict, rel, triple) -> None:
-    """``triple`` kept for the object ``rel`` (held, so that its id stays its own); at most
-    :data:`GUARD_ENTRIES_KEPT` of them (a comparison reading a bond is a new object in every mode)."""
+def _found_by_id(by_id: dict, obj):
+    """What ``by_id`` keeps for the object ``obj`` (:func:`_keep_by_id`), or ``None``."""
+    found = by_id.get(id(obj))
+    return found[1] if found is not None and found[0] is obj else None
+
+
+def _keep_by_id(by_id: dict, obj, value):
+    """``value`` kept for the object ``obj`` (held, so that its id stays its own; found again without
+    hashing it: a scene's thousands of expressions and entries), at most :data:`GUARD_ENTRIES_KEPT` of
+    them (an object made anew in every mode, a comparison reading a bond, is never met again); returns
+    ``value``."""
     if len(by_id) >= GUARD_ENTRIES_KEPT:
         by_id.clear()
-    by_id[id(rel)] = (rel, triple)
+    by_id[id(obj)] = (obj, value)
+    return value
 
 
 def generate_mode_source(model, me) -> str:
@@ -302,14 +311,9 @@ def _guards_at(model, forms: list, offset: int) -> tuple:
     kept, automaton_index, by_form = library.guard_entries, model.automaton_index, library.guard_entries_by_form
     guards, texts, relations, raw_sides, spans = [], [], [], [], []
     for guard in forms:
-        held = by_form.get(id(guard))  # (a guard form shared by the modes: ModeEquations._guard_forms)
-        if held is not None and held[0] is guard:
-            found = held[1]
-        else:
-            found = _guard_entry(library, kept, automaton_index, guard)
-            if len(by_form) >= GUARD_ENTRIES_KEPT:
-                by_form.clear()
-            by_form[id(guard)] = (guard, found)  # (the form held: its id stays its own)
+        found = _found_by_id(by_form, guard)  # (a guard form shared by the modes: ModeEquations._guard_forms)
+        if found is None:
+            found = _keep_by_id(by_form, guard, _guard_entry(library, kept, automaton_index, guard))
         start = offset + len(relations)
         shifted = found[6].get(start)
         if shifted is None:
@@ -909,15 +913,13 @@ class CompiledMode:
             comparisons, ops, owners = [], [], []
             kept = self.model.library.conjunctions  # (a guard's entry is shared by a scene's modes)
             for g, guard in enumerate(self.guards):
-                found = kept.get(id(guard))
-                if found is None or found[0] is not guard:
-                    if len(kept) >= GUARD_ENTRIES_KEPT:
-                        kept.clear()
-                    found = kept[id(guard)] = (guard, *_conjunction(guard["tree"]))  # (the entry held)
-                if found[1]:
-                    comparisons += found[1]
-                    ops += found[2]
-                    owners += [g] * len(found[1])
+                found = _found_by_id(kept, guard)
+                if found is None:
+                    found = _keep_by_id(kept, guard, _conjunction(guard["tree"]))
+                if found[0]:
+                    comparisons += found[0]
+                    ops += found[1]
+                    owners += [g] * len(found[0])
             k = np.array(comparisons, dtype=np.intp)
             self._conjunctions = (3 * k, np.array(ops, dtype=np.intp), np.array(owners, dtype=np.intp))
         start, ops, owners = self._conjunctions
