@@ -1083,24 +1083,21 @@ class KernelResult:
                            self.n_events if pairs else 0, lead, kind, before, after)
 
     def event_columns(self) -> tuple:
-        """``(times [s], mode numbers before, mode numbers after, x_before, x_after)`` of the events, in
-        order: lists, then the states (E, n) just before and just after each, views of one new array
-        (copied from the reused buffers: the caller's own)."""
-        n, e = self._out_x.shape[1], self.n_events
+        """``(times [s], mode numbers before, mode numbers after, states)`` of the events, in order: lists,
+        then the rows ``(t, x_before, x_after)`` (E, 1 + 2n), copied from the reused buffers (the caller's own)."""
+        e = self.n_events
         states, numbers = self._ev_f[:e].copy(), self._ev_i[:e]
-        return (states[:, 0].tolist(), numbers[:, 0].tolist(), numbers[:, 1].tolist(), states[:, 1:1 + n],
-                states[:, 1 + n:])
+        return states[:, 0].tolist(), numbers[:, 0].tolist(), numbers[:, 1].tolist(), states
 
     def steps_before(self, event: int) -> int:
         """The steps this call took before its event number ``event`` (the step that found it included)."""
         return int(self._ev_i[event, 3])
 
     def events(self):
-        """(samples saved before it, t, mode before, x before, mode after, x after) of each event (copies)."""
+        """(samples saved before it, t, mode before, mode after, the events' rows, its row) of each event: the
+        rows ``(t, x_before, x_after)`` (E, 1 + 2n) one copy of the reused buffer for all of them."""
         modes = self.compiled.modes
-        n = self._out_x.shape[1]
+        states = self._ev_f[:self.n_events].copy()
         for j in range(self.n_events):
-            row = self._ev_f[j]
             mode_before, mode_after, at = self._ev_i[j, :3]
-            yield (int(at), float(row[0]), modes[mode_before], row[1:1 + n].copy(), modes[mode_after],
-                   row[1 + n:].copy())
+            yield int(at), float(states[j, 0]), modes[mode_before], modes[mode_after], states, j

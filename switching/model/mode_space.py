@@ -25,6 +25,7 @@ class ModeSpace:
         self.names = tuple(a.name for a in self.automata)
         self.guards = guards
         self._leaving: dict = {}  # (automaton, state, its transitions' count) → guards_from's entries
+        self._modes: dict = {}  # states → the mode's one object (known_mode)
 
     def mode(self, spec) -> Mode:
         """A mode from a :class:`Mode`, a tuple of states, a mapping
@@ -50,7 +51,19 @@ class ModeSpace:
         if len(states) != len(self.automata):
             raise UnknownNameError(f"mode {spec!r} has {len(states)} state(s) but the model has "
                                    f"{len(self.automata)} automata ({', '.join(self.names)})")
-        return Mode(tuple(a.state_named(s) for a, s in zip(self.automata, states)), self.names)
+        named = tuple(a.state_named(s) for a, s in zip(self.automata, states))
+        if isinstance(spec, Mode) and named == spec.states and spec.automata == self.names:
+            return self._modes.setdefault(named, spec)
+        return self.known_mode(named)
+
+    def known_mode(self, states: tuple) -> Mode:
+        """The mode of ``states`` (one per automaton, in their order, each by its own name): one object per
+        mode, so that a map keyed by modes finds its key by identity and a run holds no copies of a mode
+        (the modes met are few: each is derived)."""
+        found = self._modes.get(states)
+        if found is None:
+            found = self._modes[states] = Mode(states, self.names)
+        return found
 
     def pairs(self, text: str) -> dict:
         """``"a=s, b=t"`` (or ``"a=s|b=t"``) → ``{"a": "s", "b": "t"}``; an automaton named twice is an error."""

@@ -43,6 +43,19 @@ class Mode:
     states: tuple
     automata: tuple = field(compare=False, hash=False)
 
+    def __hash__(self) -> int:
+        # the states' hash, kept: a mode is a key of many maps, and a scene's mode holds a thousand states
+        found = self.__dict__.get("_hash")
+        if found is None:
+            found = hash(self.states)
+            object.__setattr__(self, "_hash", found)
+        return found
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_hash", None)  # (strings hash differently in another process)
+        return state
+
     @property
     def label(self) -> str:
         """The compact key of the mode in code (cache keys, tables of

@@ -16,7 +16,7 @@ from .integrators import StiffnessDetected
 from .methods import METHOD_CLASSES
 from .preflight import nonfinite_at_start
 from .recorder import REQUESTED, STATE
-from .resolution import CompiledInstant
+from .resolution import CompiledInstant, KernelInstants
 
 __all__ = ["kernel_arguments", "kernel_kind", "run_kernel"]
 
@@ -81,12 +81,12 @@ def run_kernel(model, compiled, method, mode, x, t, t_end, o, steps_left, record
             saved, at_once = result.n_saved, True
         keep = None if at_once else _keeper(recorder, dense is not None)
         if result.n_events and not at_once:
-            for j, (at, t_ev, before, x_before, after, x_after) in enumerate(result.events()):
+            for at, t_ev, before, after, states, j in result.events():
                 for sample in result.samples(saved, at):
                     keep(*sample)
                 saved = at
-                t, x, mode = t_ev, x_after, after
-                instant = CompiledInstant(model, t_ev, before, x_before, after, x_after)
+                instant = CompiledInstant(model, t_ev, before, after, states, j)
+                t, x, mode = t_ev, instant.x_after, after
                 if j == 0 and initial and result.info[2]:
                     recorder.event(instant)  # the initial instant, as in the Python path: not a Zeno candidate
                 elif after_event(instant):  # (the steps up to this instant: the kernel went on past it)
@@ -165,16 +165,9 @@ def _recorded_at_once(model, compiled, result, recorder, requested: bool, initia
     """Record a kernel call's samples (of requested times with ``requested``) and instants at once
     (:meth:`~switching.simulate.recorder.Recorder.block`) if ``instants_pass`` says its instants pass the
     run's checks (the initial instant, resolved first with ``initial``, not watched); whether it did."""
-    times, before, after, x_before, x_after = result.event_columns()
+    times, before, after, states = result.event_columns()
     if not instants_pass(times[1:] if initial and result.info[2] else times, len(times)):
         return False
-    instants = _instants_of_call(model, compiled.modes, times, before, after, x_before, x_after)
+    instants = KernelInstants(model, compiled.modes, times, before, after, states)
     recorder.block(result.rows, compiled.mode_objects(), REQUESTED if requested else STATE, instants, times, before)
     return True
-
-
-def _instants_of_call(model, modes, times, before, after, x_before, x_after) -> list:
-    """The records of a kernel call's events at ``times`` [s] from the modes numbered ``before`` (into
-    ``modes``) to those numbered ``after``, their states the rows of ``x_before`` and ``x_after`` (E, n)."""
-    return [CompiledInstant(model, t, modes[left], state_before, modes[entered], state_after)
-            for t, left, state_before, entered, state_after in zip(times, before, x_before, after, x_after)]

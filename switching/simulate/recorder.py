@@ -54,7 +54,6 @@ class Recorder:
         self.output = output
         self.keep_instants = keep_instants
         self.n_events = 0
-        self.last_instant = None
         self.boundary = None  # the time of the last instant (or the start)
         self._flows_from = None  # the boundary the flows logged start from (the start)
         self._flows: list = []  # the flows up to each instant, in order (see ModeTimes), summed when asked
@@ -199,7 +198,6 @@ class Recorder:
 
     def event(self, instant):
         self.n_events += 1
-        self.last_instant = instant
         self._flowed(instant.t, instant.mode_before)
         if not self.keep_instants:
             return
@@ -208,21 +206,22 @@ class Recorder:
         self.events.append(instant)
         self.event_index.append(self.n_rows - 1)
 
-    def block(self, merge, modes: np.ndarray, kind: int, instants: list, times: list, before: list) -> None:
+    def block(self, merge, modes: np.ndarray, kind: int, instants, times: list, before: list) -> None:
         """One kernel call's samples and instants at once, recorded as :meth:`sample` (forced; ``kind`` STATE)
         or :meth:`requested` (``kind`` REQUESTED) of each sample and :meth:`event` of each instant would
         record them, in order.  ``merge(lead, kind, before, after, pairs)`` makes the rows
         (:meth:`~switching.library.jit_model.KernelResult.rows`): ``(t, x, mode numbers into modes, kinds,
         the rows after the instants)``, ``lead`` rows left empty, then the samples, each of ``kind``, and with
-        ``pairs`` each instant's rows of kinds ``before`` and ``after`` where it falls; ``instants`` are the
-        records of its events, at ``times`` [s], from the modes numbered ``before``; ``modes``: the modes by
+        ``pairs`` each instant's rows of kinds ``before`` and ``after`` where it falls; ``instants``
+        (:class:`~switching.simulate.resolution.KernelInstants`) are its events, at ``times`` [s], from the
+        modes numbered ``before``; ``modes``: the modes by
         number, an object array (:meth:`~switching.library.jit_model.CompiledModel.mode_objects`).  The rows
         recorded one at a time since the last piece (the run's start) begin the piece it makes."""
         self.n_events += len(instants)
         if instants:
-            self.last_instant = instants[-1]
             self._flows.append((times, before, modes))
-            self.boundary = max(times) if self.boundary is None else max(self.boundary, *times)  # (as _flowed)
+            last = times[-1]  # (the latest: a call's instants come in time order)
+            self.boundary = last if self.boundary is None or last > self.boundary else self.boundary  # (as _flowed)
         pairs, lead = bool(instants) and self.keep_instants, len(self._t)
         t, x, numbers, kinds, after = merge(lead, kind, BEFORE, AFTER, pairs)
         if len(t) == lead:
@@ -231,7 +230,7 @@ class Recorder:
             t[row], x[row], kinds[row] = time, state, sort
         if pairs:
             self.event_index.extend((self._in_pieces + after if self._in_pieces else after).tolist())
-            self.events.extend(instants)
+            self.events.append(instants)  # (made records when a trajectory's events are first read)
         self._modes.extend(modes[numbers[lead:]].tolist())
         self._pieces.append((t, x, self._modes, kinds))
         self._in_pieces += len(t)

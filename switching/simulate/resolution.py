@@ -50,7 +50,7 @@ from ..model.modes import Mode
 from ..rules.instants import (CONTINUOUS, DECIDE_AS_FLOW, FIRED, FIRED_AT_TIE, JUMP_AND_DECIDE, JUMP_AT_TIE, NO_ROOM,
                               PINNACLE_REPEATS, REPEATS_IN_CHAIN, decides_as_in_flow, instant_begin, instant_next)
 
-__all__ = ["Instant", "CompiledInstant", "Step", "FiredGuard", "resolve_instant", "evaluate_guards"]
+__all__ = ["Instant", "CompiledInstant", "KernelInstants", "Step", "instants_made", "FiredGuard", "resolve_instant", "evaluate_guards"]
 
 
 @dataclass(frozen=True)
@@ -265,7 +265,7 @@ def _next_mode(model, mode: Mode, fired: list) -> Mode:
     names = list(mode.automata)
     for f in fired:
         states[names.index(f.automaton)] = f.target
-    return Mode(tuple(states), mode.automata)
+    return model.mode_space.known_mode(tuple(states))
 
 
 #: a comparison decided within this many units in the last place of its band's edge is
@@ -540,15 +540,28 @@ class CompiledInstant(Instant):
     """An instant resolved in compiled code.  Its time, modes and states are
     at hand; the steps through mythical modes and pinnacles (with the fired
     guards) are replayed in Python on first access — the resolution is
-    deterministic, so the replay passes the same modes."""
+    deterministic, so the replay passes the same modes.
+
+    ``states`` (E, 1 + 2n) holds a kernel call's events a row each, ``(t, x_before, x_after)``, and
+    this instant is its row ``row``: ``x_before`` and ``x_after`` are views of that row, made when
+    first read (a warm call records its instants without making them)."""
 
     _steps = None  # (the replayed steps once asked: an instance's own then)
 
-    def __init__(self, model, t, mode_before, x_before, mode_after, x_after):
+    def __init__(self, model, t, mode_before, mode_after, states: np.ndarray, row: int):
         self.model = model
         self.t = t
-        self._before = (mode_before, x_before)
-        self._after = (mode_after, x_after)
+        self._modes = (mode_before, mode_after)
+        self._row = (states, row)
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        state["_row"] = (np.array([self._states_row()]), 0)  # (its own row, not the call's whole block)
+        return state
+
+    def _states_row(self) -> np.ndarray:
+        states, row = self._row
+        return states[row]
 
     @property
     def steps(self) -> list:
@@ -557,22 +570,64 @@ class CompiledInstant(Instant):
                 raise HybridBondGraphError(
                     f"the steps of the instant at t = {self.t!r} (resolved in compiled code) are replayed with the "
                     "model, and this record was unpickled without it; its time, modes and states are at hand")
-            mode, x = self._before
-            self._steps = resolve_instant(self.model, x, mode, self.t, self.model.max_steps_per_instant).steps
+            self._steps = resolve_instant(self.model, self.x_before, self.mode_before, self.t,
+                                          self.model.max_steps_per_instant).steps
         return self._steps
 
     @property
     def x_before(self) -> np.ndarray:
-        return self._before[1]
+        found = self.__dict__.get("_x_before")
+        if found is None:
+            row = self._states_row()
+            found = self._x_before = row[1:1 + (len(row) - 1) // 2]
+        return found
 
     @property
     def x_after(self) -> np.ndarray:
-        return self._after[1]
+        found = self.__dict__.get("_x_after")
+        if found is None:
+            row = self._states_row()
+            found = self._x_after = row[1 + (len(row) - 1) // 2:]
+        return found
 
     @property
     def mode_before(self):
-        return self._before[0]
+        return self._modes[0]
 
     @property
     def mode_after(self):
-        return self._after[0]
+        return self._modes[1]
+
+
+class KernelInstants:
+    """The instants of one kernel call, recorded at once: made :class:`CompiledInstant` records when first
+    read (:func:`instants_made`; a run whose instants are never read, a parameter study's, makes none).
+    Instant ``k`` is at ``times[k]`` [s], from mode number ``before[k]`` to ``after[k]`` (into ``modes``),
+    its states the row ``k`` ``(t, x_before, x_after)`` of ``states`` (E, 1 + 2n)."""
+
+    __slots__ = ("model", "modes", "times", "before", "after", "states")
+
+    def __init__(self, model, modes, times: list, before: list, after: list, states: np.ndarray):
+        self.model, self.modes, self.times, self.before, self.after, self.states = \
+            model, modes, times, before, after, states
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def made(self) -> list:
+        """The records, in time order."""
+        model, modes, states = self.model, self.modes, self.states
+        return [CompiledInstant(model, t, modes[left], modes[entered], states, row)
+                for row, (t, left, entered) in enumerate(zip(self.times, self.before, self.after))]
+
+
+def instants_made(events: list) -> list:
+    """``events`` (instant records, and :class:`KernelInstants` of kernel calls) as a new list of instant
+    records in the same order."""
+    made = []
+    for event in events:
+        if type(event) is KernelInstants:
+            made += event.made()
+        else:
+            made.append(event)
+    return made

@@ -43,49 +43,14 @@ from bondgraph.errors import EnergyGainWarning, HybridBondGraphError, UnknownNam
 from .dense_rows import hermite_states, interpolable, numbered
 from .measurements import measure, spectrum
 from .plotting import DENSE_SAMPLES, plot_trajectory
+from .resolution import instants_made
+from .run_summary import ENERGY_ROUNDOFF, STEP_KINDS, summary_text  # noqa: F401 (STEP_KINDS: read from here)
 from .signal_values import element_power, power_flows, signal_values
 
 __all__ = ["Trajectory", "EnergyRecord", "InstantStates"]
 
-#: what each kind of a mode passed at an instant means (DESIGN §6), as run summaries explain it
-STEP_KINDS = {
-    "start": "the mode the instant began in",
-    "mythical": "passed through without its jump (its constraints never held)",
-    "pinnacle": "jumped into and left at once",
-    "continuous": "the mode the flow went on in",
-    "tie": "in a cycle of switches each enabled only at a tie (equality up to round-off), none of them taken",
-}
-
-#: relative round-off band of the energy ledger: a gain below this fraction of
-#: the run's stored energy at its instants is not reported
-ENERGY_ROUNDOFF = 1e-9
-
 _energy_functions: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
-
-
-def energy_figure(value: float, scale: float) -> str:
-    """An energy [J] as the summaries print it: ``0 J`` with the round-off
-    bound when ``|value|`` is within ``ENERGY_ROUNDOFF`` of ``scale`` (the
-    largest energy it was computed from), else six significant digits."""
-    bound = ENERGY_ROUNDOFF * scale
-    if abs(value) <= bound:
-        return f"0 J (within round-off, |ΔE| ≤ {bound:.1g} J)"
-    return f"{value:.6g} J"
-
-
-def _ledger_lines(ledger) -> list[str]:
-    """The summary's lines of an energy ledger: the initial projection, then the instants' total."""
-    lines = []
-    for record in ledger:
-        if record.what == "initial projection":
-            scale = max(abs(record.before), abs(record.after))
-            lines.append(f"  energy lost at the initial projection: {energy_figure(record.lost, scale)}")
-    instants = [r for r in ledger if r.what == "instant"]
-    if instants:
-        scale = max(max(abs(r.before), abs(r.after)) for r in instants)
-        lines.append(f"  energy lost at instants: {energy_figure(sum(r.lost for r in instants), scale)}")
-    return lines
 
 
 class EnergyRecord(NamedTuple):
@@ -160,7 +125,8 @@ class Trajectory:
         self.x = x if x.shape == (len(self.t), len(model.states)) else x.reshape(len(self.t), len(model.states))
         self.state_names = [s.name for s in model.states]
         self.modes = list(modes)
-        self.events = list(events)
+        #: the instants, a kernel call's made records when first read (:meth:`__getattr__`)
+        self._pending_events = list(events)
         self.event_index = list(event_index)
         self.stopped = stopped
         self.stats = dict(stats or {})
@@ -175,9 +141,18 @@ class Trajectory:
         #: :class:`switching.analysis.sensitivity.Sensitivities` of a run with ``sensitivities=[...]``, else None
         self.sensitivities = None
 
+    def __getattr__(self, name: str):
+        # (only for an attribute not set) ``events``: the instants, a kernel call's made records now
+        pending = self.__dict__.pop("_pending_events", None) if name == "events" else None
+        if pending is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        self.events = made = instants_made(pending)
+        return made
+
     def __getstate__(self):
-        state = dict(self.__dict__)
-        state["model"] = None
+        state = dict(self.__dict__, model=None)
+        if "_pending_events" in state:  # (the records made now: a kernel call's block holds the model)
+            state["events"] = instants_made(state.pop("_pending_events"))
         if callable(self._mode_time):  # (made now: it is made from the run's records)
             state["_mode_time"] = self._mode_time()
         state.pop("_numbers", None)  # (keyed by the list's id: made again after unpickling)
@@ -238,6 +213,7 @@ class Trajectory:
         position = {k: j for j, k in enumerate(rows)}
         out = object.__new__(type(self))
         out.__dict__.update(self.__dict__)
+        out.events = self.events  # (the same records)
         out.t = self.t[rows]
         out.x = self.x[rows]
         out.modes = [self.modes[k] for k in rows]
@@ -267,6 +243,7 @@ class Trajectory:
         out = object.__new__(type(self))
         out.__dict__.update(self.__dict__)
         out.__dict__.pop("_numbers", None)
+        out.events = self.events  # (the same records)
         out.t = all_t[order]
         out.x = np.concatenate([self.x, states])[order]
         modes = self.modes + [self.modes[r] for r in rows]
@@ -280,7 +257,8 @@ class Trajectory:
     @property
     def instant_count(self) -> int:
         """Instants of the run (also when ``keep_instants=False`` kept none of them)."""
-        return int(self.stats.get("instants", len(self.events)))
+        counted = self.stats.get("instants")
+        return len(self.events) if counted is None else int(counted)
 
     def state(self, name: str) -> np.ndarray:
         """The column of one state."""
@@ -411,43 +389,9 @@ class Trajectory:
         return dict(spent)
 
     def summary(self) -> str:
-        """Modes visited, time in each, event count, mythical modes passed."""
-        if not len(self.t):
-            return f"trajectory of {self.model_name!r}: no samples"
-        lines = [
-            f"trajectory of {self.model_name!r}: t = {self.t[0]:.6g} … {self.t[-1]:.6g} s, "
-            f"{len(self.t)} samples, {self.instant_count} instant{'' if self.instant_count == 1 else 's'}"
-            + ("" if self.instants_kept else " (not kept: keep_instants=False)")
-            + (f", stopped early ({self.stopped})" if self.stopped else "")
-        ]
-        spent = self.time_in_modes()
-        kinds: dict = {}
-        for instant in self.events:
-            for step in instant.steps:
-                kinds.setdefault(step.mode, Counter())[step.kind] += 1
-        modes = list(dict.fromkeys(self.modes + list(spent) + [s.mode for e in self.events for s in e.steps]))
-        width = max([len("mode")] + [len(m.describe()) for m in modes])
-        lines.append(f"  {'mode':<{width}}  {'flowed [s]':>10}  at instants")
-        for mode in modes:
-            passed = ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.get(mode, {}).items()))
-            lines.append(f"  {mode.describe():<{width}}  {spent.get(mode, 0.0):>10.4g}  {passed}")
-        seen = sorted({kind for counts in kinds.values() for kind in counts})
-        if seen:
-            lines.append("  (" + "; ".join(f"{kind}: {STEP_KINDS[kind]}" for kind in seen) + ")")
-        if self.instants_kept:
-            mythical = sum(len(e.mythical) for e in self.events)
-            pinnacles = sum(len(e.pinnacles) for e in self.events)
-            lines.append(f"  mythical modes passed: {mythical}; pinnacles: {pinnacles}")
-            if (self.events or self.initial_projection is not None) and self.model is not None:
-                try:
-                    ledger = self.energy_ledger(warn=False)
-                except HybridBondGraphError:  # a law sympy cannot integrate: no ledger
-                    ledger = None
-                if ledger is not None:
-                    lines += _ledger_lines(ledger)
-        for key, value in self.stats.items():
-            lines.append(f"  {key}: {value}")
-        return "\n".join(lines)
+        """Modes visited, time in each, event count, mythical modes passed
+        (:func:`switching.simulate.run_summary.summary_text`)."""
+        return summary_text(self)
 
     __str__ = summary
 

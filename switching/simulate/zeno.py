@@ -36,12 +36,18 @@ class ZenoWatch:
         is at least ``min_gap`` and above round-off (both are needed for Zeno): then the times are
         added, as :meth:`add` would, and True returned; else nothing changes (False: add them one by
         one, which decides).  A kernel call's instants, checked at once."""
-        previous = self.times[-1] if self.times else None
-        for t in times:
-            if previous is not None:
-                gap = t - previous
-                if not (gap >= self.min_gap and gap > 16 * math.ulp(abs(t) + 1.0)):
-                    return False
+        if not times:
+            return True
+        watched = [self.times[-1], *times] if self.times else times
+        floor = self.min_gap
+        # gaps of at least min_gap > 0 make the times increase, so |t| is largest at an end, and where
+        # min_gap is above round-off there, a gap of min_gap is above it at every time between
+        above_round_off = floor > 16 * math.ulp(max(abs(watched[0]), abs(watched[-1])) + 1.0)
+        previous = watched[0]
+        for t in watched[1:]:
+            gap = t - previous
+            if not (gap >= floor and (above_round_off or gap > 16 * math.ulp(abs(t) + 1.0))):
+                return False
             previous = t
         if times:
             self.times.extend(times)

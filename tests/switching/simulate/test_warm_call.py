@@ -125,6 +125,44 @@ def test_a_trajectory_recorded_at_once_pickles_and_keeps_its_own_arrays():
     assert [e.t for e in again.events] == [e.t for e in run.events]
 
 
+def test_a_kernel_calls_instants_are_made_records_when_first_read():
+    """A warm call leaves its kernel calls' instants unmade until ``events`` is first read; then they are
+    records equal to those of a run recorded one by one, the same records in ``take``, ``dense`` and on
+    every later read; a pickled trajectory carries the records, each with its own states; ``events`` may be
+    set (as the periodic orbits do)."""
+    RUNS["steps"]()
+    run = RUNS["steps"]()
+    assert "events" not in vars(run)
+    assert run.instant_count == 20 and "events" not in vars(run)  # (the count is the run's statistics)
+    taken = run.take(range(len(run.t)))
+    events = run.events
+    assert run.events is events and taken.events is events and run.dense(50).events is events
+    assert [type(e).__name__ for e in events] == ["CompiledInstant"] * 20
+    assert run.event_times.tolist() == [e.t for e in events]
+    again = pickle.loads(pickle.dumps(RUNS["steps"]()))  # (pickled unread)
+    assert [(e.t, e.x_before.tobytes(), e.x_after.tobytes(), e.mode_before, e.mode_after) for e in again.events] \
+        == [(e.t, e.x_before.tobytes(), e.x_after.tobytes(), e.mode_before, e.mode_after) for e in events]
+    alone = pickle.loads(pickle.dumps(events[3]))
+    assert alone.x_after.tobytes() == events[3].x_after.tobytes() and alone.t == events[3].t
+    run.events = events[:2]
+    assert len(run.events) == 2
+    assert not hasattr(run, "no_such_attribute")
+
+
+def test_a_mode_is_one_object_in_runs_and_pickles_without_its_hash():
+    """The modes a run passes are the model's one object per mode (a run holds no copies of them); a mode
+    pickles without the hash it keeps (strings hash otherwise in another process)."""
+    first, second = RUNS["steps"](), RUNS["steps"]()
+    by_label = {}
+    for mode in first.modes + second.modes + [e.mode_after for e in first.events + second.events]:
+        assert by_label.setdefault(mode.label, mode) is mode
+    assert BALL.mode(first.modes[-1].label) is first.modes[-1]
+    mode = first.modes[-1]
+    hash(mode)
+    again = pickle.loads(pickle.dumps(mode))
+    assert "_hash" not in vars(again) and again == mode and hash(again) == hash(mode)
+
+
 def test_zeno_watch_quiet_is_add_one_by_one():
     """ZenoWatch.quiet(times) says True only where add() of each time finds nothing, and then holds
     what add() would; False changes nothing.  Random sequences: bouncing (geometric gaps), steady,
@@ -133,7 +171,7 @@ def test_zeno_watch_quiet_is_add_one_by_one():
     answers = set()
     for trial in range(400):
         window, min_gap = rng.choice([2, 3, 8]), rng.choice([0.0, 1e-9, 1e-3, 0.2])
-        t, times = rng.uniform(0, 5), []
+        t, times = rng.choice([rng.uniform(0, 5), rng.uniform(1e7, 1e9)]), []  # (round-off above 1e-9 at 1e8)
         gap, ratio = rng.uniform(1e-6, 1.0), rng.choice([0.5, 0.8, 0.99, 1.0, 1.3])
         for _ in range(rng.randrange(0, 25)):
             times.append(t)
