@@ -83,15 +83,15 @@ Exit status:
 The package: one module per command (:mod:`.run`, :mod:`.modes` — with ``verify`` and ``codegen`` —,
 :mod:`.files` — ``list``, ``save``, ``graphs``, ``equations`` —, :mod:`.draw`, :mod:`.sweep`, :mod:`.orbit`),
 what they share (:mod:`.common`: the model, ``--set``, the run's options; :mod:`.outputs`: the files) and
-:mod:`.main` (the parser and ``main``).
+:mod:`.main` (the parser, ``main`` and the console script's ``command``).
 """
 
 from __future__ import annotations
 
 from .common import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, UsageError
-from .main import build_parser, main
+from .main import build_parser, command, main
 from .modes import EXPLORATION_SECONDS
 from .sweep import MAX_RUNS
 
 __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "EXPLORATION_SECONDS", "MAX_RUNS", "UsageError",
-           "build_parser", "main"]
+           "build_parser", "command", "main"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import sys
 import warnings
@@ -138,6 +139,17 @@ class _ClosedPipeGuard:
 
     def __getattr__(self, name):
         return getattr(self.stream, name)
+
+
+def command() -> None:
+    """The ``hbg`` command (its console script, ``python -m models.cli``): :func:`main` on the command
+    line, then the process exits with its status.  The objects a run made (a model's derivations, numba's
+    compiler) are frozen before the interpreter's exit, which then no longer walks them with the cyclic
+    collector: its exit took ~0.3 s after a run of the falling rod, ~0.04 s so."""
+    status = main()
+    sys.stdout.flush()
+    gc.freeze()
+    sys.exit(status)
 
 
 def main(argv=None) -> int:

@@ -127,3 +127,20 @@ def test_run_takes_auto_by_default_and_says_what_it_chose_and_why(tmp_path):
     assert line.split("method chosen by auto:")[1].strip().split(":")[0] in ("RK45", "RK45-jit")
     named = hbg("run", "bouncing-ball", "--samples", "0", "--method", "RK23")
     assert named.returncode == 0 and "method: RK23" in named.stdout and "chosen by auto" not in named.stdout
+
+
+def test_the_console_command_exits_with_the_status_of_main_its_objects_frozen(monkeypatch, capsys):
+    """``hbg`` (the console script, ``python -m models.cli``) exits with ``main``'s status, the objects of
+    the run frozen first (the interpreter's exit then does not walk them with the cyclic collector)."""
+    import gc
+
+    from models import cli
+
+    monkeypatch.setattr(sys, "argv", ["hbg", "run", "no-such-model"])
+    try:
+        with pytest.raises(SystemExit) as info:
+            cli.command()
+        assert info.value.code == cli.EXIT_USAGE and gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+    assert "unknown model 'no-such-model'" in capsys.readouterr().err
