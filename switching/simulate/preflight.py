@@ -61,8 +61,9 @@ def _sides_key(cm, x, t) -> tuple:
     the bit (``-0.0`` is not ``0.0``).  A loop of runs from the same state with other tolerances, ends or
     outputs (a tolerance study) evaluates the start's sides once."""
     model = cm.model
+    inputs = model.input_values(t)
     return (cm._sides, type(x), np.asarray(x, dtype=float).tobytes(), float(t).hex(),
-            model.parameter_array.tobytes(), tuple(float(u).hex() for u in model.input_values(t)))
+            model.parameter_array.tobytes(), tuple(map(float.hex, map(float, inputs))) if inputs else ())
 
 
 def nonfinite_sides_at_start(model, cm, x, t, rtol: float, atol: float) -> str | None:
