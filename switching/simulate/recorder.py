@@ -214,9 +214,9 @@ class Recorder:
         the rows after the instants)``, ``lead`` rows left empty, then the samples, each of ``kind``, and with
         ``pairs`` each instant's rows of kinds ``before`` and ``after`` where it falls; ``instants``
         (:class:`~switching.simulate.resolution.KernelInstants`) are its events, at ``times`` [s], from the
-        modes numbered ``before``; ``modes``: the modes by
-        number, an object array (:meth:`~switching.library.jit_model.CompiledModel.mode_objects`).  The rows
-        recorded one at a time since the last piece (the run's start) begin the piece it makes."""
+        modes numbered ``before``; ``modes``: the modes by number, an object array
+        (:meth:`~switching.library.jit_model.CompiledModel.mode_objects`).  The rows recorded one at a time
+        since the last piece (the run's start) begin the piece it makes."""
         self.n_events += len(instants)
         if instants:
             self._flows.append((times, before, modes))

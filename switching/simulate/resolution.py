@@ -50,7 +50,8 @@ from ..model.modes import Mode
 from ..rules.instants import (CONTINUOUS, DECIDE_AS_FLOW, FIRED, FIRED_AT_TIE, JUMP_AND_DECIDE, JUMP_AT_TIE, NO_ROOM,
                               PINNACLE_REPEATS, REPEATS_IN_CHAIN, decides_as_in_flow, instant_begin, instant_next)
 
-__all__ = ["Instant", "CompiledInstant", "KernelInstants", "Step", "instants_made", "FiredGuard", "resolve_instant", "evaluate_guards"]
+__all__ = ["Instant", "CompiledInstant", "KernelInstants", "Step", "FiredGuard", "instants_made", "resolve_instant",
+           "evaluate_guards"]
 
 
 @dataclass(frozen=True)
