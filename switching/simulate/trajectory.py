@@ -142,17 +142,20 @@ class Trajectory:
         self.sensitivities = None
 
     def __getattr__(self, name: str):
-        # (only for an attribute not set) ``events``: the instants, a kernel call's made records now
-        pending = self.__dict__.pop("_pending_events", None) if name == "events" else None
-        if pending is None:
+        # (only for an attribute not set) ``events``: the instants, a kernel call's made records now; set
+        # before the pending ones go, so that a thread reading them at once gets the same records
+        held = self.__dict__
+        if name != "events" or ("_pending_events" not in held and "events" not in held):
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        self.events = made = instants_made(pending)
+        made = held.setdefault("events", instants_made(held.get("_pending_events", ())))
+        held.pop("_pending_events", None)
         return made
 
     def __getstate__(self):
         state = dict(self.__dict__, model=None)
-        if "_pending_events" in state:  # (the records made now: a kernel call's block holds the model)
-            state["events"] = instants_made(state.pop("_pending_events"))
+        if "events" not in state:  # (the records made now: a kernel call's block holds the model)
+            state["events"] = instants_made(state.get("_pending_events", ()))
+        state.pop("_pending_events", None)
         if callable(self._mode_time):  # (made now: it is made from the run's records)
             state["_mode_time"] = self._mode_time()
         state.pop("_numbers", None)  # (keyed by the list's id: made again after unpickling)
@@ -211,9 +214,9 @@ class Trajectory:
         after rows are both taken."""
         rows = [int(k) for k in rows]
         position = {k: j for j, k in enumerate(rows)}
+        self.events  # noqa: B018 (the records made first: the copy shares them)
         out = object.__new__(type(self))
         out.__dict__.update(self.__dict__)
-        out.events = self.events  # (the same records)
         out.t = self.t[rows]
         out.x = self.x[rows]
         out.modes = [self.modes[k] for k in rows]
@@ -240,10 +243,10 @@ class Trajectory:
         order = np.argsort(all_t, kind="stable")
         place = np.empty_like(order)
         place[order] = np.arange(len(order))
+        self.events  # noqa: B018 (the records made first: the copy shares them)
         out = object.__new__(type(self))
         out.__dict__.update(self.__dict__)
         out.__dict__.pop("_numbers", None)
-        out.events = self.events  # (the same records)
         out.t = all_t[order]
         out.x = np.concatenate([self.x, states])[order]
         modes = self.modes + [self.modes[r] for r in rows]

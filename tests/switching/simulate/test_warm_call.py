@@ -145,7 +145,11 @@ def test_a_kernel_calls_instants_are_made_records_when_first_read():
     alone = pickle.loads(pickle.dumps(events[3]))
     assert alone.x_after.tobytes() == events[3].x_after.tobytes() and alone.t == events[3].t
     run.events = events[:2]
-    assert len(run.events) == 2
+    assert len(run.events) == 2 and len(pickle.loads(pickle.dumps(run)).events) == 2
+    unread = RUNS["steps"]()
+    copied = unread.take(range(len(unread.t)))
+    copied.events = copied.events[:1]  # (set on a copy of a run whose records were made for it)
+    assert len(pickle.loads(pickle.dumps(copied)).events) == 1 and len(unread.events) == 20
     assert not hasattr(run, "no_such_attribute")
 
 
