@@ -557,12 +557,19 @@ class CompiledInstant(Instant):
 
     def __getstate__(self):
         state = super().__getstate__()
-        state["_row"] = (np.array([self._states_row()]), 0)  # (its own row, not the call's whole block)
+        state.pop("_views", None)
+        state["_row"] = (np.array([self._row[0][self._row[1]]]), 0)  # (its own row, not the call's whole block)
         return state
 
-    def _states_row(self) -> np.ndarray:
-        states, row = self._row
-        return states[row]
+    def _states(self) -> tuple:
+        """``(x_before, x_after)``: views of this instant's row, made when first read."""
+        found = self.__dict__.get("_views")
+        if found is None:
+            states, row = self._row
+            line = states[row]
+            n = (len(line) - 1) // 2
+            found = self._views = (line[1:1 + n], line[1 + n:])
+        return found
 
     @property
     def steps(self) -> list:
@@ -577,19 +584,11 @@ class CompiledInstant(Instant):
 
     @property
     def x_before(self) -> np.ndarray:
-        found = self.__dict__.get("_x_before")
-        if found is None:
-            row = self._states_row()
-            found = self._x_before = row[1:1 + (len(row) - 1) // 2]
-        return found
+        return self._states()[0]
 
     @property
     def x_after(self) -> np.ndarray:
-        found = self.__dict__.get("_x_after")
-        if found is None:
-            row = self._states_row()
-            found = self._x_after = row[1 + (len(row) - 1) // 2:]
-        return found
+        return self._states()[1]
 
     @property
     def mode_before(self):
