@@ -25,9 +25,13 @@ which every mode holding those automata in the same states shares, and
 A scene's module does not hold the blocks it calls (each is generated, stored
 in the disk cache and compiled once for all the modes that call it:
 :meth:`switching.library.mode_library.ModeLibrary.block_text`), and its
-functions' docstrings state the arrays' shapes, not every entry: the module's
-size so grows with the number of blocks, not with the states and guards
-(bar ``META``).
+functions' docstrings state the arrays' shapes, not every entry, and its ``META``
+names the automata off their initial states (``changed``) and the *guard tables*
+of its blocks of automata (``guard_blocks``, :mod:`.guard_tables`), each stored
+once like a block, instead of every guard's entry, every automaton's state and
+every independent state (the complement of ``dependent``): the module's size
+so grows with the number of blocks, not with the states and guards.
+:attr:`CompiledMode.source` writes the whole ``META`` out.
 
 A comparison is decided with the band ``rtol·max(|left|, |right|, R) + atol``
 (:func:`codegen.runtime.decide`): a difference that is zero up to the
@@ -55,12 +59,13 @@ from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
 from ..rules.jumps import MOTION_ULPS, jump_pulse
+from .guard_tables import guard_table_record, table_name
 
 __all__ = ["BLOCK_CALLS", "CompiledMode", "MODE_SOURCE_VERSION", "block_checked", "block_name", "called_blocks", "comparison_triples",
            "condition_tree", "generate_mode_source", "decide_tree", "guard_parts", "holds_strictly", "mode_module", "mode_source_and_meta", "shifted_tree"]
 
 #: part of the disk-cache key of a mode's source: change it when the generated functions change
-MODE_SOURCE_VERSION = "13"
+MODE_SOURCE_VERSION = "14"
 
 _OPS = {sp.Lt: "<", sp.Le: "<=", sp.Gt: ">", sp.Ge: ">=", sp.Eq: "==", sp.Ne: "!="}
 
@@ -329,18 +334,21 @@ def _guards_at(model, forms: list, offset: int) -> tuple:
     return guards, texts, relations, raw_sides, spans
 
 
-def _mode_comparisons(model, me) -> tuple:
-    """``(guards, their reprs, comparisons, raw sides, spans, finite sides)``: :func:`_mode_guards` and
-    :func:`comparison_triples` of a mode, a block of :data:`SIDE_BLOCK_AUTOMATA` automata at a time.  A
-    block's guard forms shared by the modes (``me.guard_starts``: where each automaton's forms begin) at
-    the same first comparison give the same results, kept by the library (a bounded number) where their
-    triples read no rate: a mode of a scene looks at each block once, not at each of its thousand guards."""
+def _mode_comparisons(model, me, tables: bool = False) -> tuple:
+    """``(guards, their reprs, comparisons, raw sides, spans, finite sides, guard tables)``:
+    :func:`_mode_guards` and :func:`comparison_triples` of a mode, a block of :data:`SIDE_BLOCK_AUTOMATA`
+    automata at a time.  A block's guard forms shared by the modes (``me.guard_starts``: where each
+    automaton's forms begin) at the same first comparison give the same results, kept by the library (a
+    bounded number) where their triples read no rate: a mode of a scene looks at each block once, not at
+    each of its thousand guards.  With ``tables``, the last item is ``((name, offset), …)`` of the
+    blocks' guard tables (:mod:`.guard_tables`), else ``None`` (also where the mode has no blocks)."""
     starts = getattr(me, "guard_starts", None)
     if starts is None:
         guards, texts, relations, raw_sides, spans = _mode_guards(model, me)
-        return guards, texts, relations, raw_sides, spans, comparison_triples(me, relations)
-    memo, count = model.library.guard_blocks, len(starts) - 1
+        return guards, texts, relations, raw_sides, spans, comparison_triples(me, relations), None
+    memo, count, library = model.library.guard_blocks, len(starts) - 1, model.library
     results: tuple = ([], [], [], [], [], [])
+    named = [] if tables else None
     for first in range(0, count, SIDE_BLOCK_AUTOMATA):
         low, high = starts[first], starts[min(first + SIDE_BLOCK_AUTOMATA, count)]
         if low == high:
@@ -351,14 +359,28 @@ def _mode_comparisons(model, me) -> tuple:
         if found is None or found[0] != forms:  # (the same objects: compared by identity at once)
             block = _guards_at(model, forms, offset)
             triples, plain = _triples(me, block[2])
-            found = (forms, (*block, triples))
+            found = (forms, (*block, triples), [None])
             if plain:
                 if len(memo) >= GUARD_ENTRIES_KEPT:
                     memo.clear()
                 memo[key] = found  # (the forms held: their ids stay theirs)
         for whole, part in zip(results, found[1]):
             whole += part
-    return results
+        if named is not None:
+            if found[2][0] is None:
+                found[2][0] = _guard_table(model, forms)
+            named.append((found[2][0], offset))
+            library.keep_guard_table(found[2][0], offset, found[1][0])
+    return (*results, None if named is None else tuple(named))
+
+
+def _guard_table(model, forms: list) -> str:
+    """The name of the guard table of a block's guard ``forms`` (:mod:`.guard_tables`: their entries
+    numbered from the block's first comparison), its text put in the library's ``block_texts``."""
+    record = guard_table_record(_guards_at(model, forms, 0)[1])
+    name = table_name(record)
+    model.library.block_texts.setdefault(name, record)
+    return name
 
 
 def _guard_entry(library, kept: dict, automaton_index: dict, guard) -> tuple:
@@ -440,8 +462,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     label = me.mode.describe()
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
-    guards, guard_texts, relations, raw_sides, spans, finite_sides = _mode_comparisons(model, me)
     large = len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA  # a scene: no per-entry lists, rates in blocks
+    guards, guard_texts, relations, raw_sides, spans, finite_sides, tables = _mode_comparisons(model, me, large)
     if large:  # (the docstrings state the arrays' shapes; the module's docstring names the mode)
         side_names = triple_names = ()
         where, shaped = "this mode", (lambda output_doc: {"entries": False, "output_doc": output_doc})
@@ -485,7 +507,12 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
         "guards": tuple(guards),
         "n_states": len(states),
     }
-    if large:  # (named by the automata off their initial states: META['mode'] holds every state)
+    if tables is not None:  # a scene: of a size that does not grow with its automata and states
+        initial = {a.name: a.initial for a in model.automata}
+        meta = {"changed": tuple((a, s) for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a]),
+                **{k: meta[k] for k in ("dependent", "moved", "jump", "n_states")}, "guard_blocks": tables,
+                "comparisons": len(relations)}
+    if large:  # (named by the automata off their initial states, as META['changed'] lists them)
         initial = {a.name: a.initial for a in model.automata}
         changed = ", ".join(f"{a}={s}" for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a])
         label = f"{changed} (every other automaton in its initial state)" if changed else \
@@ -700,25 +727,39 @@ class CompiledMode:
         self._blocks = {name: called_blocks(self._chunks[name][1]) for name in ("rates", "sides", "sides_raw")}
         # (each compiled apart, checked to call only these)
         self._functions = frozenset(self._chunks).union(*self._blocks.values())
-        self.independent = np.array(meta["independent"], dtype=int)
+        if "independent" in meta:
+            self.independent = np.array(meta["independent"], dtype=int)
+        else:  # (a scene's module: every state not dependent)
+            self.independent = np.delete(np.arange(meta["n_states"]), np.array(meta["dependent"], dtype=int))
         self.dependent = np.array(meta["dependent"], dtype=int)
         self.moved = np.array(meta["moved"], dtype=int)
         self.jump_kind = meta["jump"]
-        self.guards = meta["guards"]
+        #: every guard's entry (:func:`mode_module`), written out or in a scene's tables (:mod:`.guard_tables`)
+        self.guards = meta["guards"] if "guards" in meta else model.library.guards_in(meta["guard_blocks"], mode)
         self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
         self._conjunctions = None  # (see maybe_holding)
         self.n = meta["n_states"]
-        self.n_relations = sum(_count_rel(g["tree"]) for g in self.guards)
+        self.n_relations = meta["comparisons"] if "comparisons" in meta else \
+            sum(_count_rel(g["tree"]) for g in self.guards)
         self.n_sides = 3 * self.n_relations  # (left, right, round-off scale) per comparison
 
     @property
     def source(self) -> str:
-        """The mode's whole module: :attr:`module` and the block functions it calls that it does not hold."""
+        """The mode's whole module: :attr:`module` with its ``META``'s guards written out (a scene's are in
+        tables, :mod:`.guard_tables`) and the block functions it calls that it does not hold."""
+        module = self.module
+        if "guards" not in self.meta:
+            meta = self.meta
+            whole = {"mode": tuple(self.mode.states), "automata": tuple(self.mode.automata),
+                     "independent": tuple(int(k) for k in self.independent), "dependent": meta["dependent"],
+                     "moved": meta["moved"], "jump": meta["jump"], "guards": tuple(self.guards),
+                     "n_states": meta["n_states"]}
+            module = re.sub(r"^META = .*$", lambda _: f"META = {whole!r}", module, count=1, flags=re.MULTILINE)
         missing = [name for names in self._blocks.values() for name in names if name not in self._chunks]
         if not missing:
-            return self.module
+            return module
         texts = [self.function_text(name) for name in dict.fromkeys(missing)]
-        return self.module.rstrip("\n") + "\n\n\n" + "\n\n".join(text.rstrip("\n") + "\n" for text in texts)
+        return module.rstrip("\n") + "\n\n\n" + "\n\n".join(text.rstrip("\n") + "\n" for text in texts)
 
     def function_text(self, name: str) -> str:
         """The text of generated function ``name``: the module's, or a block function it calls

@@ -56,7 +56,9 @@ from codegen.cache import default_cache, fingerprint
 from codegen.source import PrintMemo
 
 from .collection import collection_paused
-from .compiled import BLOCK_CALLS, MODE_SOURCE_VERSION, CompiledMode, block_checked, called_blocks, mode_module
+from .compiled import (BLOCK_CALLS, GUARD_ENTRIES_KEPT, MODE_SOURCE_VERSION, CompiledMode, block_checked,
+                       called_blocks, mode_module, shifted_tree)
+from .guard_tables import GUARD_TABLES, shifted_entries, table_checked, table_entries
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
 from ..model.modes import Mode, ModeEquations
@@ -170,7 +172,11 @@ class ModeLibrary:
         name of a block of guard sides or rates → its compiled function (shared by the modes).
     ``block_texts``
         name of a block function → its text (:meth:`block_text`), which a mode's module calls
-        but does not hold: each is stored in the disk cache once, under a key of its own.
+        but does not hold, and of a scene's guard table → its record (:mod:`.guard_tables`): each is
+        stored in the disk cache once, under a key of its own.
+    ``guard_tables``
+        (guard table, offset) → its entries with their comparisons numbered from ``offset``
+        (:meth:`guards_in`), a bounded number.
     ``symbols_memo``
         expression → (free symbols, whether a law switch's Rate occurs) (:meth:`symbols_of`).
     ``jacobians``
@@ -216,6 +222,7 @@ class ModeLibrary:
         #: name of a block function (guard sides, rates) → its text; and the names stored in the disk cache
         self.block_texts: dict = {}
         self.stored_blocks: set = set()
+        self.guard_tables: dict = {}
         #: (the symbols, the argument lists) of the modes' functions (:func:`switching.library.compiled._arguments`)
         self.mode_arguments = None
         self.symbols_memo: dict = {}
@@ -327,12 +334,15 @@ class ModeLibrary:
             with self._preparation():
                 key = fingerprint(self.fingerprint, "mode", MODE_SOURCE_VERSION, mode.label)
                 source, meta, chunks = self.cache.load(key, calls=BLOCK_CALLS), None, None
-                if source is not None and not all(map(self._block_at_hand, set(re.findall(BLOCK_CALLS, source)))):
+                if source is not None and not all(map(self._block_at_hand, set(re.findall(BLOCK_CALLS, source))
+                                                      | set(re.findall(GUARD_TABLES, source)))):
                     source = None  # (a block it calls is gone from the disk cache: made again with the module)
                 if source is None:
                     source, meta, chunks = mode_module(self.model, self.mode_equations(mode))
                     self.cache.store(key, source)
-                    for name in (n for f in ("rates", "sides", "sides_raw") for n in called_blocks(chunks[f][1])):
+                    tables = (name for name, _ in meta.get("guard_blocks", ()))
+                    for name in (*(n for f in ("rates", "sides", "sides_raw") for n in called_blocks(chunks[f][1])),
+                                 *tables):
                         if name not in self.stored_blocks:  # (a scene's module calls blocks it does not hold)
                             self.cache.store(self._block_key(name), self.block_texts[name])
                             self.stored_blocks.add(name)
@@ -348,7 +358,7 @@ class ModeLibrary:
         if name in self.block_texts:
             return True
         text = self.cache.load(self._block_key(name))
-        if text is None or not block_checked(name, text):
+        if text is None or not (block_checked(name, text) or table_checked(name, text)):
             return False
         self.block_texts[name] = text
         self.stored_blocks.add(name)
@@ -361,6 +371,31 @@ class ModeLibrary:
             raise ValueError(f"the generated module of mode {self.model.mode(mode).describe()} calls a block "
                              f"function {name} that is neither made nor in the disk cache")
         return self.block_texts[name]
+
+    def keep_guard_table(self, name: str, offset: int, entries: list) -> None:
+        """Keep ``entries``, the guard table ``name`` numbered from ``offset``, for :meth:`guards_in`
+        (a mode generated now hands over the entries it was printed from)."""
+        if (name, offset) not in self.guard_tables:
+            if len(self.guard_tables) >= GUARD_ENTRIES_KEPT:
+                self.guard_tables.clear()
+            self.guard_tables[(name, offset)] = tuple(entries)
+
+    def guards_in(self, tables, mode) -> list:
+        """The guard entries of ``mode`` whose ``META`` names its guard ``tables`` (``((name, offset),
+        …)``, :mod:`.guard_tables`): each table's entries numbered from its offset, in turn."""
+        guards: list = []
+        for name, offset in tables:
+            found = self.guard_tables.get((name, offset))
+            if found is None:
+                try:
+                    entries = table_entries(self.block_text(name, mode))
+                except ValueError as exc:
+                    raise ValueError(f"the generated module of mode {self.model.mode(mode).describe()} names a "
+                                     f"guard table {name} that is not one ({exc})") from None
+                self.keep_guard_table(name, offset, shifted_entries(entries, offset, shifted_tree))
+                found = self.guard_tables[(name, offset)]
+            guards += found
+        return guards
 
     def conflict_guards(self, mode, error):
         """The guards of ``mode``, whose derivation raised the causality conflict ``error``, judged in the

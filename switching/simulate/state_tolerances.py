@@ -82,13 +82,20 @@ def _slopes(model) -> _Slopes:
 
 
 def _compiled_slopes(model, symbols) -> _Slopes:
+    """:class:`_Slopes` of the model's storage; one function per form of slope (a scene's thousand masses
+    of one parameter ``m`` share the slope ``1/m``: one function, not a thousand)."""
     found, reads = [], set()
     known = set(symbols)
+    value = sp.Dummy("x")
+    functions: dict = {}  # slope with its state as `value` → its function
     for element in model.graph.storage:
         slope = sp.diff(element.law, element.state)
         if not (slope.free_symbols - {element.state}) <= known:
             continue
-        function = sp.lambdify((element.state, symbols), slope, "math")
+        form = slope.xreplace({element.state: value})
+        function = functions.get(form)
+        if function is None:
+            function = functions[form] = sp.lambdify((value, symbols), form, "math")
         found.append((model.state_index[element.state], function))
         reads |= {symbols.index(s) for s in slope.free_symbols - {element.state}}
     return _Slopes(found, np.array([index for index, _ in found], dtype=np.int64),

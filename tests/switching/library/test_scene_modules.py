@@ -1,5 +1,8 @@
 """A scene's mode modules (issue 46): their size grows with the number of blocks, not with the states.
 
+Their guards' entries are in tables of a block of automata each, stored once like the blocks
+(:mod:`switching.library.guard_tables`).
+
 A mode of more than ``2·SIDE_BLOCK_AUTOMATA`` automata calls block functions for its rates (``STATE_BLOCK``
 states each) and guard sides, which its module does not hold: each block is stored in the disk cache once,
 under a key of its own, and compiled once for every mode that calls it.  Its functions' docstrings state the
@@ -23,6 +26,13 @@ from switching.simulate.flow_rates import _reads
 def functions_text(module: str) -> str:
     """A mode module without its ``META`` line."""
     return re.sub(r"^META = .*\n", "", module, flags=re.MULTILINE)
+
+
+def lowest_comparison(tree) -> int:
+    """The lowest comparison number in a guard tree."""
+    if tree[0] == "rel":
+        return tree[1]
+    return min(map(lowest_comparison, tree[1] if tree[0] in ("and", "or") else (tree[1],)))
 
 
 def chain_with_one_pinnacle(n, tmp_path):
@@ -55,12 +65,14 @@ def test_each_block_is_stored_once_and_read_back(tmp_path):
     first = model.compiled_mode(model.initial_mode)
     second = model.compiled_mode(mode)
     blocks = {b for cm in (first, second) for names in cm._blocks.values() for b in names}
-    assert blocks == model.library.stored_blocks
-    assert cache.hits["built"] == 2 + len(blocks)  # two modules and each block once
+    tables = {name for cm in (first, second) for name, _ in cm.meta["guard_blocks"]}
+    assert blocks | tables == model.library.stored_blocks
+    assert cache.hits["built"] == 2 + len(blocks) + len(tables)  # two modules and each block and table once
     again = ball_chain.build(N=40, e=1.0)
     again.cache = SourceCache(cache.directory)
     loaded = again.compiled_mode(mode)
     assert again.derivation_count == 0 and loaded.module == second.module
+    assert loaded.guards == second.guards and loaded.n_relations == second.n_relations
     x = np.random.default_rng(3).normal(size=len(again.states))
     p, u = again.parameter_array, again.input_values(0.0)
     for name in ("rates", "sides"):
@@ -84,6 +96,68 @@ def test_a_module_whose_block_left_the_cache_is_made_again(tmp_path):
     p, u = again.parameter_array, again.input_values(0.0)
     assert np.array_equal(loaded._rates(x, 0.2, p, u, np.empty(loaded.n)), made._rates(x, 0.2, p, u,
                                                                                          np.empty(made.n)))
+
+
+def test_a_scenes_modules_name_their_guards_in_tables_shared_by_the_modes(tmp_path):
+    """A scene's module writes no guard entry: its ``META`` names the guard tables of its blocks of
+    automata (:mod:`switching.library.guard_tables`), whose entries, numbered from each table's offset, are
+    the mode's guards as written out in full; the whole module (``source``, as exported) writes them out."""
+    import ast
+
+    from switching.library.guard_tables import table_checked, table_entries
+
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    for cm in (model.compiled_mode(model.initial_mode), model.compiled_mode(mode)):
+        assert "'tree'" not in cm.module and cm.meta["guard_blocks"]
+        assert cm.guards == compiled._mode_guards(model, model.mode_equations(cm.mode))[0]
+        assert cm.n_relations == sum(compiled._count_rel(g["tree"]) for g in cm.guards) == cm.meta["comparisons"]
+        offsets = [offset for _, offset in cm.meta["guard_blocks"]]
+        assert offsets[0] == 0 and offsets == sorted(offsets) and len(set(offsets)) == len(offsets)
+        for name, _ in cm.meta["guard_blocks"]:
+            text = model.library.block_texts[name]
+            assert table_checked(name, text) and not table_checked(name, text + " ")
+            assert min(lowest_comparison(e["tree"]) for e in table_entries(text)[:1]) == 0
+        whole = ast.literal_eval(compiled._function_chunks(cm.source)["META"])
+        assert whole["guards"] == tuple(cm.guards) and "guard_blocks" not in whole
+        assert whole["mode"] == cm.mode.states and whole["automata"] == cm.mode.automata
+        assert whole["independent"] == tuple(k for k in range(cm.n) if k not in whole["dependent"])
+        initial = model.initial_mode.states
+        assert dict(cm.meta["changed"]) == {a: s for a, s, i in zip(cm.mode.automata, cm.mode.states, initial)
+                                            if s != i}
+        assert list(whole) == ["mode", "automata", "independent", "dependent", "moved", "jump", "guards", "n_states"]
+    # a module of a chain of N contacts holds a call a block of contacts, not its guards' entries nor every
+    # state (≈ 330 bytes a contact, which made the disk cache of a run through N modes grow as N²)
+    big, pinnacle = chain_with_one_pinnacle(120, tmp_path)
+    assert len(big.compiled_mode(pinnacle).module) < 40 * 120
+
+
+def test_a_module_whose_guard_table_is_not_one_is_made_again(tmp_path):
+    """A guard table in the disk cache that is not the table its name hashes (a valid cache entry of
+    other text) is not read: the module is derived again, its guards those of the mode."""
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    made = model.compiled_mode(mode)
+    name = made.meta["guard_blocks"][1][0]
+    model.cache.store(model.library._block_key(name), "RECORD = ()\n")
+    again = ball_chain.build(N=40, e=1.0)
+    again.cache = SourceCache(model.cache.directory)
+    loaded = again.compiled_mode(mode)
+    assert again.derivation_count == 1 and loaded.guards == made.guards
+
+
+def test_a_guard_table_text_is_read_or_refused():
+    from switching.library.guard_tables import guard_table_record, shifted_entries, table_entries
+
+    entries = ({"automaton": "a", "tree": ("rel", 0, ">=", "x >= 0")},
+               {"automaton": "b", "tree": ("and", (("rel", 1, "<", "y < 1"), ("rel", 2, ">", "y > 0")))})
+    record = guard_table_record([repr(e) for e in entries])
+    assert table_entries(record) == entries
+    assert table_entries(guard_table_record([repr(entries[0])])) == entries[:1]
+    moved = shifted_entries(entries, 5, compiled.shifted_tree)
+    assert [lowest_comparison(e["tree"]) for e in moved] == [5, 6]
+    assert shifted_entries(entries, 0, compiled.shifted_tree) is entries
+    for text in ("RECORD = (1, 2)\n", "RECORD = (\n", "x = ()\n", "RECORD = {'tree': 1}\n"):
+        with pytest.raises(ValueError, match="not a guard table"):
+            table_entries(text)
 
 
 @pytest.fixture(scope="module")

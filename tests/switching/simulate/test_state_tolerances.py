@@ -48,3 +48,19 @@ def test_an_atol_given_is_in_the_states_units_as_before():
     as asked — the reason the default is each state's own."""
     run = rc(1e-9).simulate(1e-3, "RK45", rtol=1e-8, atol=1e-9)
     assert abs(run.signal("v_C1")[-1] / (10.0 * (1.0 - math.exp(-1.0))) - 1.0) > 1e-6
+
+
+def test_storage_of_one_form_shares_one_slope_function_and_keeps_its_own_tolerance():
+    """A scene's masses of one parameter share the slope function of their form (one made, not one a
+    ball), each state still its own tolerance: ``m`` for a momentum, ``1/k`` (the spring's capacity) for
+    a compression."""
+    from models import ball_chain
+    from switching.simulate.state_tolerances import _slopes
+
+    model = ball_chain.build(N=12, compliant=True, m=0.3, k=2e4)
+    functions = [function for _, function in _slopes(model).functions]
+    assert len(functions) == 23 and len(set(map(id, functions))) == 2
+    tolerances = state_tolerances(model, model.initial_state())
+    for k, state in enumerate(model.states):  # (a position is no storage's: the tolerance in metres)
+        capacity = {"p": 0.3, "q": 1 / 2e4, "pos": 1.0}[state.name.rstrip("0123456789")]
+        assert tolerances[k] == pytest.approx(DEFAULT_ATOL * capacity, rel=1e-15), state
