@@ -201,25 +201,43 @@ def _reached_by_impulses(equations, graph=None, among=None) -> set:
 def _linear_jump(identity, participating, dependent, phi, K, metrics) -> dict:
     """``x⁺`` of every state (the module docstring's projection): a copy of ``identity`` (state → itself,
     in state order) with the participating and dependent states' values."""
-    xi = sp.Matrix(participating)
-    xd = sp.Matrix(dependent)
-    c = phi - K * xi if participating else phi
-    Mi = sp.diag(*[metrics[x] for x in participating]) if participating else sp.zeros(0, 0)
-    Md_inv = sp.diag(*[1 / metrics[x] for x in dependent])
-    if participating:
-        lhs = sp.eye(len(participating)) + Mi * K.T * Md_inv * K
-        rhs = xi + Mi * K.T * Md_inv * (xd - c)
-        xi_plus = _solve_small(lhs, rhs)
-        xd_plus = K * xi_plus + c
+    if len(participating) == 1 and len(dependent) == 1:  # (two point masses meeting: a scene's every pinnacle)
+        xi_plus, xd_plus = _scalar_projection(participating[0], dependent[0], phi[0], K[0, 0], metrics)
     else:
-        xi_plus = sp.zeros(0, 1)
-        xd_plus = c
+        xi_plus, xd_plus = _projection(participating, dependent, phi, K, metrics)
     expressions = dict(identity)
     for k, x in enumerate(participating):
         expressions[x] = _tidy(xi_plus[k])
     for k, x in enumerate(dependent):
         expressions[x] = _tidy(xd_plus[k])
     return expressions
+
+
+def _projection(participating, dependent, phi, K, metrics) -> tuple:
+    """``(x_i⁺, x_d⁺)`` as matrices (the module docstring's projection)."""
+    xi = sp.Matrix(participating)
+    xd = sp.Matrix(dependent)
+    c = phi - K * xi if participating else phi
+    Mi = sp.diag(*[metrics[x] for x in participating]) if participating else sp.zeros(0, 0)
+    Md_inv = sp.diag(*[1 / metrics[x] for x in dependent])
+    if not participating:
+        return sp.zeros(0, 1), c
+    lhs = sp.eye(len(participating)) + Mi * K.T * Md_inv * K
+    rhs = xi + Mi * K.T * Md_inv * (xd - c)
+    xi_plus = _solve_small(lhs, rhs)
+    return xi_plus, K * xi_plus + c
+
+
+def _scalar_projection(xi, xd, phi, k, metrics) -> tuple:
+    """:func:`_projection` of one participating and one dependent state, each matrix a number: the same
+    expressions, built by the same operations in the same order, without sympy's matrices (whose
+    arithmetic on 1 × 1 matrices cost more than the map's own algebra)."""
+    c = phi - k * xi
+    md_inv = 1 / metrics[xd]
+    lhs = 1 + metrics[xi] * k * md_inv * k
+    rhs = xi + metrics[xi] * k * md_inv * (xd - c)
+    xi_plus = rhs / lhs
+    return (xi_plus,), (k * xi_plus + c,)
 
 
 def _impulse_balance_jump(equations) -> JumpMap:

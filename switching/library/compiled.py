@@ -735,7 +735,10 @@ class CompiledMode:
         self.moved = np.array(meta["moved"], dtype=int)
         self.jump_kind = meta["jump"]
         #: every guard's entry (:func:`mode_module`), written out or in a scene's tables (:mod:`.guard_tables`)
-        self.guards = meta["guards"] if "guards" in meta else model.library.guards_in(meta["guard_blocks"], mode)
+        if "guards" in meta:
+            self.guards = meta["guards"]
+        else:  # (and how many guards each table holds)
+            self.guards, self._table_sizes = model.library.guards_in(meta["guard_blocks"], mode)
         self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
         self._conjunctions = None  # (see maybe_holding)
         self.n = meta["n_states"]
@@ -951,18 +954,7 @@ class CompiledMode:
         if not isinstance(sides, np.ndarray) or sides.dtype != np.float64:
             return None
         if self._conjunctions is None:
-            comparisons, ops, owners = [], [], []
-            kept = self.model.library.conjunctions  # (a guard's entry is shared by a scene's modes)
-            for g, guard in enumerate(self.guards):
-                found = _found_by_id(kept, guard)
-                if found is None:
-                    found = _keep_by_id(kept, guard, _conjunction(guard["tree"]))
-                if found[0]:
-                    comparisons += found[0]
-                    ops += found[1]
-                    owners += [g] * len(found[0])
-            k = np.array(comparisons, dtype=np.intp)
-            self._conjunctions = (3 * k, np.array(ops, dtype=np.intp), np.array(owners, dtype=np.intp))
+            self._conjunctions = self._conjunction_arrays()
         start, ops, owners = self._conjunctions
         maybe = np.ones(len(self.guards), dtype=bool)
         if not len(start):
@@ -981,6 +973,26 @@ class CompiledMode:
         maybe[owners[~holds]] = False
         return maybe
 
+    def _conjunction_arrays(self) -> tuple:
+        """``(3k, operators, guards)`` of every comparison ``k`` of the guards that are conjunctions
+        (:meth:`maybe_holding`): a scene's made a guard table at a time (:mod:`.guard_tables`), each
+        table's kept by the library for the modes that hold it at the same offset."""
+        library = self.model.library
+        if "guard_blocks" not in self.meta:
+            return _conjunctions_of(library, self.guards)
+        pieces, first = [], 0
+        kept = library.table_conjunctions
+        for (name, offset), count in zip(self.meta["guard_blocks"], self._table_sizes):
+            found = kept.get((name, offset))
+            if found is None:
+                if len(kept) >= GUARD_ENTRIES_KEPT:
+                    kept.clear()
+                found = kept[(name, offset)] = _conjunctions_of(library, self.guards[first:first + count])
+            pieces.append((found[0], found[1], found[2] + first))
+            first += count
+        return tuple(np.concatenate([piece[j] for piece in pieces]) if pieces else np.zeros(0, dtype=np.intp)
+                     for j in range(3))
+
     def holds(self, x, t, rtol, atol) -> bool:
         """Does any guard hold during flow at ``x`` (no jump)?"""
         if not self.guards:
@@ -990,6 +1002,22 @@ class CompiledMode:
         if maybe is None:
             return any(decide_tree(g["tree"], sides, rtol, atol) for g in self.guards)
         return any(decide_tree(self.guards[g]["tree"], sides, rtol, atol) for g in np.flatnonzero(maybe))
+
+
+def _conjunctions_of(library, guards) -> tuple:
+    """``(3k, operators, guard numbers)`` of the comparisons of ``guards`` that are conjunctions
+    (:meth:`CompiledMode.maybe_holding`)."""
+    comparisons, ops, owners = [], [], []
+    kept = library.conjunctions  # (a guard's entry is shared by a scene's modes)
+    for g, guard in enumerate(guards):
+        found = _found_by_id(kept, guard)
+        if found is None:
+            found = _keep_by_id(kept, guard, _conjunction(guard["tree"]))
+        if found[0]:
+            comparisons += found[0]
+            ops += found[1]
+            owners += [g] * len(found[0])
+    return 3 * np.array(comparisons, dtype=np.intp), np.array(ops, dtype=np.intp), np.array(owners, dtype=np.intp)
 
 
 def _count_rel(tree) -> int:

@@ -174,9 +174,10 @@ class ModeLibrary:
         name of a block function → its text (:meth:`block_text`), which a mode's module calls
         but does not hold, and of a scene's guard table → its record (:mod:`.guard_tables`): each is
         stored in the disk cache once, under a key of its own.
-    ``guard_tables``
+    ``guard_tables``, ``table_conjunctions``
         (guard table, offset) → its entries with their comparisons numbered from ``offset``
-        (:meth:`guards_in`), a bounded number.
+        (:meth:`guards_in`), and the arrays of its conjunctions (:meth:`CompiledMode.maybe_holding
+        <switching.library.compiled.CompiledMode.maybe_holding>`), a bounded number each.
     ``symbols_memo``
         expression → (free symbols, whether a law switch's Rate occurs) (:meth:`symbols_of`).
     ``jacobians``
@@ -223,6 +224,7 @@ class ModeLibrary:
         self.block_texts: dict = {}
         self.stored_blocks: set = set()
         self.guard_tables: dict = {}
+        self.table_conjunctions: dict = {}
         #: (the symbols, the argument lists) of the modes' functions (:func:`switching.library.compiled._arguments`)
         self.mode_arguments = None
         self.symbols_memo: dict = {}
@@ -380,10 +382,12 @@ class ModeLibrary:
                 self.guard_tables.clear()
             self.guard_tables[(name, offset)] = tuple(entries)
 
-    def guards_in(self, tables, mode) -> list:
-        """The guard entries of ``mode`` whose ``META`` names its guard ``tables`` (``((name, offset),
-        …)``, :mod:`.guard_tables`): each table's entries numbered from its offset, in turn."""
+    def guards_in(self, tables, mode) -> tuple:
+        """``(guards, sizes)``: the guard entries of ``mode`` whose ``META`` names its guard ``tables``
+        (``((name, offset), …)``, :mod:`.guard_tables`), each table's entries numbered from its offset, in
+        turn; and how many entries each table holds."""
         guards: list = []
+        sizes: list = []
         for name, offset in tables:
             found = self.guard_tables.get((name, offset))
             if found is None:
@@ -395,7 +399,8 @@ class ModeLibrary:
                 self.keep_guard_table(name, offset, shifted_entries(entries, offset, shifted_tree))
                 found = self.guard_tables[(name, offset)]
             guards += found
-        return guards
+            sizes.append(len(found))
+        return guards, sizes
 
     def conflict_guards(self, mode, error):
         """The guards of ``mode``, whose derivation raised the causality conflict ``error``, judged in the

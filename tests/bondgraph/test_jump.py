@@ -99,3 +99,26 @@ def test_a_hold_capacitor_charged_by_a_source_that_reads_another_takes_its_value
     assert jm.participating == ()
     assert sp.simplify(jm.expressions[q_H] - H * q_M / M) == 0
     assert jm.expressions[q_M] == q_M
+
+
+def test_the_projection_of_one_state_onto_one_constraint_is_that_of_the_matrices():
+    """Two point masses meeting (one participating state, one dependent: a scene's every pinnacle) are
+    projected without sympy's 1 × 1 matrices: the same expressions, not only equal ones, for slopes and
+    metrics of every kind, so a mode's generated code is the same to the byte."""
+    from bondgraph.jump import _projection, _scalar_projection
+
+    x1, x2, m1, m2, r, a = sp.symbols("p1 p2 m1 m2 r a", real=True)
+    t = sp.Symbol("t")
+    for k in (sp.Integer(1), sp.Integer(-1), r, -r / 2, m1 / m2, sp.Rational(3, 7)):
+        for constraint in (k * x1, k * x1 + a, k * x1 + a * t - 2, k * x1 + r * t):
+            for mi, md in ((m1, m2), (m2, m1), (m1, m1), (1 / m1, r), (sp.Integer(2), sp.Rational(1, 3))):
+                phi = sp.Matrix([constraint])
+                K = phi.jacobian([x1])
+                metrics = {x1: mi, x2: md}
+                matrices = _projection((x1,), (x2,), phi, K, metrics)
+                numbers = _scalar_projection(x1, x2, constraint, K[0, 0], metrics)
+                assert (matrices[0][0], matrices[1][0]) == (numbers[0][0], numbers[1][0])
+                # the projection itself: momentum conserved in the metric, the constraint met
+                xi_plus, xd_plus = numbers[0][0], numbers[1][0]
+                assert sp.simplify(xd_plus - constraint.subs(x1, xi_plus)) == 0
+                assert sp.simplify((xi_plus - x1) / mi - k * (x2 - xd_plus) / md) == 0

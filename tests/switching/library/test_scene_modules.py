@@ -117,6 +117,8 @@ def test_a_scenes_modules_name_their_guards_in_tables_shared_by_the_modes(tmp_pa
             text = model.library.block_texts[name]
             assert table_checked(name, text) and not table_checked(name, text + " ")
             assert min(lowest_comparison(e["tree"]) for e in table_entries(text)[:1]) == 0
+        by_table, whole_list = cm._conjunction_arrays(), compiled._conjunctions_of(model.library, cm.guards)
+        assert all(np.array_equal(a, b) for a, b in zip(by_table, whole_list)) and len(by_table[0])
         whole = ast.literal_eval(compiled._function_chunks(cm.source)["META"])
         assert whole["guards"] == tuple(cm.guards) and "guard_blocks" not in whole
         assert whole["mode"] == cm.mode.states and whole["automata"] == cm.mode.automata
