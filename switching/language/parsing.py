@@ -175,11 +175,17 @@ _KEYWORDS = {"and", "or", "not", "true", "false", "pi"}
 _RELATIONS = {"<": sp.Lt, "<=": sp.Le, ">": sp.Gt, ">=": sp.Ge, "==": sp.Eq, "!=": sp.Ne}
 
 
+#: a run of names divided by ``/`` of at most this many parts is read trying every join of them (a few
+#: look-ups: ``p2/m``); a longer one, trying joins of at most as many parts as the longest known name has
+_PARTS_TRIED = 8
+
+
 def _tokenize(text: str, names: Mapping[str, sp.Basic]) -> list[tuple[str, str, int]]:
     tokens, pos = [], 0
     text = text.rstrip(_SPACES)
     longest = None  # the most parts of a known hierarchical name: bounds the search below (a look at every
-    # name, made once a text needs it: a scene's thousand guards are parsed against thousands of names)
+    # name, made once a text of a long run of divisions needs it: a scene's thousand guards and signals are
+    # parsed against thousands of names, and their divisions ``p2/m`` of two parts need no bound)
     while pos < len(text):
         m = _TOKEN.match(text, pos)
         if not m or m.end() == pos:
@@ -192,12 +198,13 @@ def _tokenize(text: str, names: Mapping[str, sp.Basic]) -> list[tuple[str, str, 
         if kind == "name" and "/" in value and value not in names:
             # the longest known hierarchical names, divided by what is left
             parts = value.split("/")
-            if longest is None:
+            if longest is None and len(parts) > _PARTS_TRIED:
                 longest = max((name.count("/") + 1 for name in names if "/" in name), default=1)
+            reach = len(parts) if len(parts) <= _PARTS_TRIED else longest  # (no name has more parts than longest)
             offset, i = start, 0
             while i < len(parts) and len(tokens) <= MAX_TOKENS:
                 j = next(
-                    (j for j in range(min(len(parts), i + longest), i, -1) if "/".join(parts[i:j]) in names),
+                    (j for j in range(min(len(parts), i + reach), i, -1) if "/".join(parts[i:j]) in names),
                     i + 1,
                 )
                 name = "/".join(parts[i:j])

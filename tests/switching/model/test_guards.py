@@ -180,3 +180,34 @@ def test_guards_as_sympy_relations_over_signal_symbols():
         assert [s.kind for s in model.resolve(np.array([0.2]), "open", 1.0).steps] == ["start", "continuous"]
         assert model.resolve(np.array([0.2]), "open", 0.5).mode_after.label == "open"
         assert model.resolve(np.array([0.9]), "open", 1.0).mode_after.label == "open"
+
+
+def test_divisions_of_names_read_alike_with_and_without_the_bound_of_the_longest_name(monkeypatch):
+    """A run of names divided by ``/`` is read as the longest known names, divided: the run of a few parts
+    (``p2/m``) by trying every join of its parts, without looking at every known name (a scene's thousand
+    texts against thousands of names); a long run within the parts of the longest known name — the same
+    tokens either way."""
+    import random
+
+    from switching.language import parsing
+
+    class Looked(dict):
+        looks = 0
+
+        def __iter__(self):
+            Looked.looks += 1
+            return super().__iter__()
+
+    rng = random.Random(46)
+    known = ["a/b", "a/b/c", "b/c", "c/a/b/a", "a", "d/e/f/g/h/i/j/k/l"]
+    names = Looked({n: sp.Symbol(n) for n in known})
+    for _ in range(300):
+        text = "/".join(rng.choice("abcdefghijkl") for _ in range(rng.randint(2, 14)))
+        free = parsing._tokenize(text, names)
+        monkeypatch.setattr(parsing, "_PARTS_TRIED", 0)
+        assert parsing._tokenize(text, names) == free, text
+        monkeypatch.setattr(parsing, "_PARTS_TRIED", 8)
+    Looked.looks = 0
+    p1, p2, m = sp.symbols("p1 p2 m")
+    assert sp.simplify(parse_expression("p2/m - p1/m", Looked(p2=p2)) - (p2 - p1) / m) == 0
+    assert Looked.looks == 0
