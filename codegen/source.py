@@ -66,6 +66,10 @@ class FunctionSpec:
     #: an array argument whose entries most outputs equal (a jump leaves most states as they are):
     #: from COPY_MIN such outputs on, one slice copy ``out[:] = <it>`` writes them all
     copy_of: str = ""
+    #: with ``copy_of``: the indices of the outputs that may differ from their entry, the others known to be
+    #: that entry itself (not looked at: a scene's jump moves two of its two thousand states); ``None``:
+    #: every output is compared
+    differs: tuple | None = None
     #: the numeric inverses the outputs call (:mod:`codegen.inverse`) defined after the function (Python
     #: modules); ``False`` for a caller that defines them itself (machine-code modules)
     helpers: bool = True
@@ -433,19 +437,21 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     functions of the same arguments."""
     table, names, argument_doc = _names_and_doc(spec, memo)
 
-    outputs = [o if isinstance(o, sp.Basic) else sp.sympify(o) for o in spec.outputs]
+    outputs = _outputs(spec)
     copied = _copied_outputs(spec, outputs)
+    # (the outputs written one by one: where one slice copy writes the rest, only those that may differ)
+    candidates = sorted(set(spec.differs)) if copied and spec.differs is not None else range(len(outputs))
+    written = [k for k in candidates if k not in copied]
     needed, kinds = set(), set()
-    shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
-                                   needed, kinds)
+    shared = common_subexpressions([outputs[k] for k in written] if copied else outputs, needed, kinds)
     if sp.LambertW in kinds:  # written with the Wright omega function, which never overflows (codegen.lambert)
         from .lambert import omega_form
 
         outputs = omega_form(outputs)
         copied = _copied_outputs(spec, outputs)
+        written = [k for k in range(len(outputs)) if k not in copied]
         needed = set()
-        shared = common_subexpressions([e for k, e in enumerate(outputs) if k not in copied] if copied else outputs,
-                                       needed, kinds)
+        shared = common_subexpressions([outputs[k] for k in written] if copied else outputs, needed, kinds)
     if memo is None:
         temporaries = {expr: f"_c{k}" for k, expr in enumerate(shared)}
     else:
@@ -492,9 +498,8 @@ def function_source(spec: FunctionSpec, memo: PrintMemo | None = None) -> str:
     else:
         if copied:
             lines.append(f"    out[:] = {spec.copy_of}  # (the entries below differ from it)")
-        for k, expr in enumerate(outputs):
-            if k not in copied:
-                lines.append(f"    out[{k}] = {text(expr)}")
+        for k in written:
+            lines.append(f"    out[{k}] = {text(outputs[k])}")
         lines.append("    return out")
     source = "\n".join(lines) + "\n"
     if spec.helpers:
@@ -523,6 +528,18 @@ def inverse_helpers(laws, compiled: bool = False) -> list:
     return texts
 
 
+def _outputs(spec: FunctionSpec) -> list:
+    """The outputs of ``spec`` as sympy expressions (those :attr:`FunctionSpec.differs` leaves out are
+    their entries: symbols already)."""
+    if spec.differs is None:
+        return [o if isinstance(o, sp.Basic) else sp.sympify(o) for o in spec.outputs]
+    outputs = list(spec.outputs)
+    for k in spec.differs:
+        if not isinstance(outputs[k], sp.Basic):
+            outputs[k] = sp.sympify(outputs[k])
+    return outputs
+
+
 def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:
     """The indices of the outputs one slice copy of ``spec.copy_of`` writes (none below :data:`COPY_MIN`)."""
     if not spec.copy_of or spec.raw:
@@ -530,7 +547,13 @@ def _copied_outputs(spec: FunctionSpec, outputs: list) -> frozenset:
     (argument,) = [a for a in spec.arguments if a.name == spec.copy_of]
     if len(argument.symbols) != len(outputs):
         return frozenset()
-    same = frozenset(k for k, (expr, sym) in enumerate(zip(outputs, argument.symbols)) if expr is sym or expr == sym)
+    if spec.differs is None:
+        same = frozenset(k for k, (expr, sym) in enumerate(zip(outputs, argument.symbols))
+                         if expr is sym or expr == sym)
+    else:
+        symbols = argument.symbols
+        same = frozenset(range(len(outputs))).difference(
+            k for k in spec.differs if not (outputs[k] is symbols[k] or outputs[k] == symbols[k]))
     return same if len(same) >= COPY_MIN else frozenset()
 
 

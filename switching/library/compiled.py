@@ -46,6 +46,8 @@ from __future__ import annotations
 
 import ast
 import re
+from itertools import compress, count
+from operator import is_not
 
 import numpy as np
 import sympy as sp
@@ -491,8 +493,9 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
                      **shaped("left and right side of guard comparison k at [2k], [2k + 1]")),
     ]
     if jump_kind == "symbolic":
-        specs.append(FunctionSpec("jump", base_args, _in_order(g, states),
-                                  f"x+ = g(x) into {where}.", model.state_names, copy_of="x",
+        outputs = _in_order(g, states)  # (the states a jump moves are not its states themselves: a scene's few)
+        specs.append(FunctionSpec("jump", base_args, outputs, f"x+ = g(x) into {where}.", model.state_names,
+                                  copy_of="x", differs=tuple(compress(count(), map(is_not, outputs, states))),
                                   **shaped("x+, in the order of x")))
     blocks = _side_blocks(spans) if large else None
     state_blocks = [(k, min(k + STATE_BLOCK, len(states))) for k in range(0, len(states), STATE_BLOCK)] \

@@ -265,6 +265,36 @@ def test_text_shared_between_functions_names_only_temporaries_each_assigns():
         assert out[0] == pytest.approx(2.0 / 9.0, rel=1e-15)
 
 
+def test_a_jump_told_which_states_it_may_move_is_the_text_of_one_compared_state_by_state():
+    """A jump's outputs are mostly its states themselves: told which may differ (``differs``), the
+    generator writes the very text it writes comparing every output — for a scene's jump, a small
+    model's, a jump with a moved state that stays, and one with too few copies for the slice copy."""
+    import dataclasses
+
+    from codegen.source import COPY_MIN, Argument, FunctionSpec, PrintMemo, function_source
+    from models import ball_chain
+
+    chain = ball_chain.build(N=40, e=1.0)
+    row = ball_row([1.0, 2.0, 3.0], 0.7)
+    cases = []
+    for model in (chain, row):
+        model.simulate(0.6, "RK45", rtol=1e-9)
+        for mode in model.visited_modes:
+            me = model.mode_equations(mode)
+            if me.g is not None and not me.jump.is_identity:
+                states = list(model.states)
+                cases.append((tuple(states), tuple(me.g[s] for s in states)))
+    assert len(cases) > 3
+    x = sp.symbols(f"x0:{COPY_MIN + 4}")
+    cases.append((x, (x[0] + x[1], *x[1:])))  # (x[1] among the outputs that may move, yet itself)
+    cases.append((x[:4], (x[1], x[0], x[2], x[3] * 2)))  # (fewer outputs that stay than a slice copy needs)
+    for states, outputs in cases:
+        spec = FunctionSpec("jump", (Argument("x", states),), outputs, "x+", copy_of="x")
+        moved = tuple(k for k, (o, s) in enumerate(zip(outputs, states)) if o is not s)
+        told = dataclasses.replace(spec, differs=moved + ((1,) if len(states) > 2 else ()))
+        assert function_source(told, PrintMemo()) == function_source(spec, PrintMemo())
+
+
 # ------------------------------------------------------------------ the unit step
 
 
