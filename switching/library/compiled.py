@@ -985,14 +985,14 @@ class CompiledMode:
             return _conjunctions_of(library, self.guards)
         pieces, first = [], 0
         kept = library.table_conjunctions
-        for (name, offset), count in zip(self.meta["guard_blocks"], self._table_sizes):
+        for (name, offset), size in zip(self.meta["guard_blocks"], self._table_sizes):
             found = kept.get((name, offset))
             if found is None:
                 if len(kept) >= GUARD_ENTRIES_KEPT:
                     kept.clear()
-                found = kept[(name, offset)] = _conjunctions_of(library, self.guards[first:first + count])
+                found = kept[(name, offset)] = _conjunctions_of(library, self.guards[first:first + size])
             pieces.append((found[0], found[1], found[2] + first))
-            first += count
+            first += size
         return tuple(np.concatenate([piece[j] for piece in pieces]) if pieces else np.zeros(0, dtype=np.intp)
                      for j in range(3))
 
