@@ -130,12 +130,14 @@ A second run on the cache the first filled (``--warm``; CPU seconds of the secon
 the figures of the first child beside them)::
 
     N      before: first / second [s]    after: first / second [s]
-    300          8.2–11.9 / 18.2–19.6          8.5–11.1 / 4.7–6.2
-    500              16.8 / 56.9                   19.8 / 11.8
-    1000                                           36.3 / 22.7
+    300          8.2–11.9 / 18.2–19.6              11.1 / 3.8
+    500              16.8 / 56.9                   11.7 / 7.0
+    1000                                           35.0 / 18.5
 
 A scene's second run was slower than its first: each mode's ``META`` (100–300 kB) was read back with
-``ast.literal_eval``.
+``ast.literal_eval``, and each of the few hundred blocks its module calls was compiled for the safety
+check as it was read (again when it ran; most never do): now a block read is checked by its name, the
+hash of its text, and compiled, and checked, when it first runs.
 
 Left: a mode's own work, the same at any N (≈ 25 ms: the new island's
 causality and equations, its jump map's cancelled fractions ≈ 4 ms, the

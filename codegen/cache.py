@@ -182,14 +182,18 @@ class SourceCache:
     def _path(self, key: str) -> Path:
         return self.directory / f"{key}.py"
 
-    def load(self, key: str, dialect: Dialect = PYTHON, calls: str | None = None) -> str | None:
+    def load(self, key: str, dialect: Dialect = PYTHON, calls: str | None = None, check: bool = True) -> str | None:
         """The source stored under ``key``: from memory, else from disk if its
         header matches and it passes :func:`codegen.safety.check_source` (in
         its ``dialect``; ``calls``, a pattern: the names matching it that the
         source holds may be called too, functions stored apart that its
         caller puts beside it); ``None`` for a miss.  An entry on disk
         that fails the check was altered: it is deleted, with a
-        :class:`CacheWarning`, and its caller builds it again."""
+        :class:`CacheWarning`, and its caller builds it again.  ``check=False``:
+        not compiled for the check now, for a source its caller checks itself
+        and that is checked when it is compiled to run
+        (:func:`codegen.safety.compile_checked`), if it ever is (a scene's
+        block functions, named by the hash of their text: most never run)."""
         if key in self.memory:
             self.hits["memory"] += 1
             return self.memory[key]
@@ -206,7 +210,8 @@ class SourceCache:
             self.hits["rejected"] += 1
             return None
         try:
-            check_source(body, str(path), dialect, frozenset(re.findall(calls, body)) if calls else frozenset())
+            if check:
+                check_source(body, str(path), dialect, frozenset(re.findall(calls, body)) if calls else frozenset())
         except GeneratedCodeError as exc:
             self.hits["rejected"] += 1
             warnings.warn(f"cache entry {path} was altered and is not run ({exc}); deleted it, building it again",

@@ -133,6 +133,31 @@ def test_a_scenes_modules_name_their_guards_in_tables_shared_by_the_modes(tmp_pa
     assert len(big.compiled_mode(pinnacle).module) < 40 * 120
 
 
+def test_a_scenes_blocks_read_from_the_disk_cache_are_compiled_only_to_run(tmp_path, monkeypatch):
+    """A second process reads a scene's module checked (compiled for the safety check), and the few
+    hundred blocks it calls by their names' hashes only: a block is compiled, and checked, when it is
+    first run (the guard sides' raw blocks of a chain whose guards are all decided a priori never are)."""
+    import codegen.cache as cache_module
+
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    made = model.compiled_mode(mode)
+    again = ball_chain.build(N=40, e=1.0)
+    again.cache = SourceCache(model.cache.directory)
+    checked, compiled_now = [], []
+    check = cache_module.check_source
+    monkeypatch.setattr(cache_module, "check_source", lambda source, where, *a: checked.append(where) or
+                        check(source, where, *a))
+    execute = compiled.execute
+    monkeypatch.setattr(compiled, "execute", lambda text, namespace, where, **k: compiled_now.append(where) or
+                        execute(text, namespace, where, **k))
+    loaded = again.compiled_mode(mode)
+    assert again.derivation_count == 0 and len(checked) == 1  # the module itself
+    x = np.random.default_rng(5).normal(size=len(again.states))
+    assert np.array_equal(loaded.sides(x, 0.2), made.sides(x, 0.2))
+    run = {where.split()[-1].rstrip(">") for where in compiled_now if where.startswith("<hbg block")}
+    assert run == set(loaded._blocks["sides"]) and not run & set(loaded._blocks["sides_raw"])
+
+
 def test_a_module_whose_guard_table_is_not_one_is_made_again(tmp_path):
     """A guard table in the disk cache that is not the table its name hashes (a valid cache entry of
     other text) is not read: the module is derived again, its guards those of the mode."""
