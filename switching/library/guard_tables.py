@@ -54,7 +54,7 @@ def table_entries(text: str) -> tuple:
     that is no table."""
     try:
         entries = ast.literal_eval(text[len(_RECORD):]) if text.startswith(_RECORD) else None
-    except (SyntaxError, MemoryError, RecursionError) as exc:
+    except (SyntaxError, ValueError, TypeError, MemoryError, RecursionError) as exc:  # (literal_eval's refusals)
         raise ValueError(f"not a guard table: {exc}") from None
     if not (isinstance(entries, tuple) and all(isinstance(e, dict) and "tree" in e for e in entries)):
         raise ValueError("not a guard table: a tuple of guard entries was expected")

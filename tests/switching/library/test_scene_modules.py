@@ -182,7 +182,8 @@ def test_a_guard_table_text_is_read_or_refused():
     moved = shifted_entries(entries, 5, compiled.shifted_tree)
     assert [lowest_comparison(e["tree"]) for e in moved] == [5, 6]
     assert shifted_entries(entries, 0, compiled.shifted_tree) is entries
-    for text in ("RECORD = (1, 2)\n", "RECORD = (\n", "x = ()\n", "RECORD = {'tree': 1}\n"):
+    for text in ("RECORD = (1, 2)\n", "RECORD = (\n", "x = ()\n", "RECORD = {'tree': 1}\n", "RECORD = (f(),)\n",
+                 "RECORD = ({[1]: 2},)\n"):
         with pytest.raises(ValueError, match="not a guard table"):
             table_entries(text)
 
