@@ -510,16 +510,14 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
         "guards": tuple(guards),
         "n_states": len(states),
     }
-    if tables is not None:  # a scene: of a size that does not grow with its automata and states
+    if large:  # (named by the automata off their initial states)
         initial = {a.name: a.initial for a in model.automata}
-        meta = {"changed": tuple((a, s) for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a]),
-                **{k: meta[k] for k in ("dependent", "moved", "jump", "n_states")}, "guard_blocks": tables,
-                "comparisons": len(relations)}
-    if large:  # (named by the automata off their initial states, as META['changed'] lists them)
-        initial = {a.name: a.initial for a in model.automata}
-        changed = ", ".join(f"{a}={s}" for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a])
-        label = f"{changed} (every other automaton in its initial state)" if changed else \
-            "with every automaton in its initial state"
+        changed = tuple((a, s) for a, s in zip(me.mode.automata, me.mode.states) if s != initial[a])
+        label = ", ".join(f"{a}={s}" for a, s in changed) + " (every other automaton in its initial state)" \
+            if changed else "with every automaton in its initial state"
+    if tables is not None:  # a scene (large): of a size that does not grow with its automata and states
+        meta = {"changed": changed, **{k: meta[k] for k in ("dependent", "moved", "jump", "n_states")},
+                "guard_blocks": tables, "comparisons": len(relations)}
     header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
     pieces = []  # (function name, its text) in the module's order
     for spec in specs:
