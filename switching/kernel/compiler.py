@@ -38,9 +38,9 @@ from .. import rules
 from ..rules import bracket, instants, jumps, maximize, rosenbrock, steppers, stiffness
 
 __all__ = ["band", "decides_as_in_flow", "dispatch", "entry", "euler_step", "finite_holds", "fixed_stiffness", "halve", "hermite_cubic",
-           "inline", "instant_begin", "instant_next", "jit", "jump_pulse", "maximize_begin", "maximize_next", "nearer_end", "parabola_peak", "peak_in_reach",
+           "inline", "instant_begin", "instant_next", "jit", "jump_pulse", "maximize_begin", "maximize_next", "narrow_begin", "narrow_next", "nearer_end", "parabola_peak", "peak_in_reach",
            "pulse_decides", "pulse_holds", "rk4_combine", "rodas_control", "rodas_dense", "stamp_with_rules",
-           "worth_refining"]
+           "switching_part", "worth_refining"]
 
 jit = njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 entry = njit(cache=True, error_model="numpy")  # the functions Python calls
@@ -52,9 +52,12 @@ dispatch = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=
 maximize_begin = jit(maximize.maximize_begin)
 maximize_next = jit(maximize.maximize_next)
 halve = jit(bracket.halve)
+narrow_begin = jit(bracket.narrow_begin)
+narrow_next = jit(bracket.narrow_next)
 parabola_peak = jit(bracket.parabola_peak)
 peak_in_reach = jit(bracket.peak_in_reach)
 worth_refining = jit(bracket.worth_refining)
+switching_part = jit(bracket.switching_part)
 euler_step = jit(steppers.euler_step)
 rk4_combine = jit(steppers.rk4_combine)
 fixed_size = jit(steppers.fixed_size)

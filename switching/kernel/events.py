@@ -18,7 +18,7 @@ The points of a step are slots of the arrays ``ptau [slots]``, ``pmg [slots,
 parts]`` (margins), ``ptr [slots, parts]`` (truths), ``phd [slots]`` (a
 guard holds): slot 0 (:data:`S_START`) the flow's last point (the step's
 start), 1 (:data:`S_BEFORE`) the previous step's point before its end, 2 the
-bisection's last point not holding, 3 unused, 4 (:data:`S_INSIDE`) a hold
+narrowing's last point not holding (:func:`bisect`), 3 unused, 4 (:data:`S_INSIDE`) a hold
 found between the changes of parts, 5 (:data:`S_SCRATCH`) scratch, 6…
 (:data:`S_STEP`) the step's points.
 """
@@ -29,8 +29,8 @@ import numpy as np
 
 from .calls import gparts, holds_at
 from ..rules.bracket import BISECTIONS
-from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, parabola_peak, peak_in_reach,
-                       stamp_with_rules, worth_refining)
+from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, narrow_begin, narrow_next,
+                       parabola_peak, peak_in_reach, stamp_with_rules, switching_part, worth_refining)
 from .flow import interp, rk45_dense
 
 __all__ = ["S_BEFORE", "S_INSIDE", "S_SCRATCH", "S_START", "S_STEP", "bisect", "event_in_step", "first_hold",
@@ -50,17 +50,14 @@ def _parts(slot, tau, hd, m, s, rtol, atol, M, PT):
     ptau, pmg, ptr, phd = PT
     prel, psign, pinc, npart = M.tables[3], M.tables[4], M.tables[5], M.lengths[3]
     for i in range(npart[m]):
-        r = prel[m, i]
-        left = s[3 * r]
-        right = s[3 * r + 1]
-        d = left - right
-        width = band(left, right, s[3 * r + 2], rtol, atol)
-        sign = psign[m, i]
-        if sign == 0:
+        if psign[m, i] == 0:
+            r = prel[m, i]
+            left = s[3 * r]
+            right = s[3 * r + 1]
             pmg[slot, i] = 0.0
-            ptr[slot, i] = abs(d) > width
+            ptr[slot, i] = abs(left - right) > band(left, right, s[3 * r + 2], rtol, atol)
         else:
-            mg = (d if sign > 0 else -d) + (width if pinc[m, i] != 0 else -width)
+            mg = _margin(m, i, s, rtol, atol, M)
             pmg[slot, i] = mg
             ptr[slot, i] = mg >= 0.0 if pinc[m, i] != 0 else mg > 0.0
     ptau[slot] = tau
@@ -272,11 +269,11 @@ def _first_bracket(kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC, total):
         a = order[j - 1]
         b = order[j]
         if phd[b]:
-            lo, tau = bisect(a, ptau[b], kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
+            lo, tau = bisect(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
             if lo != a and _differ(a, lo, P, ptr):
                 inside = pieces(a, lo, kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC)
                 if inside >= 0:
-                    lo, tau = bisect(a, ptau[inside], kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
+                    lo, tau = bisect(a, inside, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
             end = b
         else:
             if not _differ(a, b, P, ptr):
@@ -284,7 +281,7 @@ def _first_bracket(kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC, total):
             inside = pieces(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC)
             if inside < 0:
                 continue
-            lo, tau = bisect(a, ptau[inside], kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
+            lo, tau = bisect(a, inside, kind, m, k, t_old, h, A, E, M, rtol, atol, PT)
             end = inside
         # verified: tau checked with the guards themselves (else the plain bracket)
         interp(kind, t_old, h, A, tau, tmp)
@@ -333,20 +330,44 @@ def first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
     return t_lo, hi
 
 
+@inline
+def _margin(m, i, s, rtol, atol, M):
+    """The margin of the tracked part i of mode m from the sides ``s``, as :func:`_parts` computes it."""
+    r = M.tables[3][m, i]
+    left = s[3 * r]
+    right = s[3 * r + 1]
+    d = left - right
+    width = band(left, right, s[3 * r + 2], rtol, atol)
+    return (d if M.tables[4][m, i] > 0 else -d) + (width if M.tables[5][m, i] != 0 else -width)
+
+
 @dispatch
-def bisect(a, hi, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
-    """GuardScan.locate: bisection of (a, hi] (no guard holding at the point ``a``, one at ``hi``) down to
-    adjacent floating-point numbers; ``(lo, hi)``, ``lo`` the slot of the last point seen not holding."""
+def bisect(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
+    """GuardScan.locate: ``(a, b]`` (slots: no guard holding at the point ``a``, one at ``b``) narrowed down to
+    adjacent floating-point numbers (the rules ``narrow_begin``/``narrow_next`` of
+    :mod:`switching.rules.bracket`, guided by the margin of the ``switching_part``); ``(lo, hi)``, ``lo`` the
+    slot of the last point seen not holding."""
     template, z, dbuf, s, tmp = E
     ptau, pmg, ptr, phd = PT
-    t_lo, hi = first_hold(ptau[a], hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol)
+    part = switching_part(ptr[a], ptr[b], M.tables[4][m], M.lengths[3][m])
+    v_lo = pmg[a, part] if part >= 0 else np.nan
+    v_hi = pmg[b, part] if part >= 0 else np.nan
+    done, state = narrow_next(narrow_begin(ptau[a], ptau[b], v_lo), True, v_hi)
+    t_lo = ptau[a]
+    while not done:
+        tau = state[-1]
+        _interpolate(kind, t_old, h, A, tau, tmp)
+        hd = holds_at(m, tmp, tau, M, s, rtol, atol)
+        if not hd:
+            t_lo = tau
+        done, state = narrow_next(state, hd, _margin(m, part, s, rtol, atol, M) if part >= 0 else np.nan)
     if t_lo == ptau[a]:
-        return a, hi
+        return a, state[1]
     # the last point not holding, evaluated again (deterministic) for its parts' truths
     lo = 2
     interp(kind, t_old, h, A, t_lo, tmp)
     _parts(lo, t_lo, holds_at(m, tmp, t_lo, M, s, rtol, atol), m, s, rtol, atol, M, PT)
-    return lo, hi
+    return lo, state[1]
 
 
 @dispatch

@@ -25,7 +25,7 @@ module                          rules
 :mod:`.maximize`                Brent's maximisation of a margin on an interval
 :mod:`.steppers`                Euler's step, the classical RK4 step, its Hermite interpolant
 :mod:`.jumps`                   the pulse at a jump: ``x⁺ − x`` without round-off
-:mod:`.bracket`                 event bracketing: which margins to refine, bisection to adjacent floats
+:mod:`.bracket`                 event bracketing: which margins to refine, narrowing to adjacent floats
 :mod:`.stiffness`               the fixed-step methods' stiffness verdict on an estimate of ``|h·λ|``
 :mod:`.rosenbrock`              RODAS4's tableau, its continuous extension and its step-size control
 :mod:`.instants`                the resolution of an instant: mythical modes, pinnacles, divergence of time

@@ -2,9 +2,10 @@
 
 Loop: flow in the current mode with the chosen integrator (independent
 states only; dependent states follow their constraints exactly), test every
-guard at each step end, locate the first time a guard holds by bisection on
-the step's interpolant (to adjacent floating-point numbers, so the event time
-is exact up to the interpolant's own error), resolve the instant there
+guard at each step end, locate the first time a guard holds on the step's
+interpolant (narrowed to adjacent floating-point numbers by the ITP method,
+bisection's bracket in fewer evaluations, :mod:`switching.rules.bracket`; so
+the event time is exact up to the interpolant's own error), resolve the instant there
 (mythical modes, pinnacles; DESIGN §6), and restart the flow.
 
 The guard test during location is the one the instant's resolution uses

@@ -8,8 +8,10 @@ points inside it; between points it searches for a guard that holds only
 briefly — an extremum of a margin that comes within reach of its threshold
 (a parabola through three points, refined by Brent's method,
 :mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
-:func:`locate_event` bisects the step's interpolant down to adjacent
-floating-point numbers for the first time a guard holds.  The compiled
+:meth:`GuardScan.locate` narrows the first time a guard holds down to
+adjacent floating-point numbers on the step's interpolant (the ITP method on
+the margin of the part that changes truth, :func:`switching.rules.bracket.narrow_next`), which
+:func:`locate_event` then bisects (a bracket already that narrow is kept).  The compiled
 kernel (:mod:`switching.kernel.events`) ports the same search; the
 rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maximize`.
 """
@@ -17,13 +19,15 @@ rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maxim
 from __future__ import annotations
 
 import functools
+import math
 import weakref
 
 from codegen.decision import band
 from codegen.safety import execute
 
 from ..library.compiled import guard_parts
-from ..rules.bracket import BISECTIONS, halve, parabola_peak, peak_in_reach, worth_refining
+from ..rules.bracket import (BISECTIONS, halve, narrow_begin, narrow_next, parabola_peak, peak_in_reach,
+                             switching_part, worth_refining)
 from ..rules.maximize import maximize_begin, maximize_next
 
 __all__ = ["GuardScan", "locate_event"]
@@ -65,6 +69,7 @@ class _GuardForm:
         namespace = execute(strict, {"band": band}, "<hbg strict guard parts>", also=frozenset({"band"}))
         self.evaluate_strict = namespace["evaluate_strict"]
         self.tracked = [i for i, (_, sign, _) in enumerate(self.parts) if sign]
+        self.signs = tuple(sign for _, sign, _ in self.parts)
 
     def _source(self, name: str, ops: list, strict: bool, holds: str) -> str:
         """The source of ``name(s, rtol, atol) -> (margins, truths, holds)``
@@ -207,20 +212,24 @@ class GuardScan:
         return None
 
     def locate(self, a, b):
-        """``(lo, tau)``: bisection of ``(a, b]`` (``a`` a point where no guard
-        holds, ``b`` one where one does) down to adjacent floating-point
-        numbers, ``lo`` the last point seen not holding — as :func:`locate_event`."""
-        lo, hi = a, b.tau
-        for _ in range(BISECTIONS):
-            more, mid = halve(lo.tau, hi)
-            if not more:
-                break
-            point = self.point(mid)
-            if point.holds:
-                hi = mid
-            else:
+        """``(lo, tau)``: ``(a, b]`` (``a`` a point where no guard holds, ``b``
+        one where one does) narrowed down to adjacent floating-point numbers
+        (the rules :func:`switching.rules.bracket.narrow_begin` and
+        ``narrow_next``), ``lo`` the last point seen not holding."""
+        lo = a
+        signs = self.form.signs
+        part = switching_part(a.truths, b.truths, signs, len(signs))
+
+        def guide(point):
+            return point.margins[part] if part >= 0 else math.nan
+
+        done, state = narrow_next(narrow_begin(a.tau, b.tau, guide(a)), True, guide(b))
+        while not done:
+            point = self.point(state[-1])
+            if not point.holds:
                 lo = point
-        return lo, hi
+            done, state = narrow_next(state, point.holds, guide(point))
+        return lo, state[1]
 
     def verified(self, a, b, lo, tau):
         """The bracket ``(lo, tau)`` for :func:`locate_event`, ``tau`` checked with
