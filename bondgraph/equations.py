@@ -37,6 +37,7 @@ from .algebra import solve_explicit
 from .solving import simplified
 from .errors import AlgebraicLoopError, DerivationError
 from .floating import floating_part
+from .shape_memo import ShapeMemo
 from .symbols import rate_symbol, t
 
 __all__ = ["ConfigurationEquations", "derive_equations", "tidy"]
@@ -287,12 +288,21 @@ def tidy(expr: sp.Expr) -> sp.Expr:
     full grid of ``tests/models/test_model_ranges.py`` into a divergence of time.)
 
     Each runs in the budget of :mod:`bondgraph.budget`; past it the
-    expression is kept as it stands."""
+    expression is kept as it stands.  An expression of a shape tidied before
+    (the same but for its symbols, renamed in order: the contacts of a
+    scene) takes that result, renamed (:mod:`bondgraph.shape_memo`)."""
     if sp.count_ops(expr) > SIMPLIFY_MAX_OPS:
         return expr
+    return _TIDIED(_tidied, expr)
+
+
+def _tidied(expr: sp.Expr) -> sp.Expr:
     if expr.is_rational_function():
         return simplified(expr, "cancelling a derived expression", sp.cancel)
     return simplified(expr, "simplifying a derived expression")
+
+
+_TIDIED = ShapeMemo()
 
 
 def derive_equations(graph, config: dict, causality) -> ConfigurationEquations:
