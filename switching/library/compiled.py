@@ -896,11 +896,23 @@ class CompiledMode:
         carry no Dirac pulse (the state itself still takes the exact ``x⁺``): the
         rule :func:`switching.rules.jumps.jump_pulse`."""
         x = np.asarray(x, dtype=float)
-        delta = np.empty(x.shape[0])
+        x_plus = np.asarray(x_plus, dtype=float)
+        n, moved = x.shape[0], self.moved
         tol = self.model.tolerance
-        motion = np.zeros(x.shape[0]) if motion is None else motion
-        jump_pulse(x, np.asarray(x_plus, dtype=float), self.moved, len(self.moved), tol.jump_rtol, tol.jump_atol,
-                   motion, delta)
+        motion = np.zeros(n) if motion is None else motion
+        if 0 < len(moved) < n:
+            elsewhere = x_plus != x  # (NaN differs from itself: the rule on all states then)
+            elsewhere[moved] = False
+            if not elsewhere.any():  # (a scene's jump moves a few of its thousands of states)
+                # the rule on the moved states alone: the others' pulse is 0 exactly, as the rule would make it
+                moved_pulse = np.empty(len(moved))
+                jump_pulse(x[moved], x_plus[moved], np.arange(len(moved)), len(moved), tol.jump_rtol,
+                           tol.jump_atol, motion[moved], moved_pulse)
+                delta = np.zeros(n)
+                delta[moved] = moved_pulse
+                return delta
+        delta = np.empty(n)
+        jump_pulse(x, x_plus, moved, len(moved), tol.jump_rtol, tol.jump_atol, motion, delta)
         return delta
 
     def motion(self, x: np.ndarray, t: float) -> np.ndarray:

@@ -413,3 +413,31 @@ def test_an_instant_pauses_the_cyclic_collector_and_leaves_it_as_it_was(monkeypa
     finally:
         (gc.enable if was else gc.disable)()
     assert seen and not any(seen)
+
+
+def test_a_scene_jumps_pulse_is_the_rules_on_all_states_taken_on_the_moved_ones(tmp_path):
+    """CompiledMode.pulse runs the rule (switching.rules.jumps.jump_pulse) on the states the jump moves alone
+    when it keeps the others exactly: the same pulse, to the bit, as the rule on all states; else on all."""
+    from switching.rules.jumps import jump_pulse
+
+    model, mode = chain_with_one_pinnacle(40, tmp_path)
+    cm = model.compiled_mode(mode)
+    assert 0 < len(cm.moved) < cm.n
+    tol = model.tolerance
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        x = rng.normal(size=cm.n)
+        x_plus = x.copy()
+        x_plus[cm.moved] += rng.choice([0.0, 1e-17, 1e-3, -2.0], size=len(cm.moved))
+        if trial % 4 == 3:
+            x_plus[rng.integers(cm.n)] += 1.0  # a state the jump should keep, moved: the rule on all of them
+        if trial % 5 == 4:
+            x[rng.integers(cm.n)] = np.nan
+            x_plus = np.where(np.isnan(x), np.nan, x_plus)
+        motion = np.abs(rng.normal(size=cm.n)) * 1e-12
+        expected = np.empty(cm.n)
+        jump_pulse(x, x_plus, cm.moved, len(cm.moved), tol.jump_rtol, tol.jump_atol, motion, expected)
+        found = cm.pulse(x, x_plus, motion)
+        assert np.array_equal(found, expected, equal_nan=True), trial
+    x = rng.normal(size=cm.n)
+    assert np.array_equal(cm.pulse(x, x), np.zeros(cm.n))
