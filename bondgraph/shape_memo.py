@@ -28,7 +28,9 @@ _PREFIX = "_shape"
 
 class ShapeMemo:
     """``step(expr)`` kept by the shape of ``expr`` (see the module): at most
-    ``size`` shapes, the least recently added dropped first."""
+    ``size`` shapes, the earliest added dropped first.  A step whose result
+    depends on more than its expression (a time budget that ran out) gives
+    every expression of the shape the first one's."""
 
     def __init__(self, size: int = 4096):
         self.size = size
@@ -47,7 +49,10 @@ class ShapeMemo:
             return found.xreplace(backward)
         result = step(expr)
         if len(self.entries) >= self.size:
-            del self.entries[next(iter(self.entries))]
+            try:
+                del self.entries[next(iter(self.entries))]
+            except (KeyError, RuntimeError, StopIteration):  # (another thread's derivation dropped it first)
+                pass
         self.entries[shape] = result.xreplace(forward)
         return result
 

@@ -10,8 +10,9 @@ briefly — an extremum of a margin that comes within reach of its threshold
 :mod:`switching.rules.maximize`), or two or more parts of one guard changing truth — and
 :meth:`GuardScan.locate` narrows the first time a guard holds down to
 adjacent floating-point numbers on the step's interpolant (the ITP method on
-the margin of the part that changes truth, :func:`switching.rules.bracket.narrow_next`), which
-:func:`locate_event` then bisects (a bracket already that narrow is kept).  The compiled
+the margin of the part that changes truth, :func:`switching.rules.bracket.narrow_next`);
+:func:`locate_event` bisects what is left of that bracket (nothing, where
+its ends are adjacent numbers already).  The compiled
 kernel (:mod:`switching.kernel.events`) ports the same search; the
 rules of both are :mod:`switching.rules.bracket` and :mod:`switching.rules.maximize`.
 """
