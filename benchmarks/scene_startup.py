@@ -139,12 +139,28 @@ A scene's second run was slower than its first: each mode's ``META`` (100–300 
 check as it was read (again when it ran; most never do): now a block read is checked by its name, the
 hash of its text, and compiled, and checked, when it first runs.
 
-Left: a mode's own work, the same at any N (≈ 25 ms: the new island's
-causality and equations, its jump map's cancelled fractions ≈ 4 ms, the
-printing and compiling of its new blocks, four files written to the disk
-cache, ≈ 0.6 ms each on this machine's disk), and O(N) a mode still: the
-rates' and sides' callers (a call per block), ``META``'s text, ``sides``
-evaluated at each pinnacle, the collector's pass over what the instant made.
+Then (issue 46, session 23; before ``74d8c89``, after ``7674fcb``; run seconds, alternately, the
+machine's speed moving by a quarter between rounds)::
+
+    N      modes   before [s]     after [s]
+    500      500   12.25–20.42    13.03–15.73
+    1000    1000   34.09–45.16    32.06–42.91
+
+and ``python benchmarks/scene_startup.py 50 200 500 1000`` after, twice: 1.14–1.16 / 3.61–4.15 /
+11.49–12.84 / 33.85–34.36 s (23 / 18–21 / 23–26 / 34 ms a mode).  A derived expression is tidied
+(``cancel`` or ``simplify`` in the budget) once per shape and renamed for the others
+(:mod:`bondgraph.shape_memo`: 1996 calls at N = 500, 1.32 → 0.13 s); a jump's pulse runs the rule on
+the states it moves (0.66 ms → 15 µs a call at 1000 states).  The disk cache's writes, timed around
+each (``write_atomically``): 5218 files, 0.83 s of the N = 1000 run (0.16 ms a file, 2.4 %); the
+"0.4 ms a file, 6 %" above came from sampling (py-spy pauses the process, which lengthens its system
+calls), and a run with the disk cache off (``HBG_CACHE_DIR=off``) is 0.7 s shorter.
+
+Left: a mode's own work, the same at any N (≈ 23 ms: the new island's
+causality and equations, the printing and compiling of its new blocks),
+and O(N) a mode still (a mode at N = 1000 costs 1.48 times one at N = 50):
+the rates' and sides' callers (a call per block, and the lookups that find
+each block), ``META``'s text, ``sides`` evaluated at each pinnacle, the
+merge of the islands' equations, the collector's pass over what the instant made.
 """
 
 from __future__ import annotations
