@@ -33,11 +33,11 @@ from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
+from . import budget
 from .algebra import solve_explicit
-from .solving import simplified
 from .errors import AlgebraicLoopError, DerivationError
 from .floating import floating_part
-from .shape_memo import ShapeMemo
+from .shape_memo import NotKept, ShapeMemo
 from .symbols import rate_symbol, t
 
 __all__ = ["ConfigurationEquations", "derive_equations", "tidy"]
@@ -297,9 +297,16 @@ def tidy(expr: sp.Expr) -> sp.Expr:
 
 
 def _tidied(expr: sp.Expr) -> sp.Expr:
+    """``tidy``'s step: ``expr`` as it stands when the budget runs out (not kept for its shape: the next
+    expression of the shape tries again)."""
     if expr.is_rational_function():
-        return simplified(expr, "cancelling a derived expression", sp.cancel)
-    return simplified(expr, "simplifying a derived expression")
+        how, step = sp.cancel, "cancelling a derived expression"
+    else:
+        how, step = sp.simplify, "simplifying a derived expression"
+    try:
+        return budget.run(step, how, expr)
+    except budget.OverBudget:
+        raise NotKept(expr) from None
 
 
 _TIDIED = ShapeMemo()

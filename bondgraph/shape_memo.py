@@ -21,16 +21,25 @@ from __future__ import annotations
 
 import sympy as sp
 
-__all__ = ["ShapeMemo"]
+__all__ = ["NotKept", "ShapeMemo"]
 
 _PREFIX = "_shape"
 
 
+class NotKept(Exception):
+    """Raised by a step for a ``result`` that is not to be kept for the shape (a time budget ran out)."""
+
+    def __init__(self, result):
+        super().__init__("a step's result not to be kept")
+        self.result = result
+
+
 class ShapeMemo:
     """``step(expr)`` kept by the shape of ``expr`` (see the module): at most
-    ``size`` shapes, the earliest added dropped first.  A step whose result
-    depends on more than its expression (a time budget that ran out) gives
-    every expression of the shape the first one's."""
+    ``size`` shapes, the earliest added dropped first.  A step may answer
+    by raising :class:`NotKept` (a time budget ran out): its result is
+    returned and not kept, and the next expression of the shape runs the
+    step again."""
 
     def __init__(self, size: int = 4096):
         self.size = size
@@ -47,7 +56,10 @@ class ShapeMemo:
         if found is not None:
             self.hits += 1
             return found.xreplace(backward)
-        result = step(expr)
+        try:
+            result = step(expr)
+        except NotKept as unkept:
+            return unkept.result
         if len(self.entries) >= self.size:
             try:
                 del self.entries[next(iter(self.entries))]

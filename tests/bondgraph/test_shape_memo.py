@@ -4,7 +4,7 @@ one the step gives the expression itself, term for term; other shapes, kinds of 
 import sympy as sp
 
 from bondgraph.equations import tidy
-from bondgraph.shape_memo import ShapeMemo
+from bondgraph.shape_memo import NotKept, ShapeMemo
 
 
 def _contact_jump(k):
@@ -75,3 +75,38 @@ def test_tidy_gives_the_shape_memos_result_of_a_contact_jump_as_its_own():
     for k in (11, 12, 13):
         direct = sp.cancel(_contact_jump(k))
         assert sp.srepr(tidy(_contact_jump(k))) == sp.srepr(direct)
+
+
+def test_a_result_the_step_says_not_to_keep_is_returned_and_the_next_of_its_shape_runs_the_step_again():
+    """A step whose budget ran out (NotKept) leaves the expression as it stands, for this one only."""
+    memo = ShapeMemo()
+    calls = []
+
+    def step(expr):
+        calls.append(expr)
+        if len(calls) == 1:
+            raise NotKept(expr)
+        return sp.cancel(expr)
+
+    first = _contact_jump(1)
+    assert memo(step, first) is first and not memo.entries
+    assert sp.srepr(memo(step, _contact_jump(2))) == sp.srepr(sp.cancel(_contact_jump(2)))
+    memo(step, _contact_jump(3))
+    assert len(calls) == 2 and memo.hits == 1
+
+
+def test_tidy_past_its_budget_keeps_the_expression_and_keeps_nothing_for_its_shape(monkeypatch):
+    from bondgraph import budget, equations
+
+    def over(step, how, expr):
+        raise budget.OverBudget(step, 0.0)
+
+    memo = ShapeMemo()
+    monkeypatch.setattr(equations, "_TIDIED", memo)
+    monkeypatch.setattr(budget, "run", over)
+    expr = _contact_jump(21)
+    assert tidy(expr) is expr and not memo.entries
+    monkeypatch.undo()
+    monkeypatch.setattr(equations, "_TIDIED", memo)
+    assert sp.srepr(tidy(_contact_jump(22))) == sp.srepr(sp.cancel(_contact_jump(22)))
+    assert len(memo.entries) == 1
