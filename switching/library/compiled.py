@@ -57,6 +57,7 @@ from sympy.logic.boolalg import And, BooleanFalse, BooleanTrue, Not, Or
 from codegen import decision
 from codegen.roundoff import larger, roundoff_scale
 from codegen.runtime import Comparison, Hyper, decide, hyper
+from codegen.composed import composed_function
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
@@ -779,9 +780,16 @@ class CompiledMode:
         found = self._namespace.get(name)
         if found is None and name in self._chunks:
             first_line, text = self._chunks[name]
-            self._place_blocks(self._blocks.get(name, ()))
-            execute(text, self._namespace, self._where, first_line=first_line, also=self._functions)
-            found = self._namespace[name]
+            blocks = self._blocks.get(name, ())
+            self._place_blocks(blocks)
+            # (a caller of blocks is read, not compiled: codegen.composed)
+            found = composed_function(text, {block: self._namespace[block] for block in blocks}, self._where,
+                                      first_line) if blocks else None
+            if found is None:
+                execute(text, self._namespace, self._where, first_line=first_line, also=self._functions)
+                found = self._namespace[name]
+            else:
+                self._namespace[name] = found
         return found
 
     def _place_blocks(self, blocks) -> None:
