@@ -9,7 +9,8 @@ from __future__ import annotations
 from .causality import assign_causality
 from .equations import derive_equations
 from .errors import HybridBondGraphError
-from .islands import IslandCells, element_couplings, has_modulated_two_port, merge_causality, merge_equations
+from .island_merge import merge_causality, merge_equations
+from .islands import IslandCells, element_couplings, has_modulated_two_port
 
 
 class Derivations:
@@ -111,7 +112,7 @@ class Derivations:
             pieces = self._kept("island causality", self.island_causality, graph, parts, ports)
         except HybridBondGraphError:
             return assign_causality(graph, config, validate=False)
-        return merge_causality(graph, config, pieces)
+        return self._merged(merge_causality, ("last merged causality", ports), graph, config, pieces)
 
     def equations(self, graph, config: dict, causality, ports: str):
         """The equations of ``config``, assembled from its islands' like
@@ -123,4 +124,10 @@ class Derivations:
             pieces = self._kept("island equations", self.island_equations, graph, parts, ports)
         except HybridBondGraphError:
             return derive_equations(graph, config, causality)
-        return merge_equations(graph, config, causality, pieces)
+        return self._merged(merge_equations, ("last merged equations", ports), graph, config, causality, pieces)
+
+    def _merged(self, merge, last: tuple, *arguments):
+        """``merge(*arguments, previous)`` (:mod:`bondgraph.island_merge`), ``previous`` the merge kept under
+        ``last``: that of the configuration derived before, whose islands it swaps for its own."""
+        merged = self.entries[last] = merge(*arguments, previous=self.entries.get(last))
+        return merged

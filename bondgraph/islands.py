@@ -24,21 +24,17 @@ graph's own order of elements and bonds; the results are merged back into
 one :class:`~bondgraph.causality.Causality` and one
 :class:`~bondgraph.equations.ConfigurationEquations` with the very
 expressions a derivation of the whole graph gives (``tests/bondgraph/test_islands.py``
-compares them over many configurations of the shipped models).  The fields a
-mode of a scene hardly reads — every bond's effort and flow, the implicit
-rates, the causal relations and assignment — are merged when first read.
+compares them over many configurations of the shipped models): see
+:mod:`bondgraph.island_merge`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .causality import Causality
 from .elements import Junction, TwoPort
-from .equations import ConfigurationEquations
 
-__all__ = ["Island", "IslandCells", "element_couplings", "has_modulated_two_port", "islands", "merge_causality",
-           "merge_equations"]
+__all__ = ["Island", "IslandCells", "element_couplings", "has_modulated_two_port", "islands"]
 
 
 @dataclass(frozen=True)
@@ -225,163 +221,3 @@ def has_modulated_two_port(graph) -> bool:
     its storage is ranked before causality is assigned, in every island:
     :meth:`bondgraph.causality._SCAP._storage_order`.)"""
     return any(isinstance(el, TwoPort) and el.modulated for el in graph.elements.values())
-
-
-def merge_causality(graph, config: dict, parts: list):
-    """One :class:`~bondgraph.causality.Causality` of the whole graph from
-    those of its islands (``parts``), ordered as the whole graph's own: its
-    states' split now, the rest (:class:`_MergedCausality`) when first read."""
-    dependent_set: set = set()
-    for part in parts:
-        if part.dependent:
-            dependent_set.update(part.dependent)
-    storage = graph.derived.memo("storage elements", lambda: graph.storage)  # (a walk of every element)
-    independent = [el.state for el in storage if el.state not in dependent_set]
-    independent.extend(graph.displacements)
-    dependent = tuple(el.state for el in storage if el.state in dependent_set)
-    return _MergedCausality.of(graph, config, parts, tuple(independent), dependent)
-
-
-def _rate_symbols(graph) -> dict:
-    """State → the symbol of its rate, kept with the graph's derivations (a copy)."""
-    from .symbols import rate_symbol
-
-    return dict(graph.derived.memo("rate symbols", lambda: {s: rate_symbol(s) for s in graph.states}))
-
-
-class _Merged:
-    """A merged derivation whose fields named in ``_LAZY`` are merged from the islands' when first read:
-    a mode of a scene of a thousand islands reads a few of them, and each is a dictionary of the whole
-    graph.  Made by ``of``; a subclass's ``_merge(graph, parts)`` gives every lazy field at once."""
-
-    _LAZY: tuple = ()
-
-    def __getattr__(self, name):  # (only for a field not set yet)
-        if name in type(self)._LAZY and "_parts" in self.__dict__:
-            graph, parts = self.__dict__.pop("_graph"), self.__dict__.pop("_parts")
-            for field_name, value in self._merge(graph, parts).items():
-                object.__setattr__(self, field_name, value)
-            return self.__dict__[name]
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-
-
-def _made(cls, whole, parts: list, **fields):
-    """An object of the merged dataclass ``cls`` with ``fields`` set now and the lazy ones merged later from
-    the islands' ``parts`` of the graph ``whole``."""
-    merged = object.__new__(cls)
-    for name, value in {**fields, "_graph": whole, "_parts": parts}.items():
-        object.__setattr__(merged, name, value)
-    return merged
-
-
-class _MergedCausality(_Merged, Causality):
-    """A :class:`~bondgraph.causality.Causality` merged from its islands': ``effort_by``, ``dead``,
-    ``algebraic_loops`` and ``relations`` when first read."""
-
-    _LAZY = ("effort_by", "dead", "algebraic_loops", "relations")
-
-    @classmethod
-    def of(cls, graph, config: dict, parts: list, independent: tuple, dependent: tuple):
-        return _made(cls, graph, parts, configuration=dict(config), independent=independent, dependent=dependent)
-
-    def _merge(self, graph, parts: list) -> dict:
-        from .relations import CausalRelations
-
-        effort_by, dead, loops = {}, set(), []
-        relations, rates, constraints = {}, {}, {}
-        for part in parts:
-            effort_by.update(part.effort_by)
-            dead |= part.dead
-            loops.extend(part.algebraic_loops)
-            relations.update(part.relations.relations)
-            rates.update(part.relations.rates)
-            constraints.update(part.relations.constraints)
-        return {"effort_by": {b: effort_by[b] for b in graph.bonds if b in effort_by}, "dead": frozenset(dead),
-                "algebraic_loops": tuple(sorted(loops)),
-                "relations": CausalRelations(relations, rates, constraints, _rate_symbols(graph))}
-
-
-def merge_equations(graph, config: dict, causality, parts: list):
-    """One :class:`~bondgraph.equations.ConfigurationEquations` of the whole
-    graph from those of its islands, with the whole graph's ``causality``
-    (:func:`merge_causality` of the islands'): its states' rates and
-    constraints now, its bonds' values and implicit rates
-    (:class:`_MergedEquations`) when first read."""
-    constraints, rates, dependent_rates, input_rates, port_values = {}, {}, {}, {}, {}
-    for part in parts:
-        if part.constraints:
-            constraints.update(part.constraints)
-        rates.update(part.rates)
-        if part._dependent_rates:
-            dependent_rates.update(part._dependent_rates)
-        if part.input_rates:
-            input_rates.update(part.input_rates)
-        for port in part.port_inputs:
-            port_values[port] = (part.port_inputs[port], part.port_outputs[port])
-    open_ports = [p for p in graph.open_ports if p in port_values]
-    states = graph.derived.memo("states", lambda: tuple(graph.states))  # (a walk of every element)
-    return _MergedEquations.of(
-        graph, parts,
-        graph_name=graph.name,
-        configuration=dict(config),
-        states=states,
-        independent=causality.independent,
-        dependent=causality.dependent,
-        rate_symbols=_rate_symbols(graph),
-        constraints={x: constraints[x] for x in causality.dependent},
-        rates={x: rates[x] for x in states},
-        causality=causality,
-        _dependent_rates=dependent_rates,
-        graph=graph,
-        substitutions={},
-        port_inputs={p: port_values[p][0] for p in open_ports},
-        port_outputs={p: port_values[p][1] for p in open_ports},
-        input_rates={u: input_rates[u] for u in sorted(input_rates, key=lambda s: s.name)},
-    )
-
-
-class _MergedEquations(_Merged, ConfigurationEquations):
-    """A :class:`~bondgraph.equations.ConfigurationEquations` merged from its islands': ``implicit_rates``,
-    ``efforts`` and ``flows`` when first read."""
-
-    _LAZY = ("implicit_rates", "efforts", "flows")
-
-    @classmethod
-    def of(cls, whole, parts: list, **fields):
-        return _made(cls, whole, parts, **fields)
-
-    def implicit_rates_of(self, states) -> dict:
-        """:meth:`ConfigurationEquations.implicit_rates_of <bondgraph.equations.ConfigurationEquations.
-        implicit_rates_of>`, read from the islands that hold dependent states while the implicit rates are
-        not merged (the states a constraint reads are in its island: those the jump map asks about), else
-        from them all."""
-        parts = self.__dict__.get("_parts")
-        if parts is None:
-            return super().implicit_rates_of(states)
-        found, constrained = {}, [part.implicit_rates for part in parts if part.dependent]
-        for x in states:
-            for implicit in constrained:
-                if x in implicit:
-                    found[x] = implicit[x]
-                    break
-            else:
-                if x in self._independent_states():
-                    return super().implicit_rates_of(states)  # (not in an island with a constraint: all merged)
-        return found
-
-    def _independent_states(self) -> frozenset:
-        """The independent states as a set, made once."""
-        kept = self.__dict__.get("_independent_set")
-        if kept is None:
-            kept = frozenset(self.independent)
-            object.__setattr__(self, "_independent_set", kept)
-        return kept
-
-    def _merge(self, graph, parts: list) -> dict:
-        implicit, efforts, flows = {}, {}, {}
-        for part in parts:
-            implicit.update(part.implicit_rates)
-            efforts.update(part.efforts)
-            flows.update(part.flows)
-        return {"implicit_rates": {x: implicit[x] for x in self.independent},
-                "efforts": {b: efforts[b] for b in graph.bonds}, "flows": {b: flows[b] for b in graph.bonds}}

@@ -329,3 +329,36 @@ def test_the_states_impulses_reach_are_the_same_with_the_rates_symbols_kept(name
         assert kept == _reached_by_impulses(eq) == _reached_by_impulses(eq, graph)
         assert kept == {x for x, rate in eq.implicit_rates.items()
                         if any(rate.has(eq.rate_symbols[d]) for d in eq.dependent)}
+
+
+def test_a_merge_swapped_from_the_configuration_before_is_a_merge_from_scratch():
+    """Issue 46: the next configuration's merge swaps the islands that changed into the previous merge's
+    dictionaries; it must give the entries, in the order, that merging every island gives."""
+    from bondgraph import island_merge
+
+    graph = ball_chain.build(N=30, e=1.0).derivation_graph
+    contacts = graph.controlled_junctions
+    rng = random.Random(7)
+    config = {c: False for c in contacts}
+    previous = swapped = 0
+    for _ in range(25):
+        config = dict(config, **{rng.choice(contacts): rng.random() < 0.6})
+        normal = graph.configuration(config)
+        parts = graph.derived.islands(graph, normal, "closed")
+        causality_parts = [graph.derived.island_causality(graph, island, "closed") for island in parts]
+        equation_parts = [graph.derived.island_equations(graph, island, "closed") for island in parts]
+        fresh_causality = island_merge.merge_causality(graph, normal, causality_parts)
+        fresh = island_merge.merge_equations(graph, normal, fresh_causality, equation_parts)
+        if previous:
+            causality = island_merge.merge_causality(graph, normal, causality_parts, previous[0])
+            merged = island_merge.merge_equations(graph, normal, causality, equation_parts, previous[1])
+            swapped += island_merge._swap(previous[1], equation_parts) is not None
+            assert (causality.independent, causality.dependent) == (fresh_causality.independent,
+                                                                    fresh_causality.dependent)
+            for table in ("constraints", "rates", "input_rates", "port_inputs", "port_outputs"):
+                assert_same_expressions(getattr(merged, table), getattr(fresh, table), table)
+            assert merged._dependent_rates == fresh._dependent_rates  # (a substitution: its order is not read)
+        else:
+            merged, causality = fresh, fresh_causality
+        previous = (causality, merged)
+    assert swapped == 24
