@@ -670,19 +670,11 @@ class BondGraph:
         sub.elements = {n: self.elements[n] for n in island.elements}
         sub.bonds = {b: self.bonds[b] for b in island.bonds}
         sub._bonds_of = {n: [b for b in self._bonds_of[n] if b in held] for n in island.elements}
-        by_bond = self.derived.memo("displacements by bond", self._displacements_by_bond)
+        by_bond = self.derived.memo("displacements by bond", lambda: _displacements_by_bond(self))
         sub.displacements = {s: d for _, s, d in sorted(entry for b in island.bonds for entry in by_bond.get(b, ()))}
         sub.inputs = dict(self.inputs)
         sub.open_ports = {p: (outside, b) for p, (outside, b) in self.open_ports.items() if b in held}
         return sub
-
-    def _displacements_by_bond(self) -> dict:
-        """Bond → ``[(place among the displacements, symbol, displacement)]`` of the displacements it
-        integrates (an island of a scene finds its own without a walk of every displacement)."""
-        found: dict = {}
-        for k, (symbol, displacement) in enumerate(self.displacements.items()):
-            found.setdefault(displacement.bond, []).append((k, symbol, displacement))
-        return found
 
     @property
     def version(self) -> int:
@@ -691,6 +683,15 @@ class BondGraph:
 
     def __repr__(self) -> str:
         return f"BondGraph({self.name!r}, {len(self.elements)} elements, {len(self.bonds)} bonds)"
+
+
+def _displacements_by_bond(graph: BondGraph) -> dict:
+    """Bond → ``[(place among the displacements, symbol, displacement)]`` of the displacements it
+    integrates (an island of a scene finds its own without a walk of every displacement)."""
+    found: dict = {}
+    for k, (symbol, displacement) in enumerate(graph.displacements.items()):
+        found.setdefault(displacement.bond, []).append((k, symbol, displacement))
+    return found
 
 
 def _normalised(graph: BondGraph, config) -> dict:
