@@ -670,8 +670,7 @@ class BondGraph:
         sub.elements = {n: self.elements[n] for n in island.elements}
         sub.bonds = {b: self.bonds[b] for b in island.bonds}
         sub._bonds_of = {n: [b for b in self._bonds_of[n] if b in held] for n in island.elements}
-        by_bond = self.derived.memo("displacements by bond", lambda: _displacements_by_bond(self))
-        sub.displacements = {s: d for _, s, d in sorted(entry for b in island.bonds for entry in by_bond.get(b, ()))}
+        sub.displacements = _island_displacements(self, island.bonds)
         sub.inputs = dict(self.inputs)
         sub.open_ports = {p: (outside, b) for p, (outside, b) in self.open_ports.items() if b in held}
         return sub
@@ -685,13 +684,18 @@ class BondGraph:
         return f"BondGraph({self.name!r}, {len(self.elements)} elements, {len(self.bonds)} bonds)"
 
 
-def _displacements_by_bond(graph: BondGraph) -> dict:
-    """Bond → ``[(place among the displacements, symbol, displacement)]`` of the displacements it
-    integrates (an island of a scene finds its own without a walk of every displacement)."""
-    found: dict = {}
-    for k, (symbol, displacement) in enumerate(graph.displacements.items()):
-        found.setdefault(displacement.bond, []).append((k, symbol, displacement))
-    return found
+def _island_displacements(graph: BondGraph, bonds: tuple) -> dict:
+    """The displacements of ``graph`` that integrate a flow of ``bonds``, in the graph's order: found by
+    bond (an island of a scene, without a walk of every displacement)."""
+
+    def by_bond() -> dict:  # bond → [(place among the displacements, symbol, displacement)]
+        found: dict = {}
+        for k, (symbol, displacement) in enumerate(graph.displacements.items()):
+            found.setdefault(displacement.bond, []).append((k, symbol, displacement))
+        return found
+
+    kept = graph.derived.memo("displacements by bond", by_bond)
+    return {symbol: d for _, symbol, d in sorted(entry for b in bonds for entry in kept.get(b, ()))}
 
 
 def _normalised(graph: BondGraph, config) -> dict:
