@@ -22,6 +22,8 @@ from scratch (which is made whenever that does not hold, or more than
 
 from __future__ import annotations
 
+from itertools import compress
+
 from .causality import Causality
 from .equations import ConfigurationEquations
 
@@ -31,22 +33,26 @@ __all__ = ["SWAP_LIMIT", "merge_causality", "merge_equations"]
 SWAP_LIMIT = 32
 
 
-def _swap(previous, parts: list):
-    """``(removed, added)``: the islands of the merge ``previous`` that ``parts`` lacks and those of ``parts``
-    it lacked (by identity, in their lists' order), or ``None`` when there is no previous merge or more
-    than :data:`SWAP_LIMIT` islands changed."""
+def _swap(previous, parts: list, ids: set):
+    """``(removed, added)``: the islands of the merge ``previous`` that ``parts`` (their ``ids``) lacks and
+    those of ``parts`` it lacked (by identity, in their lists' order), or ``None`` when there is no
+    previous merge or more than :data:`SWAP_LIMIT` islands changed."""
     before = None if previous is None else previous.__dict__.get("_islands")
     if before is None:
         return None
-    old, new = set(map(id, before)), set(map(id, parts))
-    if len(old ^ new) > SWAP_LIMIT:
+    old = previous._island_ids
+    if len(old ^ ids) > SWAP_LIMIT:
         return None
-    return [part for part in before if id(part) not in new], [part for part in parts if id(part) not in old]
+    # (the thousand islands of a scene's configuration sieved without a Python loop over them)
+    return (list(compress(before, map((old - ids).__contains__, map(id, before)))),
+            list(compress(parts, map((ids - old).__contains__, map(id, parts)))))
 
 
-def _kept_for_next(merged, parts: list, **pools):
-    """Keep on ``merged`` its islands and its unordered merged dictionaries, for the next merge's swap."""
+def _kept_for_next(merged, parts: list, ids: set, **pools):
+    """Keep on ``merged`` its islands (and their ``ids``) and its unordered merged dictionaries, for the next
+    merge's swap."""
     object.__setattr__(merged, "_islands", tuple(parts))
+    object.__setattr__(merged, "_island_ids", ids)
     for name, value in pools.items():
         object.__setattr__(merged, name, value)
     return merged
@@ -69,7 +75,8 @@ def merge_causality(graph, config: dict, parts: list, previous=None):
     those of its islands (``parts``), ordered as the whole graph's own: its
     states' split now, the rest (:class:`_MergedCausality`) when first read.
     ``previous``: the merge of another configuration of the graph (see the module)."""
-    swap = _swap(previous, parts)
+    ids = set(map(id, parts))
+    swap = _swap(previous, parts, ids)
     if swap is None:
         dependent_set: set = set()
         for part in parts:
@@ -90,7 +97,7 @@ def merge_causality(graph, config: dict, parts: list, previous=None):
         independent.extend(graph.displacements)
         independent, dependent = tuple(independent), tuple(el.state for el in storage if el.state in dependent_set)
     merged = _MergedCausality.of(graph, config, parts, independent, dependent)
-    return _kept_for_next(merged, parts, _dependent_set=dependent_set)
+    return _kept_for_next(merged, parts, ids, _dependent_set=dependent_set)
 
 
 def _rate_symbols(graph) -> dict:
@@ -208,7 +215,8 @@ def merge_equations(graph, config: dict, causality, parts: list, previous=None):
     (:class:`_MergedEquations`) when first read.  ``previous``: the merge of
     another configuration of the graph (see the module)."""
     states = graph.derived.memo("states", lambda: tuple(graph.states))  # (a walk of every element)
-    swap = _swap(previous, parts)
+    ids = set(map(id, parts))
+    swap = _swap(previous, parts, ids)
     pools = None if swap is None else _swapped_pools(previous, parts, *swap)
     if pools is None:
         pools = _pools(parts)
@@ -235,7 +243,7 @@ def merge_equations(graph, config: dict, causality, parts: list, previous=None):
         port_outputs={p: port_values[p][1] for p in open_ports},
         input_rates={u: input_rates[u] for u in sorted(input_rates, key=lambda s: s.name)},
     )
-    return _kept_for_next(merged, parts, _pools={**pools, "rates": None})
+    return _kept_for_next(merged, parts, ids, _pools={**pools, "rates": None})
 
 
 class _MergedEquations(_Merged, ConfigurationEquations):

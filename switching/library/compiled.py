@@ -452,7 +452,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     """:func:`mode_source_and_meta` and the module's parts as
     :func:`_function_chunks` reads them off the text, known here as the text
     is assembled (a :class:`CompiledMode` made now need not search the text
-    for them: ~7 ms a mode for a scene of 500 contacts)."""
+    for them: ~7 ms a mode for a scene of 500 contacts), and under ``CALLS``
+    the block functions each of ``rates``, ``sides`` and ``sides_raw`` calls."""
     states = list(model.states)
     rates = [me.equations.rate_symbols[s] for s in states]
     params = list(model.parameter_symbols)
@@ -521,18 +522,20 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
                 "guard_blocks": tables, "comparisons": len(relations)}
     header = docstring([f"Generated functions of mode {label} of model {model.name!r} (do not edit)."], "") + "\n\n"
     pieces = []  # (function name, its text) in the module's order
+    calls = {name: [] for name in ("rates", "sides", "sides_raw")}  # (the block functions each calls)
     for spec in specs:
         if blocks and spec.name in ("sides", "sides_raw"):
-            pieces.append(_blocked_piece(model, spec, blocks, 3 if spec.name == "sides" else 2))
+            *piece, calls[spec.name] = _blocked_piece(model, spec, blocks, 3 if spec.name == "sides" else 2)
         elif state_blocks and spec.name == "rates":
-            pieces.append(_blocked_piece(model, spec, state_blocks, 1))
+            *piece, calls[spec.name] = _blocked_piece(model, spec, state_blocks, 1)
         else:
-            pieces.append((spec.name, function_source(spec, model.library.print_memo)))
+            piece = (spec.name, function_source(spec, model.library.print_memo))
+        pieces.append(tuple(piece))
     meta_text = "{" + ", ".join(f"{k!r}: {v!r}" if k != "guards" else f"{k!r}: {_tuple_text(guard_texts)}"
                                 for k, v in meta.items()) + "}"  # (repr(meta), the guards' texts kept)
     head = header + f"META = {meta_text}\n\n\n"
     source = head + "\n\n".join(text for _, text in pieces)
-    chunks = {"META": meta_text}
+    chunks = {"META": meta_text, "CALLS": calls}
     start, line = len(head), 1 + head.count("\n")
     for k, (name, text) in enumerate(pieces):
         text = text if k + 1 == len(pieces) else text + "\n\n"  # (a chunk runs to the next one's start)
@@ -589,7 +592,7 @@ def block_name(kind: str, text: str) -> str:
 def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tuple:
     """``spec`` (``sides``, ``sides_raw`` or ``rates``) as calls of one block
     function per block of items (comparisons, states; ``per_item`` outputs
-    each): ``(name, text)`` of the caller.  A block is named by a hash of its
+    each): ``(name, text, the blocks it calls)`` of the caller.  A block is named by a hash of its
     text, so one block is one function for every mode that holds it, in this
     process and in the disk cache; its text is kept for the model by its
     outputs (the print memo makes the rest) and by its name in the library's
@@ -618,7 +621,7 @@ def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tu
             named[name] = found[1]
         memo[quick] = (outputs, found)  # (the outputs held: their ids stay theirs)
         calls.append((found[0], len(outputs)))
-    return spec.name, composed_source(spec, calls, model.library.print_memo)
+    return spec.name, composed_source(spec, calls, model.library.print_memo), list(dict.fromkeys(n for n, _ in calls))
 
 
 def called_blocks(text: str) -> list:
@@ -726,7 +729,9 @@ class CompiledMode:
         meta = ast.literal_eval(meta_text) if meta is None else meta  # (given: the value the text was printed from)
         self.meta = meta
         #: the block functions the module's callers call, by caller
-        self._blocks = {name: called_blocks(self._chunks[name][1]) for name in ("rates", "sides", "sides_raw")}
+        calls = self._chunks.pop("CALLS", None)  # (given with the parts: read off the text otherwise)
+        self._blocks = calls if calls is not None else \
+            {name: called_blocks(self._chunks[name][1]) for name in ("rates", "sides", "sides_raw")}
         # (each compiled apart, checked to call only these)
         self._functions = frozenset(self._chunks).union(*self._blocks.values())
         if "independent" in meta:

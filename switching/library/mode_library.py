@@ -57,7 +57,7 @@ from codegen.source import PrintMemo
 
 from .collection import collection_paused
 from .compiled import (BLOCK_CALLS, GUARD_ENTRIES_KEPT, MODE_SOURCE_VERSION, CompiledMode, block_checked,
-                       called_blocks, mode_module, shifted_tree)
+                       mode_module, shifted_tree)
 from .guard_tables import GUARD_TABLES, shifted_entries, table_checked, table_entries
 from ..errors import ModelDefinitionError
 from .jit_model import CompiledModel, remembered_modes
@@ -343,7 +343,7 @@ class ModeLibrary:
                     source, meta, chunks = mode_module(self.model, self.mode_equations(mode))
                     self.cache.store(key, source)
                     tables = (name for name, _ in meta.get("guard_blocks", ()))
-                    for name in (*(n for f in ("rates", "sides", "sides_raw") for n in called_blocks(chunks[f][1])),
+                    for name in (*(n for f in ("rates", "sides", "sides_raw") for n in chunks["CALLS"][f]),
                                  *tables):
                         if name not in self.stored_blocks:  # (a scene's module calls blocks it does not hold)
                             self.cache.store(self._block_key(name), self.block_texts[name])

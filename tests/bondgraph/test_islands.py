@@ -352,7 +352,7 @@ def test_a_merge_swapped_from_the_configuration_before_is_a_merge_from_scratch()
         if previous:
             causality = island_merge.merge_causality(graph, normal, causality_parts, previous[0])
             merged = island_merge.merge_equations(graph, normal, causality, equation_parts, previous[1])
-            swapped += island_merge._swap(previous[1], equation_parts) is not None
+            swapped += island_merge._swap(previous[1], equation_parts, set(map(id, equation_parts))) is not None
             assert (causality.independent, causality.dependent) == (fresh_causality.independent,
                                                                     fresh_causality.dependent)
             for table in ("constraints", "rates", "input_rates", "port_inputs", "port_outputs"):

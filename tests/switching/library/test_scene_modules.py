@@ -201,6 +201,9 @@ def test_blocked_rates_and_jumps_give_the_numbers_of_one_function(chain, monkeyp
     for mode in chain.visited_modes:
         cm = chain.compiled_mode(mode)
         assert compiled.called_blocks(cm.function_text("rates"))
+        # (the blocks each caller calls, handed over as the module is assembled: those its text names)
+        assert cm._blocks == {name: compiled.called_blocks(cm.function_text(name))
+                              for name in ("rates", "sides", "sides_raw")}
         monkeypatch.setattr(compiled, "SIDE_BLOCK_AUTOMATA", 10 ** 6)
         source, _ = compiled.mode_source_and_meta(chain, chain.mode_equations(mode))
         monkeypatch.undo()

@@ -200,7 +200,10 @@ def test_the_parts_of_a_module_assembled_are_those_read_off_its_text(chain, bloc
         monkeypatch.setattr(compiled, "SIDE_BLOCK_AUTOMATA", 10 ** 6)
     for mode in list(chain.visited_modes)[:3]:
         source, meta, chunks = compiled.mode_module(chain, chain.mode_equations(mode))
+        calls = chunks.pop("CALLS")  # (and the blocks each caller calls: those its text names)
         assert chunks == compiled._function_chunks(source)
+        assert calls == {name: compiled.called_blocks(chunks[name][1]) for name in ("rates", "sides", "sides_raw")}
         assert bool(compiled.called_blocks(chunks["sides"][1])) == blocked  # (the blocks are stored apart)
-        assert compiled.CompiledMode(chain, mode, source, meta, chunks)._chunks == compiled.CompiledMode(
-            chain, mode, source)._chunks
+        given, read = compiled.CompiledMode(chain, mode, source, meta, {**chunks, "CALLS": calls}), \
+            compiled.CompiledMode(chain, mode, source)
+        assert (given._chunks, given._blocks) == (read._chunks, read._blocks)
