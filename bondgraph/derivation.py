@@ -6,13 +6,17 @@ configuration holding it)."""
 
 from __future__ import annotations
 
-from operator import is_, itemgetter
+from itertools import compress, repeat
+from operator import is_, itemgetter, not_
 
 from .causality import assign_causality
 from .equations import derive_equations
 from .errors import HybridBondGraphError
 from .island_merge import merge_causality, merge_equations
 from .islands import IslandCells, element_couplings, has_modulated_two_port
+
+
+_NOT_KEPT = (None, None)
 
 
 class Derivations:
@@ -83,20 +87,17 @@ class Derivations:
         tuple of its bonds, is not hashed again), else by its key."""
         entries = self.entries
         by_object = entries.setdefault(("pieces by island", kind, ports), {})
-        found = list(map(by_object.get, map(id, parts)))  # (a scene's thousand islands: no Python loop if all kept)
-        if None not in found and all(map(is_, map(itemgetter(0), found), parts)):
-            return list(map(itemgetter(1), found))
-        pieces = []
-        for island in parts:
-            found = by_object.get(id(island))
-            if found is not None and found[0] is island:
-                pieces.append(found[1])
-                continue
+        # (a scene's thousand islands looked up without a Python loop; those not kept in one over them)
+        found = list(map(by_object.get, map(id, parts), repeat(_NOT_KEPT)))
+        kept = list(map(is_, map(itemgetter(0), found), parts))
+        pieces = list(map(itemgetter(1), found))
+        for k in compress(range(len(parts)), map(not_, kept)):
+            island = parts[k]
             piece = entries.get((kind, ports, island.key))
             if piece is None:
                 piece = derive(graph, island, ports)
             by_object[id(island)] = (island, piece)  # (the island held: its id stays its own)
-            pieces.append(piece)
+            pieces[k] = piece
         return pieces
 
     def checked(self, graph, ports: str) -> None:

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import ast
 import re
-from itertools import compress, count
+from itertools import compress, count, filterfalse
 from operator import is_not
 
 import numpy as np
@@ -61,6 +61,7 @@ from codegen.composed import composed_function
 from codegen.safety import execute
 from codegen.source import Argument, FunctionSpec, composed_source, docstring, function_source, module_namespace
 
+from ..model.automaton import A_POSTERIORI
 from ..rules.jumps import MOTION_ULPS, jump_pulse
 from .guard_tables import guard_table_record, table_name
 
@@ -357,16 +358,22 @@ def _mode_comparisons(model, me, tables: bool = False) -> tuple:
         if low == high:
             continue
         forms, offset = me.guards[low:high], len(results[2])
-        key = (tuple(map(id, forms)), offset)
-        found = memo.get(key)
-        if found is None or found[0] != forms:  # (the same objects: compared by identity at once)
-            block = _guards_at(model, forms, offset)
-            triples, plain = _triples(me, block[2])
-            found = (forms, (*block, triples), [None])
-            if plain:
-                if len(memo) >= GUARD_ENTRIES_KEPT:
-                    memo.clear()
-                memo[key] = found  # (the forms held: their ids stay theirs)
+        # (by the first and last form's objects, then by all of theirs; the forms compared by identity at once)
+        quick = (id(forms[0]), id(forms[-1]), len(forms), offset)
+        found = memo.get(quick)
+        if found is None or found[0] != forms:
+            key = (tuple(map(id, forms)), offset)
+            found = memo.get(key)
+            if found is None or found[0] != forms:
+                block = _guards_at(model, forms, offset)
+                triples, plain = _triples(me, block[2])
+                found = (forms, (*block, triples), [None])
+                if plain:
+                    if len(memo) >= GUARD_ENTRIES_KEPT:
+                        memo.clear()
+                    memo[key] = found  # (the forms held: their ids stay theirs)
+            if key in memo:  # (kept: also under the quick key)
+                memo[quick] = found
         for whole, part in zip(results, found[1]):
             whole += part
         if named is not None:
@@ -455,13 +462,13 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     for them: ~7 ms a mode for a scene of 500 contacts), and under ``CALLS``
     the block functions each of ``rates``, ``sides`` and ``sides_raw`` calls."""
     states = list(model.states)
-    rates = [me.equations.rate_symbols[s] for s in states]
+    rates = list(map(me.equations.rate_symbols.__getitem__, states))
     params = list(model.parameter_symbols)
     inputs = list(model.input_symbols)
     # (by place in x: a scene's thousand states are not each hashed or compared again)
     dependent_at = sorted(model.state_index[s] for s in me.equations.dependent)
     held = frozenset(dependent_at)
-    independent_at = tuple(k for k in range(len(states)) if k not in held)
+    independent_at = tuple(filterfalse(held.__contains__, range(len(states))))
     dependent = [states[k] for k in dependent_at]
     label = me.mode.describe()
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
@@ -603,8 +610,9 @@ def _blocked_piece(model, spec: FunctionSpec, blocks: list, per_item: int) -> tu
     kind = "raw signals (impulse-aware)" if spec.raw else "their round-off scales"
     for start, end in blocks:
         outputs = spec.outputs[per_item * start:per_item * end]
-        # (by the outputs' objects first, which a scene's modes share: its thousands of expressions not hashed)
-        quick = ("by id", spec.name, spec.raw, tuple(map(id, outputs)))
+        # (by the outputs' objects first, which a scene's modes share: its thousands of expressions not hashed;
+        # the first and last name the block, the comparison below makes sure)
+        quick = ("by id", spec.name, spec.raw, id(outputs[0]), id(outputs[-1]), len(outputs))
         held = memo.get(quick)
         if held is not None and held[0] == outputs:  # (the same objects: compared by identity at once)
             calls.append((held[1][0], len(outputs)))
@@ -747,7 +755,7 @@ class CompiledMode:
         else:  # (and how many guards each table holds)
             self.guards, self._table_sizes = model.library.guards_in(meta["guard_blocks"], mode)
         self._on_numpy = None  # the same functions on numpy's math (see on_numpy), compiled when first needed
-        self._conjunctions = None  # (see maybe_holding)
+        self._conjunctions = self._a_posteriori = None  # (see maybe_holding, a_posteriori)
         self.n = meta["n_states"]
         self.n_relations = meta["comparisons"] if "comparisons" in meta else \
             sum(_count_rel(g["tree"]) for g in self.guards)
@@ -968,6 +976,13 @@ class CompiledMode:
             scale = decision.larger(before[3 * k + 2], after[3 * k + 2])
             triples += [raw[2 * k], raw[2 * k + 1], scale]
         return triples
+
+    @property
+    def a_posteriori(self) -> np.ndarray:
+        """Which guards are decided a posteriori (on the state after the jump), as a mask of the guards."""
+        if self._a_posteriori is None:
+            self._a_posteriori = np.array([g["when"] == A_POSTERIORI for g in self.guards], dtype=bool)
+        return self._a_posteriori
 
     def maybe_holding(self, sides, rtol, atol) -> np.ndarray | None:
         """Which guards may hold on the comparison triples ``sides`` (an array of floats, :meth:`sides`): a

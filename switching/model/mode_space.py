@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
+from itertools import chain, compress
+from operator import attrgetter, contains, getitem, methodcaller
 
 import sympy as sp
 
@@ -100,14 +102,16 @@ class ModeSpace:
 
     def configuration_of(self, mode: Mode) -> dict:
         """Controlled junction name → on (``True``) or off, as the states of ``mode`` set them."""
-        config = {}
-        for automaton, state in zip(self.automata, mode.states):
-            config.update(automaton.states[state])
-        return config
+        # (each automaton's setting in turn, later ones winning, as updates would: a scene's thousand
+        # automata without a Python loop over them)
+        return dict(chain.from_iterable(map(methodcaller("items"), map(getitem, map(attrgetter("states"),
+                                                                                   self.automata), mode.states))))
 
     def mode_values(self, mode: Mode) -> dict:
         """Mode-dependent constants set by the automaton states of ``mode`` (symbol → value)."""
-        values = {}
+        values: dict = {}
+        if not any(map(attrgetter("values"), self.automata)):  # (most models: no automaton sets constants)
+            return values
         for automaton, state in zip(self.automata, mode.states):
             for name, value in automaton.values.get(state, {}).items():
                 values[sp.Symbol(name)] = value
@@ -118,9 +122,9 @@ class ModeSpace:
         impacted velocities ``= −e ·`` their value before), ``None`` if no state
         carries one; two different coefficients in one mode are an error."""
         found = {}
-        for automaton, state in zip(self.automata, mode.states):
-            if state in automaton.restitution:
-                found[f"{automaton.name}={state}"] = automaton.restitution[state]
+        holding = map(contains, map(attrgetter("restitution"), self.automata), mode.states)
+        for automaton, state in compress(zip(self.automata, mode.states), holding):  # (those whose state has one)
+            found[f"{automaton.name}={state}"] = automaton.restitution[state]
         if not found:
             return None
         values = set(found.values())
