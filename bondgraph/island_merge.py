@@ -22,7 +22,8 @@ from scratch (which is made whenever that does not hold, or more than
 
 from __future__ import annotations
 
-from itertools import compress
+from itertools import compress, count
+from operator import is_not
 
 from .causality import Causality
 from .equations import ConfigurationEquations
@@ -33,26 +34,27 @@ __all__ = ["SWAP_LIMIT", "merge_causality", "merge_equations"]
 SWAP_LIMIT = 32
 
 
-def _swap(previous, parts: list, ids: set):
-    """``(removed, added)``: the islands of the merge ``previous`` that ``parts`` (their ``ids``) lacks and
-    those of ``parts`` it lacked (by identity, in their lists' order), or ``None`` when there is no
-    previous merge or more than :data:`SWAP_LIMIT` islands changed."""
+def _swap(previous, parts: list):
+    """``(removed, added)``: the islands of the merge ``previous`` between the longest start and end it
+    shares with ``parts`` (by identity) and those of ``parts`` there, or ``None`` when there is no
+    previous merge or more than :data:`SWAP_LIMIT` islands changed.  (A window may hold islands of both:
+    swapped out and in again, they change nothing.)"""
     before = None if previous is None else previous.__dict__.get("_islands")
     if before is None:
         return None
-    old = previous._island_ids
-    if len(old ^ ids) > SWAP_LIMIT:
+    shortest = min(len(before), len(parts))
+    # (the thousand islands of a scene's configuration compared without a Python loop over them)
+    start = next(compress(count(), map(is_not, before, parts)), shortest)
+    end = min(next(compress(count(), map(is_not, reversed(before), reversed(parts))), shortest), shortest - start)
+    removed, added = before[start:len(before) - end], parts[start:len(parts) - end]
+    if len(removed) + len(added) > SWAP_LIMIT:
         return None
-    # (the thousand islands of a scene's configuration sieved without a Python loop over them)
-    return (list(compress(before, map((old - ids).__contains__, map(id, before)))),
-            list(compress(parts, map((ids - old).__contains__, map(id, parts)))))
+    return list(removed), list(added)
 
 
-def _kept_for_next(merged, parts: list, ids: set, **pools):
-    """Keep on ``merged`` its islands (and their ``ids``) and its unordered merged dictionaries, for the next
-    merge's swap."""
+def _kept_for_next(merged, parts: list, **pools):
+    """Keep on ``merged`` its islands and its unordered merged dictionaries, for the next merge's swap."""
     object.__setattr__(merged, "_islands", tuple(parts))
-    object.__setattr__(merged, "_island_ids", ids)
     for name, value in pools.items():
         object.__setattr__(merged, name, value)
     return merged
@@ -75,8 +77,7 @@ def merge_causality(graph, config: dict, parts: list, previous=None):
     those of its islands (``parts``), ordered as the whole graph's own: its
     states' split now, the rest (:class:`_MergedCausality`) when first read.
     ``previous``: the merge of another configuration of the graph (see the module)."""
-    ids = set(map(id, parts))
-    swap = _swap(previous, parts, ids)
+    swap = _swap(previous, parts)
     if swap is None:
         dependent_set: set = set()
         for part in parts:
@@ -97,7 +98,7 @@ def merge_causality(graph, config: dict, parts: list, previous=None):
         independent.extend(graph.displacements)
         independent, dependent = tuple(independent), tuple(el.state for el in storage if el.state in dependent_set)
     merged = _MergedCausality.of(graph, config, parts, independent, dependent)
-    return _kept_for_next(merged, parts, ids, _dependent_set=dependent_set)
+    return _kept_for_next(merged, parts, _dependent_set=dependent_set)
 
 
 def _rate_symbols(graph) -> dict:
@@ -215,8 +216,7 @@ def merge_equations(graph, config: dict, causality, parts: list, previous=None):
     (:class:`_MergedEquations`) when first read.  ``previous``: the merge of
     another configuration of the graph (see the module)."""
     states = graph.derived.memo("states", lambda: tuple(graph.states))  # (a walk of every element)
-    ids = set(map(id, parts))
-    swap = _swap(previous, parts, ids)
+    swap = _swap(previous, parts)
     pools = None if swap is None else _swapped_pools(previous, parts, *swap)
     if pools is None:
         pools = _pools(parts)
@@ -243,7 +243,7 @@ def merge_equations(graph, config: dict, causality, parts: list, previous=None):
         port_outputs={p: port_values[p][1] for p in open_ports},
         input_rates={u: input_rates[u] for u in sorted(input_rates, key=lambda s: s.name)},
     )
-    return _kept_for_next(merged, parts, ids, _pools={**pools, "rates": None})
+    return _kept_for_next(merged, parts, _pools={**pools, "rates": None})
 
 
 class _MergedEquations(_Merged, ConfigurationEquations):

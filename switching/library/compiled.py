@@ -339,20 +339,22 @@ def _guards_at(model, forms: list, offset: int) -> tuple:
 
 
 def _mode_comparisons(model, me, tables: bool = False) -> tuple:
-    """``(guards, their reprs, comparisons, raw sides, spans, finite sides, guard tables)``:
+    """``(guards, their reprs, comparisons, raw sides, spans, finite sides, guard tables, side blocks)``:
     :func:`_mode_guards` and :func:`comparison_triples` of a mode, a block of :data:`SIDE_BLOCK_AUTOMATA`
     automata at a time.  A block's guard forms shared by the modes (``me.guard_starts``: where each
     automaton's forms begin) at the same first comparison give the same results, kept by the library (a
     bounded number) where their triples read no rate: a mode of a scene looks at each block once, not at
     each of its thousand guards.  With ``tables``, the last item is ``((name, offset), …)`` of the
-    blocks' guard tables (:mod:`.guard_tables`), else ``None`` (also where the mode has no blocks)."""
+    blocks' guard tables (:mod:`.guard_tables`), else ``None`` (also where the mode has no blocks); the
+    side blocks are :func:`_side_blocks` of the spans, known here block by block (``None`` without blocks)."""
     starts = getattr(me, "guard_starts", None)
     if starts is None:
         guards, texts, relations, raw_sides, spans = _mode_guards(model, me)
-        return guards, texts, relations, raw_sides, spans, comparison_triples(me, relations), None
+        return guards, texts, relations, raw_sides, spans, comparison_triples(me, relations), None, None
     memo, count, library = model.library.guard_blocks, len(starts) - 1, model.library
     results: tuple = ([], [], [], [], [], [])
     named = [] if tables else None
+    side_blocks = []  # (first comparison, end) of each block that has comparisons: _side_blocks of the spans
     for first in range(0, count, SIDE_BLOCK_AUTOMATA):
         low, high = starts[first], starts[min(first + SIDE_BLOCK_AUTOMATA, count)]
         if low == high:
@@ -376,12 +378,14 @@ def _mode_comparisons(model, me, tables: bool = False) -> tuple:
                 memo[quick] = found
         for whole, part in zip(results, found[1]):
             whole += part
+        if len(results[2]) > offset:
+            side_blocks.append((offset, len(results[2])))
         if named is not None:
             if found[2][0] is None:
                 found[2][0] = _guard_table(model, forms)
             named.append((found[2][0], offset))
             library.keep_guard_table(found[2][0], offset, found[1][0])
-    return (*results, None if named is None else tuple(named))
+    return (*results, None if named is None else tuple(named), side_blocks)
 
 
 def _guard_table(model, forms: list) -> str:
@@ -474,7 +478,8 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
     base_args, raw_args = _arguments(model, states, rates, params, inputs)
 
     large = len(model.automata) > 2 * SIDE_BLOCK_AUTOMATA  # a scene: no per-entry lists, rates in blocks
-    guards, guard_texts, relations, raw_sides, spans, finite_sides, tables = _mode_comparisons(model, me, large)
+    guards, guard_texts, relations, raw_sides, spans, finite_sides, tables, side_blocks = \
+        _mode_comparisons(model, me, large)
     if large:  # (the docstrings state the arrays' shapes; the module's docstring names the mode)
         side_names = triple_names = ()
         where, shaped = "this mode", (lambda output_doc: {"entries": False, "output_doc": output_doc})
@@ -506,7 +511,7 @@ def mode_module(model, me) -> tuple[str, dict, dict]:
         specs.append(FunctionSpec("jump", base_args, outputs, f"x+ = g(x) into {where}.", model.state_names,
                                   copy_of="x", differs=tuple(compress(count(), map(is_not, outputs, states))),
                                   **shaped("x+, in the order of x")))
-    blocks = _side_blocks(spans) if large else None
+    blocks = (_side_blocks(spans) if side_blocks is None else side_blocks) if large else None
     state_blocks = [(k, min(k + STATE_BLOCK, len(states))) for k in range(0, len(states), STATE_BLOCK)] \
         if large else None
     meta = {

@@ -162,7 +162,8 @@ class ModeLibrary:
     ``guard_forms``
         (automaton, state, its transitions' count) → the :class:`~switching.model.modes.GuardForm` of the
         transitions leaving it, where they are the same in every mode (:meth:`ModeEquations._guard_forms
-        <switching.model.modes.ModeEquations._guard_forms>`).
+        <switching.model.modes.ModeEquations._guard_forms>`); and ``last_guard_groups``, those of the mode
+        made last, automaton by automaton, from which the next mode's are made.
     ``triple_memo``, ``triple_by_id``
         guard comparison reading no rate → its triple of :func:`~switching.library.compiled.comparison_triples`
         (the same in every mode), by value and (a bounded number) by the object.
@@ -218,6 +219,7 @@ class ModeLibrary:
         self.triple_memo: dict = {}
         self.triple_by_id: dict = {}
         self.guard_forms: dict = {}
+        self.last_guard_groups: tuple | None = None
         self.side_block_sources: dict = {}
         self.side_block_functions: dict = {}
         #: name of a block function (guard sides, rates) → its text; and the names stored in the disk cache

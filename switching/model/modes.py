@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from itertools import accumulate, chain, compress
+from operator import attrgetter, ne, not_, or_
 
 import numpy as np
 import sympy as sp
@@ -183,27 +185,42 @@ class ModeEquations:
         """A :class:`GuardForm` of every transition leaving the mode.  The forms of an automaton state
         whose conditions read no bond, rate or signal taken in another mode are the same in every mode
         whose automaton states set none of their symbols: kept by the library and shared (a scene's
-        modes hold a thousand contacts' guards)."""
-        space, kept, values = self.model.mode_space, self.model.library.guard_forms, self.values
-        forms: list = []
+        modes hold a thousand contacts' guards).  A mode that sets no constants starts from the groups of
+        forms of the mode made before it (``library.last_guard_groups``) and makes again only those of
+        the automata in another state, or whose forms were its own."""
+        space, library, values = self.model.mode_space, self.model.library, self.values
+        states = self.mode.states
+        transitions = sum(map(len, map(attrgetter("transitions"), space.automata)))  # (they may be added to)
+        last = None if values else library.last_guard_groups
+        if last is not None and last[0] is space and last[1] == transitions and len(last[2]) == len(states):
+            groups, shared = list(last[3]), list(last[4])
+            again = compress(range(len(states)), map(or_, map(ne, last[2], states), map(not_, shared)))
+        else:
+            groups, shared, again = [None] * len(states), [False] * len(states), range(len(states))
+        for k in again:
+            groups[k], shared[k] = self._automaton_forms(space, space.automata[k], states[k])
+        if not values:
+            library.last_guard_groups = (space, transitions, states, groups, shared)
         #: where each automaton's forms begin in :attr:`guards` (and the end): the generated module takes
         #: them a block of automata at a time
-        self.guard_starts = starts = []
-        for automaton, state in zip(space.automata, self.mode.states):
-            starts.append(len(forms))
-            key, entries = space.leaving(automaton, state)
-            found = kept.get(key)
-            if found is not None and found[0] is entries and (not values or values.keys().isdisjoint(found[2])):
-                forms += found[1]
-                continue
-            group = [GuardForm(auto, tr, self.to_raw(cond), text) for auto, tr, cond, text in entries]
-            if all(self._as_written(cond) for _, _, cond, _ in entries):
-                free = frozenset().union(*(self.model.library.symbols_of(cond)[0] for _, _, cond, _ in entries))
-                if not values or values.keys().isdisjoint(free):  # (as written here too: the forms of every such mode)
-                    kept[key] = (entries, group, free)  # (the entries held: the same list while they are kept)
-            forms += group
-        starts.append(len(forms))
-        return forms
+        self.guard_starts = list(accumulate(map(len, groups), initial=0))
+        return list(chain.from_iterable(groups))
+
+    def _automaton_forms(self, space, automaton, state: str) -> tuple:
+        """``(forms, shared)``: the guard forms of the transitions leaving ``state`` of ``automaton`` in this
+        mode, and whether they are the library's, the same in every mode that sets no constants."""
+        kept, values = self.model.library.guard_forms, self.values
+        key, entries = space.leaving(automaton, state)
+        found = kept.get(key)
+        if found is not None and found[0] is entries and (not values or values.keys().isdisjoint(found[2])):
+            return found[1], True
+        group = [GuardForm(auto, tr, self.to_raw(cond), text) for auto, tr, cond, text in entries]
+        if all(self._as_written(cond) for _, _, cond, _ in entries):
+            free = frozenset().union(*(self.model.library.symbols_of(cond)[0] for _, _, cond, _ in entries))
+            if not values or values.keys().isdisjoint(free):  # (as written here too: the forms of every such mode)
+                kept[key] = (entries, group, free)  # (the entries held: the same list while they are kept)
+                return group, True
+        return group, False
 
     def _as_written(self, expr) -> bool:
         """Does :meth:`to_raw` leave ``expr`` as it is in every mode whose automaton states set none of its

@@ -20,6 +20,7 @@ import switching.library.compiled as compiled
 from codegen.cache import SourceCache
 from codegen.source import module_namespace
 from models import ball_chain
+from switching.model.modes import ModeEquations
 from switching.simulate.flow_rates import _reads
 
 
@@ -383,6 +384,28 @@ def test_the_modes_of_a_scene_share_the_guard_forms_of_automata_states_they_shar
     changed = [k for k, (a, b) in enumerate(zip(first.guards, second.guards)) if a is not b]
     assert len(changed) == 1 and first.guards[changed[0]].automaton == second.mode.automata[20]
     assert second.guard_starts == list(range(len(second.guards) + 1))  # (one transition leaves each state)
+
+
+def test_a_modes_guard_forms_made_from_the_last_modes_are_those_made_afresh():
+    """Issue 46: a mode's guard forms start from those of the mode made before it, automaton by automaton;
+    in any order of modes they are the forms (and the starts) made with nothing before."""
+    model = ball_chain.build(N=40, e=0.5)
+    automata = [a.name for a in model.automata]
+    rng = np.random.default_rng(12)
+    modes = [model.mode({name: rng.choice(["free", "collide"]) if rng.random() < 0.2 else "free"
+                         for name in automata}) for _ in range(6)]
+    for mode in modes:
+        made = model.mode_equations(mode)
+        model.library.last_guard_groups = None
+        again = ModeEquations(model, mode)
+        assert made.guards == again.guards and made.guard_starts == again.guard_starts, mode.describe()
+        assert all(a is b for a, b in zip(made.guards, again.guards))  # (every group the library's, shared)
+
+
+def test_the_side_blocks_known_block_by_block_are_those_of_the_spans(chain):
+    for mode in list(chain.visited_modes)[:6]:
+        *_, spans, _, _, side_blocks = compiled._mode_comparisons(chain, chain.mode_equations(mode), True)
+        assert side_blocks and side_blocks == compiled._side_blocks(spans)
 
 
 def test_an_instant_pauses_the_cyclic_collector_and_leaves_it_as_it_was(monkeypatch):
