@@ -155,12 +155,33 @@ each (``write_atomically``): 5218 files, 0.83 s of the N = 1000 run (0.16 ms a f
 "0.4 ms a file, 6 %" above came from sampling (py-spy pauses the process, which lengthens its system
 calls), and a run with the disk cache off (``HBG_CACHE_DIR=off``) is 0.7 s shorter.
 
-Left: a mode's own work, the same at any N (≈ 23 ms: the new island's
-causality and equations, the printing and compiling of its new blocks),
-and O(N) a mode still (a mode at N = 1000 costs 1.48 times one at N = 50):
-the rates' and sides' callers (a call per block, and the lookups that find
-each block), ``META``'s text, ``sides`` evaluated at each pinnacle, the
-merge of the islands' equations, the collector's pass over what the instant made.
+Then (issue 46, session 24; ``python benchmarks/scene_startup.py 50 200 500 1000``, before
+(``b4da884``) and after (``HEAD``) run at the same time, one on each core, so that both meet the
+machine's speed of the moment)::
+
+    N      modes   before [s]   ms/mode   after [s]   ms/mode
+    50        50        1.23        25        1.28        26
+    200      200        4.31        22        3.78        19
+    500      500       12.41        25       11.15        22
+    1000    1000       29.95        30       23.99        24
+
+(a mode at N = 1000 costs 0.9 times one at N = 50, whose figure carries the build and the first
+mode.)  What a mode no longer does over its thousand automata, islands or blocks (every generated
+module and block the same text as before: their digest compared at N = 200): its block callers
+(``sides``, ``sides_raw``, ``rates``: sixty calls each) are read, not compiled
+(:mod:`codegen.composed`), and the blocks they call are handed over with the module's parts, not
+searched for in its text; the islands' causality and equations are merged by swapping the islands that
+changed into the previous configuration's merge (:mod:`bondgraph.island_merge`: the same entries in the
+same order); the guard forms start from the previous mode's, automaton by automaton; the guards are
+decided only where they may hold, the rest passed over in one numpy step; the islands kept, the on
+junctions, the configuration, the restitution and the side blocks are found without a Python loop over
+them all; an island's displacements are found by its bonds; a block is looked up by its first and last
+objects before all of them.
+
+Left: a mode's own work, the same at any N (≈ 20 ms: the new island's causality, equations and jump
+map in sympy, the printing of its three new blocks, the compiling of its one or two that run, the
+collector's pass over what the instant made: ≈ 2 ms), and what the build does once per contact
+(parsing its guards: ≈ 1 ms each, most of it sympy's canonical form of a conjunction).
 """
 
 from __future__ import annotations
