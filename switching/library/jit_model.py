@@ -228,6 +228,41 @@ def python_run_seconds(model, steps: float, instants: float) -> float:
 #: mode's function costs at most this much: a large scene's run measures the Python speed first
 CHEAP_MODE_SECONDS = 1.0
 
+#: loading the compiled path into a process that has not loaded it, everything cached: numba's import
+#: (≈ 0.15–0.2 s) and the kernel's load from numba's disk cache with its first run (≈ 0.13 s)
+#: (``python benchmarks/compiled_first_run.py``: "where a second process's time goes")
+NUMBA_IMPORT_SECONDS = 0.17
+KERNEL_LOAD_SECONDS = 0.13
+
+#: the expected seconds of the Python runs ``auto`` chose and made in this process instead of loading the
+#: compiled path (:func:`choose_method`, :meth:`AutoChoice.report`): once another would take them past the
+#: load's cost, the path is loaded — a process of many short runs (a sweep, a fit) pays the load once, after
+#: at most its cost in Python runs
+_PYTHON_INSTEAD = {"seconds": 0.0}
+
+
+def load_seconds() -> float:
+    """What this process would pay to load the compiled path before its first compiled run [s]: numba's import
+    unless it is imported, and the kernel's load unless the kernel has run here (0 once it has)."""
+    import sys
+
+    loop = sys.modules.get("switching.kernel.loop")
+    if loop is not None and getattr(getattr(loop, "run", None), "overloads", None):
+        return 0.0
+    return (0.0 if "numba" in sys.modules else NUMBA_IMPORT_SECONDS) + KERNEL_LOAD_SECONDS
+
+
+def expected_python_seconds(model, span: float, rtol: float) -> float | None:
+    """The expected wall time [s] of a Python RK45 run of ``model`` over ``span`` seconds at ``rtol``, from the
+    work of its last run recorded (:meth:`AutoChoice.report`: steps scaled by ``rtol^(-1/5)``, priced by
+    :func:`python_run_seconds`); ``None`` when none is recorded."""
+    speed = model.cache.record(_speed_key(model))
+    try:
+        return python_run_seconds(model, float(speed["steps"]) * span * (speed["rtol"] / float(rtol)) ** 0.2,
+                                  float(speed["instants"]) * span)
+    except (TypeError, KeyError, ValueError, ZeroDivisionError, OverflowError):
+        return None
+
 
 def mode_compile_seconds(model) -> float:
     """The estimated cost of compiling one mode's function of ``model``
@@ -249,6 +284,7 @@ class AutoChoice:
         self.per_mode, self.span = per_mode, span
         self.verdicts: dict = dict(verdicts or {})
         self.noted: set = set()  # modes whose Python flow switched to Radau (:meth:`note`)
+        self.instead_of_loading = 0.0  # the expected seconds of a Python run chosen rather than load the kernel
         self.fell_back: set = set()  # modes whose implicit flow failed at its start (:meth:`fall_back`)
 
     def classify(self, compiled, x, t) -> None:
@@ -294,10 +330,12 @@ class AutoChoice:
 
     def report(self, span: float, steps: int, instants: int) -> dict:
         """The stats entries of a finished run of ``span`` seconds that took ``steps`` steps and resolved
-        ``instants`` instants; a Python run stores its work (steps and instants per simulated second at its
-        rtol: the same on any machine, however loaded) in the disk cache, from which the next choice expects
-        the time of a Python run (:func:`python_run_seconds`)."""
-        if self.method == "RK45" and span > 0 and not self.noted:  # (a switched run: no measure)
+        ``instants`` instants; a run of RK45, in Python or compiled (the same steps), stores its work (steps
+        and instants per simulated second at its rtol: the same on any machine, however loaded) in the disk
+        cache, from which the next choice expects the time of a Python run (:func:`python_run_seconds`)."""
+        _PYTHON_INSTEAD["seconds"] += self.instead_of_loading
+        implicit = self.per_mode and any(v.stiff for v in self.verdicts.values())
+        if self.method in ("RK45", "RK45-jit") and span > 0 and not self.noted and not implicit:  # (else: no measure)
             self.model.cache.write_record(_speed_key(self.model), {"steps": steps / span, "instants": instants / span,
                                                                    "rtol": self.rtol})
         method = self.method
@@ -345,7 +383,7 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     for: nothing (the kernel and the functions of the modes it would cover —
     the initial mode, those visited, those remembered — are cached), or less
     than a Python run is expected to take (expected from the work of this
-    model's last Python run chosen by ``auto``, its steps scaled by
+    model's last RK45 run chosen by ``auto``, its steps scaled by
     ``rtol^(-1/5)``, priced by :func:`python_run_seconds`: never its wall time;
     compiling estimated as :data:`KERNEL_COMPILE_SECONDS` for the kernel,
     :func:`mode_compile_seconds` per mode), or the initial mode's flow is
@@ -353,7 +391,12 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     initial state and mode unless given), which an explicit Python run would
     crawl through.  With the speed not known yet: compiled when the kernel
     is cached and a mode's function is cheap (:data:`CHEAP_MODE_SECONDS`),
-    else ``"RK45"``, which measures it.  The compiled kernel flows with RK45
+    else ``"RK45"``, which measures it.  Python, too, where the compiled path
+    is not loaded in this process yet and a Python run is expected to take
+    less than loading it (:func:`load_seconds`: numba's import and the
+    kernel's load, which a new process pays before its first compiled run);
+    the Python runs so chosen add up, and once the next would take them past
+    the load's cost the path is loaded.  The compiled kernel flows with RK45
     in each mode, or with RODAS4P where the mode is stiff
     (:meth:`AutoChoice.classify`); without it, a stiff initial mode takes
     ``"Radau"``."""
@@ -381,6 +424,13 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     problem = input_problem(model, "RK45-jit")
     if problem:
         return interpreted("inputs that compiled code cannot call: " + problem)
+    load = 0.0 if initial.stiff else load_seconds()  # (a stiff flow: compiled, whatever it costs)
+    expected = expected_python_seconds(model, span, rtol) if load else None
+    if expected is not None and _PYTHON_INSTEAD["seconds"] + expected < load:
+        choice = interpreted(f"a Python run is expected to take ≈ {expected:.3g} s, less than loading the compiled "
+                             f"path into this process (≈ {load:.2g} s: numba's import and the kernel's load)")
+        choice.instead_of_loading = expected  # (added up when the run is made: AutoChoice.report)
+        return choice
     modes = {model.initial_mode, *model.visited_modes, *remembered_modes(model)}
     ready = kernel_compiled(implicit=initial.stiff)
     missing = sum(not mode_compiled(model, m) for m in modes)
@@ -391,11 +441,8 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     what = (("" if ready else "the kernel and ") + f"the functions of {missing} mode(s)") if missing else "the kernel"
     if initial.stiff:
         return compiled(f"{stiff}: compiling {what} (≈ {cost:g} s) pays for itself")
-    speed = model.cache.record(_speed_key(model))
-    try:
-        expected = python_run_seconds(model, float(speed["steps"]) * span * (speed["rtol"] / float(rtol)) ** 0.2,
-                                      float(speed["instants"]) * span)
-    except (TypeError, KeyError, ValueError, ZeroDivisionError, OverflowError):
+    expected = expected_python_seconds(model, span, rtol)
+    if expected is None:
         if ready and per_mode <= CHEAP_MODE_SECONDS:
             return compiled(f"the kernel is cached; compiling {what} costs ≈ {cost:g} s")
         if ready:

@@ -21,7 +21,8 @@ every step; inputs must be expressions of ``t``, ExpressionInput);
 that kernel, with each mode's Jacobian derived symbolically, for
 stiff scenes (``rtol=``, ``atol=``);
 ``"auto"``: the compiled kernel when its compilation is cached, paid
-for by the run's expected length, or the initial mode is stiff — RK45
+for by the run's expected length (as its load into a process that has
+not run it yet: numba's import, ≈ 0.3 s), or the initial mode is stiff — RK45
 in each mode, RODAS4P in the modes whose Jacobian's spectrum says
 stiff — else ``"RK45"`` (``"Radau"`` for a stiff initial mode, and
 where a flow of RK45 proves stiff; ``stats`` says which and why).

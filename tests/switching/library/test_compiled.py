@@ -538,6 +538,7 @@ def test_auto_runs_python_until_compiling_pays(tmp_path, monkeypatch):
 
     model = bouncing_ball.build()
     model.cache = SourceCache(tmp_path)
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.0)  # (the compiled path loaded: its load is another test's)
     monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: False)  # as on a new installation
     monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
     run = model.simulate(0.5, "auto")
@@ -587,6 +588,7 @@ def test_auto_s_choice_does_not_depend_on_the_machine_s_load(tmp_path, monkeypat
     import switching.simulate.driver as driver
     from codegen.cache import SourceCache
 
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.0)  # (the compiled path loaded)
     monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: False)
     monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
     records, choices = [], []
@@ -617,6 +619,7 @@ def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, 
     assert jm.mode_compile_seconds(bouncing_ball.build()) == jm.MODE_COMPILE_SECONDS
     model = ball_chain.build(N=60, e=1.0)
     model.cache = SourceCache(tmp_path)
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.0)  # (the compiled path loaded)
     monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: True)
     monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: False)
     per_mode = jm.mode_compile_seconds(model)
@@ -629,6 +632,46 @@ def test_auto_measures_python_first_where_a_mode_is_costly_to_compile(tmp_path, 
                                                     "instants": 0.0, "rtol": 1e-9})
     assert jm.choose_method(model, 0.0, 1.0, 1e-9).method == "RK45"  # 0.5 s against ≈ 1.7 s for the initial mode
     assert jm.choose_method(model, 0.0, 100.0, 1e-9).method == "RK45-jit"
+
+
+def test_auto_runs_python_where_loading_the_compiled_path_would_cost_more(tmp_path, monkeypatch):
+    """Issue 46: a new process pays numba's import and the kernel's load before its first compiled run
+    (≈ 0.3 s); auto runs Python where a run is expected to take less, until the Python runs it so chose
+    would add up past that cost (then the path is loaded and pays for itself).  An RK45-jit run leaves the
+    record of its work a Python RK45 run leaves (the same steps); a stiff initial mode is compiled anyway."""
+    import switching.library.jit_model as jm
+    from codegen.cache import SourceCache
+
+    model = bouncing_ball.build()
+    model.cache = SourceCache(tmp_path)
+    monkeypatch.setattr(jm, "kernel_compiled", lambda implicit=False: True)
+    monkeypatch.setattr(jm, "mode_compiled", lambda model, mode: True)
+    monkeypatch.setitem(jm._PYTHON_INSTEAD, "seconds", 0.0)
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.3)  # (a new process: nothing loaded)
+    assert jm.choose_method(model, 0.0, 1.0, 1e-6).method == "RK45-jit"  # (its speed not known yet)
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.0)
+    compiled = model.simulate(2.0, "auto", rtol=1e-6)
+    python = model.simulate(2.0, "RK45", rtol=1e-6)
+    assert compiled.stats["method"] == "RK45-jit"
+    assert model.cache.record(jm._speed_key(model)) == {"steps": python.stats["steps"] / 2.0,
+                                                        "instants": len(python.events) / 2.0, "rtol": 1e-6}
+    monkeypatch.setattr(jm, "python_run_seconds", lambda model, steps, instants: 0.11)  # (each run: 0.11 s)
+    monkeypatch.setattr(jm, "load_seconds", lambda: 0.3)
+    first = jm.choose_method(model, 0.0, 2.0, 1e-6)
+    assert (first.method, first.reason) == ("RK45", "a Python run is expected to take ≈ 0.11 s, less than loading "
+                                            "the compiled path into this process (≈ 0.3 s: numba's import and "
+                                            "the kernel's load)")
+    assert jm.choose_method(model, 0.0, 2.0, 1e-6).reason == first.reason  # (a choice alone adds nothing up)
+    for _ in range(2):  # (0.11, then 0.22 s of Python runs made instead of the load)
+        run = model.simulate(2.0, "auto", rtol=1e-6)
+        assert run.stats["method"] == "RK45" and run.stats["method chosen by auto"] == "RK45: " + first.reason
+    last = jm.choose_method(model, 0.0, 2.0, 1e-6)  # (0.33 s would pass the load's 0.3 s)
+    assert last.method == "RK45-jit" and last.reason.startswith("the kernel and the functions of its")
+    import switching.library.spectrum as spectrum
+
+    monkeypatch.setitem(jm._PYTHON_INSTEAD, "seconds", 0.0)
+    monkeypatch.setattr(spectrum, "mode_stiffness", lambda *args: spectrum.ModeStiffness(True, 1e6, "stiff here"))
+    assert jm.choose_method(model, 0.0, 2.0, 1e-6).method == "RK45-jit"  # (stiff: compiled, whatever the load)
 
 
 # ------------------------------------------------ the command line
