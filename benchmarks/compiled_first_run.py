@@ -75,6 +75,23 @@ The exit alone, timed from the end of ``main`` to the process's end: 0.28 -> 0.0
 checking whether the kernel is cached already pays: ``models.cli.run._compile_notice``) and the
 kernel's load from its cache (~0.13 s with the first run): the target, no slower than the Python path,
 is not reached while the compiled path imports numba.
+
+``auto`` (the CLI's default) now counts that load (issue 46, session 24): in a process that has not
+run the kernel, a run expected to take less than loading it (``switching.library.jit_model.
+load_seconds``: numba's import and the kernel's load, ≈ 0.3 s) runs in Python, until the Python runs
+so chosen add up to the load's cost (then the kernel is loaded: a sweep of short runs pays it once).
+An ``RK45-jit`` run chosen by ``auto`` records its work as a Python RK45 run does (the same steps), so
+the second process knows what a Python run costs.  ``--repeats 3``, falling rod, medians::
+
+  hbg run falling-rod                            seconds
+    RK45      second process                       0.90
+    RK45-jit  second process                       1.25
+    auto      kernel cached, toolkit cache empty   2.59   (chose RK45-jit: compiles the modes)
+    auto      second process                       0.97   (chose RK45: expected ≈ 0.009 s)
+
+and five alternating pairs of ``hbg run falling-rod --method RK45`` / ``--method auto``: 0.94–1.05 s
+/ 0.98–1.02 s: the default command's second process costs what the Python path costs.  An explicit
+``--method RK45-jit`` still pays numba's import (1.25 s, 1.39× the Python path).
 """
 
 from __future__ import annotations
