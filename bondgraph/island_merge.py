@@ -53,8 +53,9 @@ def _swap(previous, parts: list):
 
 
 def _kept_for_next(merged, parts: list, **pools):
-    """Keep on ``merged`` its islands and its unordered merged dictionaries, for the next merge's swap."""
-    object.__setattr__(merged, "_islands", tuple(parts))
+    """Keep on ``merged`` its islands (the list it was made from, not copied: never changed) and its unordered
+    merged dictionaries, for the next merge's swap."""
+    object.__setattr__(merged, "_islands", parts)
     for name, value in pools.items():
         object.__setattr__(merged, name, value)
     return merged
