@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 import warnings
 from typing import NamedTuple
 
@@ -244,8 +245,6 @@ _PYTHON_INSTEAD = {"seconds": 0.0}
 def load_seconds() -> float:
     """What this process would pay to load the compiled path before its first compiled run [s]: numba's import
     unless it is imported, and the kernel's load unless the kernel has run here (0 once it has)."""
-    import sys
-
     loop = sys.modules.get("switching.kernel.loop")
     if loop is not None and getattr(getattr(loop, "run", None), "overloads", None):
         return 0.0
@@ -424,9 +423,9 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     problem = input_problem(model, "RK45-jit")
     if problem:
         return interpreted("inputs that compiled code cannot call: " + problem)
+    expected = expected_python_seconds(model, span, rtol)
     load = 0.0 if initial.stiff else load_seconds()  # (a stiff flow: compiled, whatever it costs)
-    expected = expected_python_seconds(model, span, rtol) if load else None
-    if expected is not None and _PYTHON_INSTEAD["seconds"] + expected < load:
+    if load and expected is not None and _PYTHON_INSTEAD["seconds"] + expected < load:
         choice = interpreted(f"a Python run is expected to take ≈ {expected:.3g} s, less than loading the compiled "
                              f"path into this process (≈ {load:.2g} s: numba's import and the kernel's load)")
         choice.instead_of_loading = expected  # (added up when the run is made: AutoChoice.report)
@@ -441,7 +440,6 @@ def choose_method(model, t0, t_end, rtol, dt=None, x0=None, mode=None) -> AutoCh
     what = (("" if ready else "the kernel and ") + f"the functions of {missing} mode(s)") if missing else "the kernel"
     if initial.stiff:
         return compiled(f"{stiff}: compiling {what} (≈ {cost:g} s) pays for itself")
-    expected = expected_python_seconds(model, span, rtol)
     if expected is None:
         if ready and per_mode <= CHEAP_MODE_SECONDS:
             return compiled(f"the kernel is cached; compiling {what} costs ≈ {cost:g} s")
