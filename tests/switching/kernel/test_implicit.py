@@ -236,7 +236,13 @@ def test_the_spectrum_says_which_modes_of_the_chain_are_stiff():
     assert "max |Re λ|·T" in touch.reason and "> 10000" in touch.reason
 
 
-def test_auto_flows_implicitly_in_the_stiff_modes_and_says_so():
+def test_auto_flows_implicitly_in_the_stiff_modes_and_says_so(monkeypatch):
+    from switching.library import jit_model
+
+    # the compiled path counted as loaded and cached (otherwise the choice depends on which tests ran before in
+    # this process, and on numba's disk cache: a first run after a change of the kernel compiles it either way)
+    monkeypatch.setattr(jit_model, "load_seconds", lambda: 0.0)
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda implicit=False: True)
     model = _stiff_chain()
     options = dict(rtol=1e-10, atol=1e-12, output="events")
     auto = model.simulate(0.5, "auto", **options)
@@ -257,9 +263,11 @@ def test_auto_switches_a_mode_whose_explicit_flow_proves_stiff(monkeypatch):
     """The mode judged not stiff (a threshold no mode reaches) on the Prothero–Robinson problem at λ = 1e5:
     RK45's own stiffness test fires, and the mode flows with RODAS4P from there on instead of the run stopping
     (RK45 alone would take some 1e5 steps)."""
-    from switching.library import spectrum
+    from switching.library import jit_model, spectrum
 
     monkeypatch.setattr(spectrum, "STIFF_SPAN", 1e300)
+    monkeypatch.setattr(jit_model, "load_seconds", lambda: 0.0)  # (as in the test before: the compiled path loaded)
+    monkeypatch.setattr(jit_model, "kernel_compiled", lambda implicit=False: True)
     auto = prothero_robinson(1e5).simulate(T_END, "auto", rtol=1e-8, atol=1e-11, output="events")
     assert auto.stats["method"] == "RK45-jit" and auto.stopped is None
     assert "rodas-jit (RK45's stiffness test fired at t = " in auto.stats["method per mode (auto)"]
