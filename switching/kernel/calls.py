@@ -61,7 +61,7 @@ from numba.extending import intrinsic
 from .compiler import dispatch, inline, stamp_with_rules
 
 __all__ = ["MODE_SIGNATURE", "Model", "OPS", "argmax_abs", "call", "finite", "fire", "full", "fun", "fy",
-           "gparts", "holds", "jac", "jump", "phi"]
+           "gparts", "holds", "holds_at", "jac", "jump", "phi"]
 
 OPS = {"fy": 0, "phi": 1, "holds": 2, "jump": 3, "fire": 4, "gparts": 5, "jac": 6}
 
@@ -176,6 +176,12 @@ def fun(m, t, y, k, M, out):
         out[0] = 0.0
         return
     fy(m, y, t, M, out)
+
+
+@dispatch
+def holds_at(m, y, t, M, s, rtol, atol):
+    """Does a guard of mode m hold during flow at (t, y): :func:`holds` as a call of its own."""
+    return holds(m, y, t, M, s, rtol, atol)
 
 
 @inline

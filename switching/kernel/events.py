@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .calls import gparts, holds
+from .calls import gparts, holds, holds_at
 from ..rules.bracket import BISECTIONS
 from .compiler import (band, dispatch, halve, inline, maximize_begin, maximize_next, narrow_begin, narrow_next,
                        parabola_peak, peak_in_reach, stamp_with_rules, switching_part, worth_refining)
@@ -73,10 +73,10 @@ def point(slot, tau, at, yv, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
     template, z, dbuf, s, tmp = E
     ptau, pmg, ptr, phd = PT
     if at:
-        hd = holds(m, yv, tau, M, s, rtol, atol)
+        hd = holds_at(m, yv, tau, M, s, rtol, atol)
     else:
         _interpolate(kind, t_old, h, A, tau, tmp)
-        hd = holds(m, tmp, tau, M, s, rtol, atol)
+        hd = holds_at(m, tmp, tau, M, s, rtol, atol)
     return _parts(slot, tau, hd, m, s, rtol, atol, M, PT)
 
 
@@ -285,13 +285,13 @@ def _first_bracket(kind, m, k, t_old, h, A, E, M, rtol, atol, PT, SC, total):
             end = inside
         # verified: tau checked with the guards themselves (else the plain bracket)
         interp(kind, t_old, h, A, tau, tmp)
-        if holds(m, tmp, tau, M, s, rtol, atol):
+        if holds_at(m, tmp, tau, M, s, rtol, atol):
             return ptau[lo], tau
         return ptau[a], ptau[end]
     return -1.0, -1.0
 
 
-@inline
+@dispatch
 def event_in_step(kind, m, k, t_old, t_new, h, A, E, M, rtol, atol, samples, PT, SC):
     """First time in (t_old, t_new] a guard holds, or -1.0: switching.simulate.events.GuardScan.first_hold (the
     sample points, refined extrema of the parts' margins, holds between parts changing truth) and locate_event.
@@ -323,7 +323,7 @@ def first_hold(t_lo, hi, kind, m, t_old, h, A, M, s, tmp, rtol, atol):
         if not more:
             break
         _interpolate(kind, t_old, h, A, mid, tmp)
-        if holds(m, tmp, mid, M, s, rtol, atol):
+        if holds_at(m, tmp, mid, M, s, rtol, atol):
             hi = mid
         else:
             t_lo = mid
@@ -357,7 +357,7 @@ def bisect(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
     while not done:
         tau = state[-1]
         _interpolate(kind, t_old, h, A, tau, tmp)
-        hd = holds(m, tmp, tau, M, s, rtol, atol)
+        hd = holds_at(m, tmp, tau, M, s, rtol, atol)
         if not hd:
             t_lo = tau
         done, state = narrow_next(state, hd, _margin(m, part, s, rtol, atol, M) if part >= 0 else np.nan)
@@ -366,7 +366,7 @@ def bisect(a, b, kind, m, k, t_old, h, A, E, M, rtol, atol, PT):
     # the last point not holding, evaluated again (deterministic) for its parts' truths
     lo = 2
     interp(kind, t_old, h, A, t_lo, tmp)
-    _parts(lo, t_lo, holds(m, tmp, t_lo, M, s, rtol, atol), m, s, rtol, atol, M, PT)
+    _parts(lo, t_lo, holds_at(m, tmp, t_lo, M, s, rtol, atol), m, s, rtol, atol, M, PT)
     return lo, state[1]
 
 
