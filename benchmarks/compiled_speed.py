@@ -76,6 +76,33 @@ goes:
 * the rod has no guards, so "s=3" is the same work as "s=0" (8.2 µs each
   timed alone at 1e-3); the table's s=3 column, timed right after the hand
   loop, reads higher on this loaded machine.
+
+Where the kernel's own call goes (a profile of the ball's run, s=0, numba's
+functions named for the profiler): a step of the ball costs the kernel
+~0.35 µs against the hand loop's ~0.1, and nearly all of the difference is
+the guard scan at the step's points (GuardScan's semantics: the guards'
+parts, their margins' extrema, the first bracket), not the RK45 step; the
+rod's steps cost what the hand loop's do (0.21 µs at 1e-9).  The scan's
+phases that run at every step were calls of their own, each passing the
+model record and the scan's records; inlined into ``event_in_step`` (issue
+46, session 25), the kernel's own call, run beside the commit before, one
+process per core (least of 15 rounds of 3000 calls, µs):
+
+                        ball s=0  ball s=3  rod 1e-3  rod 1e-6  rod 1e-9
+  before (7c37dd7)        18.1      22.0      5.0       7.3      12.9
+  after                   16.5      20.5      5.0       7.3      12.9
+  hand loop (same load)    7.6       7.6      2.8       4.7      12.7
+
+The kernel's own call is then within 2× the hand loop on the rod's rows
+(1.8×, 1.55×, 1.0×), the ball's at 2.2× (s=0) and 2.7× (s=3); what keeps the
+table's "kernel" columns higher is ``CompiledModel.run``'s Python set-up,
+~3 µs a call (three small arrays made, the record checked), and the kernel's
+fixed entry, ~2.8 µs against the hand loop's 1.0: numba unboxes its 24 array
+arguments (a reference-counted wrapper allocated and freed for each, ~30 %
+of that entry) and carves the workspaces.  Inlined further, into
+``flow_in_mode``, the ball's call took 15.1 µs, but the kernel's first
+compile 3 s longer (24.7 → 28.0 s) and the implicit one's 9 s longer (35.4 →
+44.4 s): not taken.
 """
 
 from __future__ import annotations
