@@ -92,6 +92,19 @@ the second process knows what a Python run costs.  ``--repeats 3``, falling rod,
 and five alternating pairs of ``hbg run falling-rod --method RK45`` / ``--method auto``: 0.94–1.05 s
 / 0.98–1.02 s: the default command's second process costs what the Python path costs.  An explicit
 ``--method RK45-jit`` still pays numba's import (1.25 s, 1.39× the Python path).
+
+The kernel's load imports no more of numba than numba's own import (issue 46, session 25).  Loading
+a compiled function from numba's cache rebuilds its environments, and each environment imports the
+module it was compiled from: the kernel had three of numba's own, from ``x ** 2`` (``numba.cpython.
+numbers``), ``np.searchsorted`` (``numba.np.arraymath``) and ``reshape``/``np.empty``
+(``numba.np.arrayobj``), which with what they import are 15 modules beyond ``import numba``.  Now the
+squares are products, the search is written out, the workspaces' two-dimensional views are made
+directly (``switching.kernel.views``) and the merged rows' arrays are made in Python
+(``switching.library.kernel_rows``).  The first ``RK45-jit`` run of the bouncing ball in a new
+process (caches warm, after a Python run; CPU seconds, five alternating pairs, no ``.pyc`` files in
+either tree): 0.32–0.48 s before (7c37dd7), 0.22–0.25 s after; ``hbg run falling-rod`` (six
+alternating rounds, seconds): RK45 1.15 / RK45-jit 1.46 before, 1.14 / 1.42 after (the CLI's
+own imports load part of those modules anyway).  What remains is numba's import itself.
 """
 
 from __future__ import annotations

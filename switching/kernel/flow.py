@@ -135,8 +135,8 @@ def initial_step(m, k, t0, y, f, t_end, rtol, max_step, M, tmp, f1):
     d1 = 0.0
     for i in range(ke):
         sc = state_atol(M, m, i) + abs(y[i]) * rtol
-        d0 += (y[i] / sc) ** 2
-        d1 += (f[i] / sc) ** 2
+        d0 += (y[i] / sc) * (y[i] / sc)
+        d1 += (f[i] / sc) * (f[i] / sc)
     d0 = math.sqrt(d0 / ke)
     d1 = math.sqrt(d1 / ke)
     if d0 < 1e-5 or d1 < 1e-5:
@@ -150,7 +150,7 @@ def initial_step(m, k, t0, y, f, t_end, rtol, max_step, M, tmp, f1):
     d2 = 0.0
     for i in range(ke):
         sc = state_atol(M, m, i) + abs(y[i]) * rtol
-        d2 += ((f1[i] - f[i]) / sc) ** 2
+        d2 += ((f1[i] - f[i]) / sc) * ((f1[i] - f[i]) / sc)
     d2 = math.sqrt(d2 / ke) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -309,8 +309,8 @@ def hairer(t_end, t_new, h, stiff_run, calm_run, check, A, W, info):
     den = 0.0
     for i in range(y.shape[0]):
         err[i] = K[6, i] - K[5, i]
-        num += err[i] ** 2
-        den += (y_new[i] - tmp[i]) ** 2
+        num += err[i] * err[i]
+        den += (y_new[i] - tmp[i]) * (y_new[i] - tmp[i])
     if check and den > 0.0 and abs(h) * math.sqrt(num / den) > 3.25:
         calm_run = 0
         stiff_run += 1

@@ -367,7 +367,7 @@ def _stages(m, k, t, h, rtol, A, W, L, M):
     for c in range(ke):
         y_new[c] = tmp[c] + K[5, c]
         sc = state_atol(M, m, c) + max(abs(y[c]), abs(y_new[c])) * rtol
-        total += (K[5, c] / sc) ** 2
+        total += (K[5, c] / sc) * (K[5, c] / sc)
     return math.sqrt(total / ke)
 
 
@@ -381,7 +381,7 @@ def _damped_motion(jbuf, ke, gh, y, y_new, rtol, M, m):
         for j in range(ke):
             acc -= gh * jbuf[i * ke + j] * (y_new[j] - y[j])
         sc = state_atol(M, m, i) + max(abs(y[i]), abs(y_new[i])) * rtol
-        total += (acc / sc) ** 2
+        total += (acc / sc) * (acc / sc)
     return math.sqrt(total / max(ke, 1))
 
 

@@ -45,11 +45,16 @@ def next_code(m, target, mstates, radix):
 def mode_of(code, codes, code_ids):
     """The number of the mode of ``code`` in the sorted ``codes`` (their numbers ``code_ids``), or -1 (not
     compiled)."""
-    if codes.shape[0] == 0:
-        return -1
-    j = np.searchsorted(codes, code)
-    if j < codes.shape[0] and codes[j] == code:
-        return code_ids[j]
+    lo = 0
+    hi = codes.shape[0]
+    while lo < hi:  # (np.searchsorted's left side, written out: its implementation's module is not imported)
+        mid = (lo + hi) >> 1
+        if codes[mid] < code:
+            lo = mid + 1
+        else:
+            hi = mid
+    if lo < codes.shape[0] and codes[lo] == code:
+        return code_ids[lo]
     return -1
 
 

@@ -67,6 +67,7 @@ from .flow import RK_P as RK_P
 from .flow import adaptive_step, dense_coefficients, fixed_step, hairer, initial_step, interp
 from .implicit import implicit_workspaces, rosenbrock_step
 from .instants import resolve
+from .views import rows_of
 
 __all__ = ["COLLAPSED", "DONE", "FULL", "MODE_SIGNATURE", "Model", "NONFINITE", "OPS", "RESOLVE", "RK_A", "RK_B",
            "RK_C", "RK_E", "RK_P", "STIFF", "WORKSPACE", "call", "decide", "larger", "run", "workspace_sizes"]
@@ -132,7 +133,7 @@ def _carve(x0, M, samples, max_instant, work):
     o += n
     rd = wf[o:o + n]
     o += n
-    pin_x = wf[o:o + 64 * n].reshape((64, n))
+    pin_x = rows_of(wf[o:o + 64 * n], 64, n)
     o += 64 * n
     dbuf = wf[o:o + ne]
     o += ne
@@ -149,9 +150,9 @@ def _carve(x0, M, samples, max_instant, work):
     errbuf = wf[o:o + ne]
     o += ne
     zeroed = o
-    Kbuf = wf[o:o + 7 * ne].reshape((7, ne))
+    Kbuf = rows_of(wf[o:o + 7 * ne], 7, ne)
     o += 7 * ne
-    Qbuf = wf[o:o + 4 * ne].reshape((ne, 4))
+    Qbuf = rows_of(wf[o:o + 4 * ne], ne, 4)
     o += 4 * ne
     s = wf[o:o + ns]
     o += ns
@@ -159,7 +160,7 @@ def _carve(x0, M, samples, max_instant, work):
     o += 2 * ns
     ptau = wf[o:o + slots]
     o += slots
-    pmg = wf[o:o + slots * width].reshape((slots, width))
+    pmg = rows_of(wf[o:o + slots * width], slots, width)
     o += slots * width
     fscr = wf[o:o + width]
     o += width
@@ -190,7 +191,7 @@ def _carve(x0, M, samples, max_instant, work):
     piv = wi[o:o + 3 * ne]
     o += 3 * ne
     perm = wi[o:o + 3 * ne]
-    ptr = wb[:slots * width].reshape((slots, width))
+    ptr = rows_of(wb[:slots * width], slots, width)
     phd = wb[slots * width:slots * (width + 1)]
     q = wb[slots * (width + 1):slots * (width + 1) + width]
     wb[:slots * (width + 1) + width] = False

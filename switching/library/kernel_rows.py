@@ -16,22 +16,28 @@ from numba import njit
 
 from codegen.jit import guard_cache
 
-__all__ = ["merged_rows"]
+__all__ = ["fill_rows", "merged_rows"]
 
 
-@njit(cache=True)
 def merged_rows(out_t, out_x, out_m, ev_f, ev_i, n_saved, n_events, lead, kind, before, after):
     """``(t (N,), x (N, n), mode numbers (N,), kinds (N,), the rows of the states after the instants (E,))``
     of ``N = lead + n_saved + 2·n_events`` rows: ``lead`` rows left for the caller, then the ``n_saved``
     samples (each of ``kind``) with every one of the ``n_events`` instants' rows, of ``before`` and
-    ``after``, after the samples saved before it (``n_events = 0``: the samples alone)."""
-    n = out_x.shape[1]
+    ``after``, after the samples saved before it (``n_events = 0``: the samples alone).  The arrays are
+    made here and filled by :func:`fill_rows` (made in compiled code, they would have the compiled path's
+    load import ``numba.np.arrayobj``, with some twenty modules, in every new process)."""
     size = lead + n_saved + 2 * n_events
-    t = np.empty(size)
-    x = np.empty((size, n))
-    numbers = np.empty(size, np.int64)
-    kinds = np.empty(size, np.int64)
-    after_rows = np.empty(n_events, np.int64)
+    rows = (np.empty(size), np.empty((size, out_x.shape[1])), np.empty(size, np.int64), np.empty(size, np.int64),
+            np.empty(n_events, np.int64))
+    fill_rows(out_t, out_x, out_m, ev_f, ev_i, n_saved, n_events, lead, kind, before, after, *rows)
+    return rows
+
+
+@njit(cache=True)
+def fill_rows(out_t, out_x, out_m, ev_f, ev_i, n_saved, n_events, lead, kind, before, after, t, x, numbers, kinds,
+              after_rows):
+    """The rows of :func:`merged_rows` written into ``t, x, numbers, kinds, after_rows`` (sized as it says)."""
+    n = out_x.shape[1]
     row = lead
     saved = 0
     for event in range(n_events + 1):
@@ -53,7 +59,6 @@ def merged_rows(out_t, out_x, out_m, ev_f, ev_i, n_saved, n_events, lead, kind, 
                 kinds[row] = after if side else before
                 row += 1
             after_rows[event] = row - 1
-    return t, x, numbers, kinds, after_rows
 
 
-guard_cache(__name__, merged_rows)
+guard_cache(__name__, fill_rows)
