@@ -29,6 +29,15 @@ bracket) and the guards' calls at its points are inlined into
 ball's kernel, 23 steps and 4 events, 18.5 → 16.7 µs, at the same compile
 time (24–25 s; inlined further, into ``flow_in_mode``, 15.1 µs, but 3 s more
 to compile, 9 s more for the implicit specialisation).
+
+The kernel calls none of numba's implementations that numba compiles from
+its own Python functions (``x ** k`` of an integer ``k``, ``np.searchsorted``,
+``reshape``, ``np.empty``): each keeps an environment of numba's module, which
+loading the kernel from the disk cache imports (15 modules beyond ``import
+numba``, ~0.1 s of a new process's first compiled run).  Squares are
+products, the workspaces' 2-D views are :func:`.views.rows_of`'s
+(``tests/switching/library/test_kernel_call.py`` checks a new process's
+load).
 """
 
 from __future__ import annotations

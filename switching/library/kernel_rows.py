@@ -5,8 +5,8 @@ the time, the state before, the state after; ``ev_i``: the modes before and afte
 before the event: :func:`switching.kernel.loop.run`).  A run's record wants them as rows in time
 order, each instant's pair of rows where it falls (:meth:`switching.simulate.recorder.Recorder.block`).
 With numpy that took some 25 small operations a call, most of what a warm call spent recording; one
-compiled loop (:func:`merged_rows`, compiled once per installation and kept by numba's disk cache)
-does it in a few microseconds.
+compiled loop (:func:`fill_rows`, compiled once per installation and kept by numba's disk cache)
+does it in a few microseconds, into arrays :func:`merged_rows` makes.
 """
 
 from __future__ import annotations

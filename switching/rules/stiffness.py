@@ -31,7 +31,7 @@ def fixed_stiffness(power4, limit, at_once, streak):
     ``streak`` the steps beyond the limit so far.  Returns ``(streak,
     h_lambda)``: the new streak, or −1 when the flow is stiff, and
     ``|h·λ| = power4^¼`` (0 when calm)."""
-    if not power4 > (limit * limit) * (limit * limit):
+    if not power4 > (limit * limit) * (limit * limit):  # (limit**4 as numba computes it: both paths agree)
         return 0, 0.0
     streak += 1
     h_lambda = power4**0.25
