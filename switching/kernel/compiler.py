@@ -26,9 +26,10 @@ per-call time (``python benchmarks/compiled_speed.py``).  The guard scan's
 phases that run at every step (the extrema of the parts' margins, the first
 bracket) and the guards' calls at its points are inlined into
 :func:`.events.event_in_step`, which counts no references: the bouncing
-ball's kernel, 23 steps and 4 events, 18.5 → 16.7 µs, at the same compile
-time (24–25 s; inlined further, into ``flow_in_mode``, 15.1 µs, but 3 s more
-to compile, 9 s more for the implicit specialisation).
+ball's kernel, 23 steps and 4 events, 18.1 → 16.5 µs, compiled no longer
+(``benchmarks/compiled_speed.py``'s notes; inlined further, into
+``flow_in_mode``, 15.1 µs, but 3 s more to compile, 9 s more for the
+implicit specialisation).
 
 The kernel calls none of numba's implementations that numba compiles from
 its own Python functions (``x ** k`` of an integer ``k``, ``np.searchsorted``,
