@@ -63,7 +63,8 @@ from .step_doubling import warn_if_coarse
 from .python_flow import flow_python
 from .real_values import ComplexValueError, complex_failure
 from .recorder import Recorder
-from .run_options import DEFAULT_MAX_STEPS, checked_options
+from .run_options import DEFAULT_MAX_STEPS, checked_options, options_key
+from .set_up import keep_set_up, kept_set_up
 from .state_tolerances import state_tolerances
 from .trajectory import Trajectory
 from .zeno import ZenoWatch
@@ -165,15 +166,20 @@ def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
     (:func:`option_defaults` gives them), checked here.  A batch of runs
     (:mod:`switching.sweep.kernel_batch`) prepares each this way, so that its runs start as ``simulate``'s."""
     method = canonical_method(method)  # (a method's name in any case)
-    options = checked_options(model, t_end, method, keywords)
+    key = None if METHOD_CLASSES.get(method) is None or METHOD_CLASSES[method].chooses \
+        or keywords["progress"] is not None else options_key(t_end, method, keywords)
+    kept = kept_set_up(model, key)  # the set-up of the model's last run, when it had these options
+    options = kept[0].options if kept is not None else checked_options(model, t_end, method, keywords)
     dt, rtol, atol, max_step = keywords["dt"], keywords["rtol"], keywords["atol"], keywords["max_step"]
     #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
     model.last_run = _last_run(t_end, method, dt, rtol, atol, max_step)
+    if kept is not None:  # (its options bounded and scaled already)
+        return HybridRun(model, options, kept)
     if options.stepping.dt is None and max_step == math.inf:  # a step that samples every cycle of the sources
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
             options = _with_stepping(options, "max_step", bound)
-    return HybridRun(model, options)
+    return HybridRun(model, options, keep_as=key)
 
 
 def _last_run(t_end, method: str, dt, rtol, atol, max_step) -> dict:
@@ -231,17 +237,23 @@ class HybridRun:
     failure raises an error of the hierarchy that carries the trajectory
     computed so far (:meth:`fail`)."""
 
-    def __init__(self, model, options: RunOptions):
+    def __init__(self, model, options: RunOptions, kept: tuple | None = None, keep_as=None):
         self.model, self.t_end, self.options = model, options.t_end, options
         start, stepping, events = options.start, options.stepping, options.events
         method, t_end, t0 = options.method, options.t_end, start.t0
         self.auto = None
         self.output = options.output.recorded
         self.started = _time.perf_counter()
-        self.x = model.initial_state() if start.x0 is None else start.x0
-        projected = model.initial_projection if start.x0 is None else None
-        self.mode = model.starting_mode(self.x, t0, start.mode)
-        if stepping.dt is None:  # each state's absolute tolerance (switching.simulate.state_tolerances)
+        #: the set-up of an earlier run this one takes whole (options, starting mode, the start's check:
+        #: switching.simulate.set_up), else None; what this run keeps its own under (None: nothing kept)
+        self.kept, self.keep_as = (None, keep_as) if kept is None else (kept[0], None)
+        if kept is not None:  # (its options carry the states' tolerances already)
+            self.x, projected, self.mode = kept[1], self.kept.projected, self.kept.mode
+        else:
+            self.x = model.initial_state() if start.x0 is None else start.x0
+            projected = model.initial_projection if start.x0 is None else None
+            self.mode = model.starting_mode(self.x, t0, start.mode)
+        if stepping.dt is None and kept is None:  # each state's absolute tolerance (.state_tolerances)
             self.options = options = _with_stepping(options, "atol", state_tolerances(model, self.x, stepping.atol))
             stepping = options.stepping
         if METHOD_CLASSES[method].chooses:  # auto: compiled or not, explicit or implicit (stats: which and why;
@@ -387,20 +399,30 @@ class HybridRun:
     def _start(self) -> bool:
         """Record the start and resolve the initial instant (in Python, unless the kernel does); returns
         whether the kernel resolves it."""
-        model, compiled = self.model, self.compiled
+        model, compiled, kept = self.model, self.compiled, self.kept
         self.recorder.sample(self.t, self.x, self.mode, force=True)
         initial_in_kernel = compiled is not None and compiled.covers(self.mode)
+        cm = self.start_functions  # (of self.mode, which only an initial instant in Python changes)
         if not initial_in_kernel:
+            self._keep_set_up(cm, False)
             self.initial_instant()
-        else:  # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
-            cm = self.start_functions  # (of self.mode, which only an initial instant in Python changes)
+        elif not (kept is not None and kept.start_checked and kept.start_functions() is cm):
+            # the kernel flows, and tells non-finite rates itself (compiled_flow then names them): the sides here
             problem = nonfinite_sides_at_start(model, cm, self.x, self.t, self.rtol_g, self.atol_g)
             if problem:
                 raise self.fail(NonFiniteStateError, problem)
+            self._keep_set_up(cm, True)
         if self.options.output.t_eval is not None and not initial_in_kernel:  # (the kernel samples t0 after its instant)
             x = self.x
             self.recorder.dense(self.t - 1.0, self.t, lambda tau: x.copy(), self.mode)
         return initial_in_kernel
+
+    def _keep_set_up(self, start_functions, start_checked: bool) -> None:
+        """Keep this run's set-up for the model's next run with the same options (:mod:`.set_up`), as it
+        starts (in ``self.mode``, with ``start_functions``; ``start_checked``: the guard sides are finite)."""
+        if self.keep_as is not None:  # (a model with inputs checks its sides each start: they read u(t0))
+            keep_set_up(self.model, self.keep_as, self.options, self.x, self.model.initial_projection, self.mode,
+                        start_functions, start_checked and not self.model.input_signals.names)
 
     def first_kernel_call(self) -> dict | None:
         """The keywords of this run's first kernel call (:meth:`CompiledModel.run

@@ -78,8 +78,8 @@ from ..errors import OptionTypeError, OptionValueError, WorkLimitError
 from .methods import COMPILED, METHODS, method_class
 from .option_groups import RunOptions
 
-__all__ = ["OPTION_CHECKS", "checked_options", "check_each", "check_run", "check_work", "check_output_size",
-           "check_samples", "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS",
+__all__ = ["OPTION_CHECKS", "checked_options", "options_key", "check_each", "check_run", "check_work",
+           "check_output_size", "check_samples", "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS",
            "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
@@ -413,7 +413,7 @@ _CHECKED: dict = {}
 _CHECKED_KEPT = 64
 
 
-def _checked_key(t_end, method, keywords: dict):
+def options_key(t_end, method, keywords: dict):
     """The key of options that no model's size enters (no ``x0``, ``t_eval``
     or ``samples``): the names, the values and their types (``1`` and ``1.0``,
     ``True`` and ``1``, a float and numpy's are told apart: the run sees the
@@ -446,7 +446,7 @@ def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
     depend on the model's size or are arrays) are kept by their values and
     types, frozen, and handed to the next run that gives the same (the last
     64 kept)."""
-    found, key = _kept_options(_checked_key(t_end, method, keywords))
+    found, key = _kept_options(options_key(t_end, method, keywords))
     if found is not None:
         return found
     t_eval, x0 = check_run(model, t_end, method, keywords)
