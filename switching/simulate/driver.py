@@ -169,7 +169,12 @@ def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
     key = None if METHOD_CLASSES.get(method) is None or METHOD_CLASSES[method].chooses \
         or keywords["progress"] is not None else options_key(t_end, method, keywords)
     kept = kept_set_up(model, key)  # the set-up of the model's last run, when it had these options
-    options = kept[0].options if kept is not None else checked_options(model, t_end, method, keywords)
+    if kept is not None:
+        options = kept[0].options
+    elif key is not None:
+        options = checked_options(model, t_end, method, keywords, key)
+    else:  # (auto, a progress callback: options kept by checked_options alone)
+        options = checked_options(model, t_end, method, keywords)
     dt, rtol, atol, max_step = keywords["dt"], keywords["rtol"], keywords["atol"], keywords["max_step"]
     #: the settings of the model's last run (``model.save()`` writes them as the file's ``[run]``)
     model.last_run = _last_run(t_end, method, dt, rtol, atol, max_step)

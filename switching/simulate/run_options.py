@@ -434,7 +434,10 @@ def _kept_options(key) -> tuple:
         return None, None
 
 
-def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
+_KEY_UNKNOWN = object()  # (checked_options: the options' key not made yet)
+
+
+def checked_options(model, t_end, method, keywords: dict, key=_KEY_UNKNOWN) -> RunOptions:
     """The options of a run of ``model`` up to ``t_end`` [s] with ``method``,
     grouped (:class:`~switching.simulate.option_groups.RunOptions`) from the
     keywords of ``simulate`` (all of them, ``mode`` included) once
@@ -445,8 +448,8 @@ def checked_options(model, t_end, method, keywords: dict) -> RunOptions:
     them once: options without ``x0``, ``t_eval`` and ``samples`` (which
     depend on the model's size or are arrays) are kept by their values and
     types, frozen, and handed to the next run that gives the same (the last
-    64 kept)."""
-    found, key = _kept_options(options_key(t_end, method, keywords))
+    64 kept).  ``key``: :func:`options_key` of these, when the caller has made it."""
+    found, key = _kept_options(options_key(t_end, method, keywords) if key is _KEY_UNKNOWN else key)
     if found is not None:
         return found
     t_eval, x0 = check_run(model, t_end, method, keywords)

@@ -67,7 +67,9 @@ class KeptSetUp(NamedTuple):
             and p.tobytes() == self.parameter_bits
 
 
-#: model → the set-up of its last run that kept one (held weakly: it goes with its model)
+#: model → [the set-up of its last run that kept one, the parameter values (array) of its last run] (held
+#: weakly: it goes with its model; a list, so that a new set-up replaces the last without a new weak
+#: reference to the model)
 _KEPT: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
@@ -75,14 +77,15 @@ def kept_set_up(model, key) -> tuple | None:
     """``(the set-up of model's last run, the initial state (n,) of a new run)`` when that run's options
     had ``key`` (:func:`~switching.simulate.run_options.options_key`; ``None``: nothing is kept) and the
     model is as it was then; else ``None``."""
-    kept = _KEPT.get(model) if key is not None else None
-    if kept is None:
+    held = _KEPT.get(model) if key is not None else None
+    kept = held[0] if held is not None else None
+    if kept is None or not kept.holds_for(model):  # (a parameter study's values: told first)
         return None
     try:
         same = kept.key == key
     except (TypeError, ValueError):  # (an option whose == is no bool: an array)
         same = False
-    if not same or not kept.holds_for(model):
+    if not same:
         return None
     x = model.initial_state()
     if x.tobytes() != kept.x_bits or model.initial_projection is not kept.projected:
@@ -91,15 +94,21 @@ def kept_set_up(model, key) -> tuple | None:
 
 
 def keep_set_up(model, key, options, x: np.ndarray, projected, mode, start_functions, start_checked: bool) -> None:
-    """Keep the set-up of a run of ``model`` whose options had ``key`` (``None``: nothing kept): its
+    """Keep the set-up of a run of ``model`` whose options had ``key`` (``None``: nothing kept), if the
+    model's last run had the same parameter values (the same array; else note them only): its
     ``options`` (checked, with the step bound and the states' tolerances), its initial state ``x`` (n,)
     and the projection that gave it, its starting ``mode``, the mode's generated functions (``None`` on
     the Python path: then ``start_checked`` is false) and whether the guard sides were found finite there
     (``start_checked``)."""
     if key is None:
         return
-    p = model.parameter_array
-    _KEPT[model] = KeptSetUp(key, p, p.tobytes(), weakref.ref(model.input_signals), model.mode_space, model.tolerance,
-                             getattr(model, "max_step_hint", None), options, np.asarray(x, dtype=float).tobytes(),
-                             projected, mode, None if start_functions is None else weakref.ref(start_functions),
-                             start_checked and start_functions is not None)
+    p, held = model.parameter_array, _KEPT.get(model)
+    if held is None:
+        held = _KEPT[model] = [None, None]
+    if held[1] is not p:  # values new since the model's last run (a parameter study's next set): kept once
+        held[1] = p       # they run again, so that a study does not pay for keeping what it never takes
+        return
+    held[0] = KeptSetUp(key, p, p.tobytes(), weakref.ref(model.input_signals), model.mode_space, model.tolerance,
+                        getattr(model, "max_step_hint", None), options, x.tobytes(), projected, mode,
+                        None if start_functions is None else weakref.ref(start_functions),
+                        start_checked and start_functions is not None)

@@ -15,7 +15,7 @@ from models import bouncing_ball
 from switching import Automaton, ExpressionInput, HybridModel
 from switching.errors import NonFiniteStateError
 from switching.model.hybrid_model import Tolerance
-from switching.simulate import driver
+from switching.simulate import driver, set_up
 from switching.simulate.driver import HybridRun
 from switching_models import relay_graph
 
@@ -54,9 +54,10 @@ def test_a_run_with_the_last_runs_options_takes_its_set_up_and_runs_as_a_fresh_o
     options = {"dt": 1e-3} if method == "rk4-jit" else {}
     model = bouncing_ball.build()
     simulate(model, method, **options)  # (the first run meets a mode the kernel has not compiled yet in Python)
+    simulate(model, method, **options)  # (the second, with the values of the first, keeps its set-up)
     kept = [observed(simulate(model, method, **options)) for _ in range(2)]
-    assert [run.kept is not None for run in runs] == [False, True, True]
-    assert runs[1].kept is runs[2].kept and runs[1].options is runs[0].options
+    assert [run.kept is not None for run in runs] == [False, False, True, True]
+    assert runs[2].kept is runs[3].kept and runs[2].options is runs[1].options is runs[0].options
     assert kept[0] == kept[1] == observed(afresh(monkeypatch, lambda: simulate(model, method, **options)))
     assert runs[-1].kept is None
 
@@ -86,12 +87,14 @@ def changes():
 @pytest.mark.parametrize("name, change", changes(), ids=[name for name, _ in changes()])
 def test_a_change_to_what_the_set_up_reads_gives_a_fresh_one(name, change, runs, monkeypatch):
     model = bouncing_ball.build()
-    for _ in range(2):
+    for _ in range(3):
         simulate(model)
+    assert runs[-1].kept is not None
     change(model)
     changed = observed(simulate(model))
     assert runs[-1].kept is None and runs[-1].keep_as is not None
-    assert observed(simulate(model)) == changed and runs[-1].kept is not None  # (kept again from here)
+    assert observed(simulate(model)) == observed(simulate(model)) == changed  # (kept again from here)
+    assert runs[-1].kept is not None
     assert observed(afresh(monkeypatch, lambda: simulate(model))) == changed
 
 
@@ -101,8 +104,9 @@ def test_a_change_to_what_the_set_up_reads_gives_a_fresh_one(name, change, runs,
 ])
 def test_other_options_give_a_fresh_set_up(other, runs, monkeypatch):
     model = bouncing_ball.build()
-    for _ in range(2):
+    for _ in range(3):
         simulate(model)
+    assert runs[-1].kept is not None
     options = dict(other)
     t_end, method = options.pop("t_end", RUN["t_end"]), options.pop("method", "RK45-jit")
     run = observed(model.simulate(t_end, method, **{"rtol": RUN["rtol"], **options}))
@@ -142,7 +146,7 @@ def test_a_start_whose_guard_side_is_not_finite_is_stopped_at_every_run():
         with pytest.raises(NonFiniteStateError, match="k = 0"):
             broken.simulate(1.0, "RK45-jit")
     model = relay(1.0)
-    for _ in range(2):
+    for _ in range(3):
         model.simulate(1.0, "RK45-jit")
     model.parameter_array[[s.name for s in model.parameter_symbols].index("k")] = 0.0
     with pytest.raises(NonFiniteStateError, match="left side of 'q_C/\\(C\\*k\\) >= v_hi'.* = nan"):
@@ -168,7 +172,7 @@ def test_a_model_with_inputs_checks_its_guard_sides_at_every_start(runs, monkeyp
     checked.clear()
     for _ in range(3):
         simulate(bouncing_ball_model)
-    assert len(checked) == 1  # (the ball has no inputs: its start is checked once)
+    assert len(checked) == 2  # (the ball has no inputs: the third run takes the second's checked start)
 
 
 def test_a_kept_set_up_lets_its_model_go():
@@ -181,3 +185,18 @@ def test_a_kept_set_up_lets_its_model_go():
     gone = run_twice()
     gc.collect()
     assert gone() is None
+
+
+def test_a_parameter_study_keeps_no_set_up_it_would_never_take(runs):
+    """Each run of a study has new values: it notes them only, and the set-up is kept once a run has the
+    values of the run before (then the next takes it)."""
+    model = bouncing_ball.build()
+    given = {symbol.name: value for symbol, value in model.parameter_values.items()}
+    for e in (0.8, 0.81, 0.82, 0.83):
+        model.set_parameter_values({**given, "e": e})
+        simulate(model)
+    assert set_up.kept_set_up(model, runs[-1].keep_as) is None
+    simulate(model)
+    assert set_up.kept_set_up(model, runs[-1].keep_as) is not None
+    simulate(model)
+    assert [run.kept is not None for run in runs] == [False] * 5 + [True]

@@ -264,8 +264,8 @@ def test_a_loop_of_runs_keeps_its_options_and_the_kernel_record(monkeypatch):
     seen = []
     original = HybridRun.__init__
 
-    def spy(self, model, options, *kept):
-        original(self, model, options, *kept)
+    def spy(self, model, options, *args, **kwargs):
+        original(self, model, options, *args, **kwargs)
         seen.append(self.options)
 
     ball.simulate(4.02, "RK45-jit", rtol=1e-8)
