@@ -161,14 +161,16 @@ def simulate(
         bar.close()
 
 
-def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
+def prepared_run(model, t_end: float, method: str, keywords: dict, keep: bool = True) -> HybridRun:
     """The run :func:`simulate` executes, set up and not started: ``keywords`` are all of its options
     (:func:`option_defaults` gives them), checked here.  A batch of runs
-    (:mod:`switching.sweep.kernel_batch`) prepares each this way, so that its runs start as ``simulate``'s."""
+    (:mod:`switching.sweep.kernel_batch`) prepares each this way, so that its runs start as ``simulate``'s.
+    ``keep``: the run may take the set-up of the model's last run and keep its own (:mod:`.set_up`); a
+    batch's runs, each with its own values, do neither."""
     method = canonical_method(method)  # (a method's name in any case)
     key = None if METHOD_CLASSES.get(method) is None or METHOD_CLASSES[method].chooses \
         or keywords["progress"] is not None else options_key(t_end, method, keywords)
-    kept = kept_set_up(model, key)  # the set-up of the model's last run, when it had these options
+    kept = kept_set_up(model, key) if keep else None  # the model's last run's set-up, if it had these options
     if kept is not None:
         options = kept[0].options
     elif key is not None:
@@ -184,7 +186,7 @@ def prepared_run(model, t_end: float, method: str, keywords: dict) -> HybridRun:
         bound = max(step_bound(model), 4.0 * (options.t_end - options.start.t0) / options.limits.max_steps)
         if bound < np.inf:
             options = _with_stepping(options, "max_step", bound)
-    return HybridRun(model, options, keep_as=key)
+    return HybridRun(model, options, keep_as=key if keep else None)
 
 
 def _last_run(t_end, method: str, dt, rtol, atol, max_step) -> dict:

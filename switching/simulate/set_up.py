@@ -15,13 +15,17 @@ takes that run's set-up whole (:func:`kept_set_up`).  What "as it was" means:
 
 * the options: ``simulate``'s keywords, ``t_end`` and the method, by value and type
   (:func:`~switching.simulate.run_options.options_key`); a run given ``x0``, ``t_eval`` or
-  ``samples`` (which the key leaves out), or run by ``auto`` (which chooses its method anew each
-  run), keeps nothing;
+  ``samples`` (which the key leaves out) or a progress callback, or run by ``auto`` (which chooses
+  its method anew each run), keeps nothing, and a batch's runs (each with its own values:
+  :mod:`switching.sweep.kernel_batch`) neither take nor keep one;
 * the model's parameter values (the array by identity, and to the bit: a change in place is seen),
   its inputs (by identity), its structure (its mode space), its guard tolerances
   (:class:`~switching.model.hybrid_model.Tolerance`, frozen: by identity) and its ``max_step_hint``;
 * its initial state, to the bit, and its projection (:meth:`HybridModel.initial_state`).
 
+A run keeps its set-up when its parameter values are those of the model's run before it (the same
+array), so the third of a loop of like runs is the first to take one: a parameter study's runs, each
+with new values, only note them (keeping costs ~1 µs a run that such a study would never take back).
 A model with inputs still checks its guard sides at every start: they read the inputs at the start
 time, which the functions alone do not tell.
 """

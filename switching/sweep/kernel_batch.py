@@ -359,7 +359,7 @@ def _batched(model, sets, t_end, method, keywords, event_capacity, each) -> None
                 arguments = None
                 try:
                     own = values.apply(sets[run])
-                    hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords)
+                    hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords, keep=False)
                     arguments = hybrid.first_kernel_call()
                     compiled = hybrid.compiled
                 except HybridBondGraphError:
@@ -371,7 +371,7 @@ def _batched(model, sets, t_end, method, keywords, event_capacity, each) -> None
 
             def replay(run, slab=slab):
                 own = values.apply(sets[run])  # (a value the model refuses raises here: the run's error)
-                hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords)
+                hybrid = prepared_run(model, t_end, method, {**keywords, **own} if own else keywords, keep=False)
                 result = slab.result(compiled, run)
                 if result is not None:
                     hybrid.compiled = FirstCallAnswered(hybrid.compiled, result, slab.calls[run - slab.first])
@@ -514,7 +514,7 @@ def batch_results(model, parameter_sets, t_end: float, method: str, *, metrics=N
 
         def simulate(run):
             own = values.apply(sets[run])
-            return prepared_run(model, t_end, method, {**keywords, **own} if own else keywords).execute()
+            return prepared_run(model, t_end, method, {**keywords, **own} if own else keywords, keep=False).execute()
 
         try:
             return [result_of_run(p, partial(simulate, run), metrics, trajectories, time.perf_counter())

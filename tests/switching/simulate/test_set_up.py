@@ -200,3 +200,17 @@ def test_a_parameter_study_keeps_no_set_up_it_would_never_take(runs):
     assert set_up.kept_set_up(model, runs[-1].keep_as) is not None
     simulate(model)
     assert [run.kept is not None for run in runs] == [False] * 5 + [True]
+
+
+def test_a_batchs_runs_neither_take_nor_keep_a_set_up(runs):
+    """A batch's runs each have their own values (switching.sweep.kernel_batch: prepared_run(keep=False)),
+    even one whose values are the model's own, run after a kept set-up."""
+    from switching import simulate_batch
+
+    model = bouncing_ball.build()
+    for _ in range(3):
+        simulate(model)
+    assert runs[-1].kept is not None
+    runs.clear()
+    simulate_batch(model, [{"e": 0.8}, {"e": 0.8}, {"e": 0.85}], RUN["t_end"], "RK45-jit", rtol=RUN["rtol"])
+    assert runs and all(run.kept is None and run.keep_as is None for run in runs)
