@@ -242,7 +242,9 @@ class HybridRun:
     (:func:`switching.simulate.run_options.checked_options`).  :meth:`execute` runs to
     ``t_end`` and returns the :class:`~switching.simulate.trajectory.Trajectory`; a
     failure raises an error of the hierarchy that carries the trajectory
-    computed so far (:meth:`fail`)."""
+    computed so far (:meth:`fail`).  ``kept``: ``(the set-up of an earlier run, this run's initial
+    state)`` (:func:`switching.simulate.set_up.kept_set_up`), taken whole with its options; ``keep_as``:
+    the options' key under which this run keeps its own set-up as it starts (``None``: it keeps none)."""
 
     def __init__(self, model, options: RunOptions, kept: tuple | None = None, keep_as=None):
         self.model, self.t_end, self.options = model, options.t_end, options

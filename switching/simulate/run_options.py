@@ -79,8 +79,8 @@ from .methods import COMPILED, METHODS, method_class
 from .option_groups import RunOptions
 
 __all__ = ["OPTION_CHECKS", "checked_options", "options_key", "check_each", "check_run", "check_work",
-           "check_output_size", "check_samples", "check_sensitivity_options", "METHODS", "COMPILED", "DEFAULT_MAX_STEPS",
-           "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
+           "check_output_size", "check_samples", "check_sensitivity_options", "METHODS", "COMPILED",
+           "DEFAULT_MAX_STEPS", "MAX_EVENT_SAMPLES", "MAX_OUTPUT_BYTES", "MAX_ZENO_WINDOW"]
 
 #: steps a run may take unless told (``max_steps=``): no shipped model's run comes near
 DEFAULT_MAX_STEPS = 10_000_000

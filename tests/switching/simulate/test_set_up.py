@@ -63,7 +63,7 @@ def test_a_run_with_the_last_runs_options_takes_its_set_up_and_runs_as_a_fresh_o
 
 
 def changes():
-    """What a set-up reads, each changed on a model that has run twice: (name, change(model))."""
+    """What a set-up reads, each changed on a model whose last run took a kept set-up: (name, change(model))."""
     def values(model, **changed):
         given = {symbol.name: value for symbol, value in model.parameter_values.items()}
         initial = changed.pop("initial", None)
@@ -176,13 +176,13 @@ def test_a_model_with_inputs_checks_its_guard_sides_at_every_start(runs, monkeyp
 
 
 def test_a_kept_set_up_lets_its_model_go():
-    def run_twice():
+    def run_and_drop():
         model = bouncing_ball.build()
-        for method in ("RK45-jit", "RK45-jit", "RK45", "RK45"):
+        for method in ("RK45-jit", "RK45-jit", "RK45", "RK45"):  # (from the second run on, each keeps its set-up)
             simulate(model, method)
         return weakref.ref(model)
 
-    gone = run_twice()
+    gone = run_and_drop()
     gc.collect()
     assert gone() is None
 
