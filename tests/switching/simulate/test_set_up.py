@@ -4,6 +4,7 @@ as a run set up afresh; anything the set-up reads that changes gives a fresh one
 
 from __future__ import annotations
 
+import copy
 import gc
 import weakref
 
@@ -15,6 +16,7 @@ from models import bouncing_ball
 from switching import Automaton, ExpressionInput, HybridModel
 from switching.errors import NonFiniteStateError
 from switching.model.hybrid_model import Tolerance
+from switching.model.inputs import InputValues
 from switching.simulate import driver, set_up
 from switching.simulate.driver import HybridRun
 from switching_models import relay_graph
@@ -81,6 +83,10 @@ def changes():
         ("the initial state alone", lambda model: setattr(model, "initial_state", lambda: np.array([0.0, 1.5]))),
         ("the guard tolerances", lambda model: setattr(model, "tolerance", Tolerance(rtol=1e-8))),
         ("a step hint", lambda model: setattr(model, "max_step_hint", 0.01)),
+        ("the inputs (new ones, alike)", lambda model: setattr(model, "input_signals", InputValues(
+            model.input_signals.names, model.input_signals.functions))),
+        ("the structure (a new mode space, alike)", lambda model: setattr(model, "mode_space",
+                                                                          copy.copy(model.mode_space))),
     ]
 
 
