@@ -87,7 +87,7 @@ def kept_set_up(model, key) -> tuple | None:
         return None
     try:
         same = kept.key == key
-    except (TypeError, ValueError):  # (an option whose == is no bool: an array)
+    except (TypeError, ValueError):  # (a bad option given as an array: checked_options then names it)
         same = False
     if not same:
         return None

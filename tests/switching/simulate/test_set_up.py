@@ -14,7 +14,7 @@ import pytest
 from bondgraph import BondGraph, C, One, R, Se
 from models import bouncing_ball
 from switching import Automaton, ExpressionInput, HybridModel
-from switching.errors import NonFiniteStateError
+from switching.errors import NonFiniteStateError, OptionTypeError
 from switching.model.hybrid_model import Tolerance
 from switching.model.inputs import InputValues
 from switching.simulate import driver, set_up
@@ -119,6 +119,16 @@ def test_other_options_give_a_fresh_set_up(other, runs, monkeypatch):
     assert runs[-1].kept is None
     assert run == observed(afresh(monkeypatch, lambda: model.simulate(t_end, method, **{"rtol": RUN["rtol"],
                                                                                           **options})))
+
+
+def test_a_bad_option_after_a_kept_set_up_is_named_as_before():
+    """The options are compared with the kept ones before they are checked: an array where a number
+    belongs compares as no bool, and the run still stops with the option's own error."""
+    model = bouncing_ball.build()
+    for _ in range(3):
+        simulate(model, atol=1e-9)
+    with pytest.raises(OptionTypeError, match="atol must be a positive finite number"):
+        simulate(model, atol=np.array([1e-9, 1e-9]))
 
 
 @pytest.mark.parametrize("options", [
